@@ -1,0 +1,59 @@
+"""Figures a physicist would put in a paper: log-log N(M), stress ratio against strain.
+
+Greyscale-readable (markers and line styles differ, not only colours), axes with units.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from driver.rundir import atomic_save  # noqa: E402
+
+_MARKERS = "osD^v<>ph*"
+_LINES = ["-", "--", "-.", ":"]
+
+
+def plot_nm(nm: pd.DataFrame, path: Path, title: str = "", mass_unit: str = "m") -> None:
+    """N(M) per strain, log-log. nm has columns strain, m_center, N."""
+    fig, ax = plt.subplots(figsize=(5.0, 4.0), dpi=150)
+    for k, (eps, grp) in enumerate(nm.groupby("strain", sort=True)):
+        grp = grp[grp["N"] > 0]
+        if grp.empty:
+            continue
+        ax.loglog(grp["m_center"], grp["N"], marker=_MARKERS[k % len(_MARKERS)],
+                  linestyle=_LINES[k % len(_LINES)], color=str(0.75 * k / max(1, nm.strain.nunique() - 1)),
+                  mfc="white", label=rf"$\varepsilon$ = {eps:g}")
+    ax.set_xlabel(f"grain mass $M$ [{mass_unit}]")
+    ax.set_ylabel(f"$N(M)$ [grains per unit mass, 1/{mass_unit}]")
+    if title:
+        ax.set_title(title, fontsize=9)
+    if ax.has_data():
+        ax.legend(fontsize=8, frameon=False)
+    else:
+        ax.text(0.5, 0.5, "no grains above the size cut yet", ha="center", transform=ax.transAxes)
+    fig.tight_layout()
+    atomic_save(path, lambda p: fig.savefig(p, format="png"))
+    plt.close(fig)
+
+
+def plot_stress(stress: pd.DataFrame, path: Path, title: str = "") -> None:
+    """sqrt(J2), P and mu against strain (LJ units)."""
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(5.0, 5.0), dpi=150, sharex=True)
+    ax1.plot(stress.strain, stress.sqrtJ2, "k-", label=r"$\sqrt{J_2}$")
+    ax1.plot(stress.strain, stress.P, "k--", label="$P$")
+    ax1.set_ylabel(r"stress [$u/a^d$]")
+    ax1.legend(fontsize=8, frameon=False)
+    ax2.plot(stress.strain, stress.mu, "k-")
+    ax2.set_ylabel(r"$\mu = \sqrt{J_2}/P$")
+    ax2.set_xlabel(r"true strain $\varepsilon$")
+    if title:
+        ax1.set_title(title, fontsize=9)
+    fig.tight_layout()
+    atomic_save(path, lambda p: fig.savefig(p, format="png"))
+    plt.close(fig)

@@ -1,0 +1,92 @@
+"""Measures of a BPM shear run (SPEC 2.5) from its run directory: tables, summary, plots."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis.dumps import bond_pairs, read_local_dump
+from analysis.grains import grain_sizes, grains_from_bond_dump
+from analysis.plots import plot_nm, plot_stress
+from analysis.statistics import SMALL_GRAIN_CUT, mass_distribution, moments
+from analysis.stress import inertial_number, stress_measures
+from driver.rundir import atomic_save
+
+THERMO_COLUMNS = ["step", "strain", "pxx", "pyy", "pzz", "pxy", "pxz", "pyz", "pe", "ke", "vol",
+                  "bonds_broken", "angles_broken"]
+
+
+def read_thermo(path: Path) -> pd.DataFrame:
+    """The `fix print` record of a shear run (one row per record)."""
+    return pd.read_csv(path, sep=r"\s+", comment="#", names=THERMO_COLUMNS, header=None)
+
+
+def save_table(df: pd.DataFrame, path_without_suffix: Path) -> None:
+    """Write a table as parquet and CSV, each atomically."""
+    atomic_save(path_without_suffix.with_suffix(".parquet"), lambda p: df.to_parquet(p, index=False))
+    atomic_save(path_without_suffix.with_suffix(".csv"), lambda p: df.to_csv(p, index=False))
+
+
+def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
+    """Tables, plots and summary figures of a finished shear run; returns the summary dict.
+
+    cfg is the resolved config as a plain mapping (config.resolved.yaml).
+    """
+    run_dir = Path(run_dir)
+    model, scen = cfg["model"], cfg["scenario"]
+    dim = int(model["dimension"])
+    system = json.loads((run_dir / "system.json").read_text())
+    snaps = json.loads((run_dir / "snapshots.json").read_text())
+    n_atoms = int(system["n_particles"])
+    cut = SMALL_GRAIN_CUT[dim]
+
+    # Stress series.
+    stress = stress_measures(read_thermo(run_dir / "thermo.dat"), dim)
+    stress["density"] = n_atoms / stress["vol"]  # all masses m = 1
+    stress["I"] = inertial_number(scen["strain_rate"], system["mean_diameter"], stress["density"], stress["P"])
+
+    # Grains at each snapshot.
+    grain_rows, nm_rows, frame_rows = [], [], []
+    for snap in snaps:
+        frame = read_local_dump(run_dir / snap["bonds"])[-1]
+        pairs, types = bond_pairs(frame)
+        labels = grains_from_bond_dump(n_atoms, pairs, types)
+        masses = grain_sizes(labels)
+        grain_rows.append(pd.DataFrame({"strain": snap["strain"], "step": snap["step"],
+                                        "grain": np.arange(len(masses)), "mass": masses}))
+        nm = mass_distribution(masses, m_min=cut)
+        nm.insert(0, "strain", snap["strain"])
+        nm_rows.append(nm)
+        frame_rows.append({"strain": snap["strain"], "step": snap["step"], "n_grains": int(len(masses)),
+                           f"n_grains_M>={cut}": int(np.sum(masses >= cut)),
+                           "largest_grain": float(masses.max()), "intact_bonds": int(np.sum(types > 0)),
+                           **moments(masses)})
+    grains = pd.concat(grain_rows, ignore_index=True)
+    nm_all = pd.concat(nm_rows, ignore_index=True)
+    frames = pd.DataFrame(frame_rows)
+
+    res = run_dir / "results"
+    save_table(stress, res / "stress")
+    save_table(grains, res / "grains")
+    save_table(nm_all, res / "nm")
+    save_table(frames, res / "frames")
+    if plots:
+        title = f"BPM {dim}D, L = {model['L']:g}, edot = {scen['strain_rate']:g}, k_A = {model['k_A']:g}"
+        plot_nm(nm_all[nm_all.strain > 0], run_dir / "plots" / "nm.png", title)
+        plot_stress(stress, run_dir / "plots" / "stress.png", title)
+
+    last = stress.iloc[-1]
+    return {
+        "n_particles": n_atoms,
+        "bonds_per_particle": system["bonds_per_particle"],
+        "angles_per_particle": system["angles_per_particle"],
+        "final_strain": float(last.strain),
+        "bonds_broken": int(last.bonds_broken),
+        "angles_broken": int(last.angles_broken),
+        "grains_at_strain": {f"{r['strain']:g}": r["n_grains"] for r in frame_rows},
+        f"grains_M>={cut}_at_strain": {f"{r['strain']:g}": r[f"n_grains_M>={cut}"] for r in frame_rows},
+        "final_mu": float(last.mu) if np.isfinite(last.mu) else None,
+    }

@@ -1,0 +1,56 @@
+"""`driver run`: config -> run directory -> LAMMPS -> results, with provenance and status."""
+
+from __future__ import annotations
+
+import shutil
+import time
+from pathlib import Path
+
+import yaml
+from rich.console import Console
+
+from driver.config import RunConfig, resolved_yaml
+from driver.plugin_build import plugin_library
+from driver.rundir import RunDir, atomic_write_json, atomic_write_text, provenance
+
+
+def execute(cfg: RunConfig, source: Path | None = None, force: bool = False, np_ranks: int | None = None,
+            show_progress: bool = True, console: Console | None = None) -> Path:
+    """Run one validated config to completion; returns the run directory."""
+    console = console or Console(stderr=True)
+    ranks = np_ranks or cfg.execution.np
+    plugin = plugin_library()  # before touching the run dir: a build failure leaves nothing behind
+    rd = RunDir(cfg.run_dir())
+    action = rd.prepare(force=force)
+    if action == "cleared":
+        console.print(f"[yellow]{rd.root}: previous contents removed, starting clean")
+    if source is not None:
+        shutil.copy2(source, rd.root / "input.yaml")
+    atomic_write_text(rd.root / "config.resolved.yaml", resolved_yaml(cfg))
+    t0 = time.time()
+    prov = provenance({"config_name": cfg.name, "seed": cfg.seed, "mpi_ranks": ranks,
+                       "plugin_library": str(plugin), "plugin_build_hash": plugin.parent.name,
+                       "started": time.strftime("%Y-%m-%dT%H:%M:%S")})
+    atomic_write_json(rd.root / "provenance.json", prov)
+    try:
+        if cfg.scenario.kind == "shear":
+            from analysis.shear import analyse_shear  # noqa: PLC0415
+            from driver.scenarios.shear import run_shear  # noqa: PLC0415
+
+            facts = run_shear(cfg, rd, plugin, ranks, show_progress)
+            summary = analyse_shear(rd.root, cfg.model_dump(mode="json"), plots=cfg.output.plots)
+        else:  # guarded by the config schema
+            raise NotImplementedError(cfg.scenario.kind)
+    except BaseException as exc:
+        rd.set_state("failed", error=f"{type(exc).__name__}: {exc}")
+        raise
+    prov["wall_seconds"] = time.time() - t0
+    prov["lammps_wall_seconds"] = facts.get("lammps_wall_seconds")
+    atomic_write_json(rd.root / "provenance.json", prov)
+    atomic_write_json(rd.root / "results" / "summary.json", {"name": cfg.name, **summary})
+    rd.set_state("finished")
+    return rd.root
+
+
+def load_resolved(run_dir: Path) -> dict:
+    return yaml.safe_load((Path(run_dir) / "config.resolved.yaml").read_text())

@@ -1,0 +1,1 @@
+"""Scenarios: each turns a validated config into a run directory with results."""

@@ -1,0 +1,150 @@
+"""BPM shear fragmentation (SPEC 2.4): build the solid, write the LAMMPS input, run, measure."""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+import driver
+from driver.bpm.datafile import write_data
+from driver.bpm.network import delaunay_network
+from driver.bpm.packing import make_packing
+from driver.config import RunConfig, steps_for_strain
+from driver.rundir import RunDir, atomic_write_json, atomic_write_text
+from driver.runner import ProgressSpec, run_input
+from driver.templates import render
+
+# Columns of thermo.dat written by the template's `fix print`.
+THERMO_COLUMNS = ["step", "strain", "pxx", "pyy", "pzz", "pxy", "pxz", "pyz", "pe", "ke", "vol",
+                  "bonds_broken", "angles_broken"]
+
+
+@dataclass
+class Snapshot:
+    strain: float
+    step: int
+    atoms: str
+    bonds: str
+
+
+@dataclass
+class ShearPlan:
+    """What the generated input will do: total steps and the snapshot schedule."""
+
+    total_steps: int
+    snapshots: list[Snapshot]
+
+
+def deform_args(dimension: int, rate: float) -> str:
+    """SPEC 2.4: 2D pure shear (x +edot, y -edot); 3D triaxial (x, y +edot/2, z -edot)."""
+    if dimension == 2:
+        return f"x trate {rate:.12g} y trate {-rate:.12g}"
+    return f"x trate {rate / 2:.12g} y trate {rate / 2:.12g} z trate {-rate:.12g}"
+
+
+def pair_coeff_lines(type_diameters: dict[int, float], gamma: float) -> tuple[str, float]:
+    """WCA repulsion and dpd/tstat damping per type pair, both cut at abar = sum of radii."""
+    lines, max_abar = [], 0.0
+    types = sorted(type_diameters)
+    for a, ti in enumerate(types):
+        for tj in types[a:]:
+            abar = 0.5 * (type_diameters[ti] + type_diameters[tj])
+            max_abar = max(max_abar, abar)
+            sigma = abar / 2 ** (1 / 6)  # SPEC Eq. 1 is lj/cut with r_min = abar, cut at r_min
+            lines.append(f"pair_coeff      {ti} {tj} lj/cut 1.0 {sigma:.12g} {abar:.12g}")
+            lines.append(f"pair_coeff      {ti} {tj} dpd/tstat {gamma:.12g} {abar:.12g}")
+    return "\n".join(lines), max_abar
+
+
+def snapshot_commands(snap: Snapshot) -> str:
+    return (f"write_dump      all custom {snap.atoms} id type x y z vx vy vz modify sort id\n"
+            f"write_dump      all local {snap.bonds} c_bl[1] c_bl[2] c_bl[3]\n")
+
+
+def plan_and_input(cfg: RunConfig, plugin_path: Path, type_diameters: dict[int, float],
+                   max_r0: float) -> tuple[ShearPlan, str]:
+    """The LAMMPS input text for this config, and its schedule."""
+    m, sc = cfg.model, cfg.scenario
+    strains = list(sc.measure_strains)
+    if not strains or strains[-1] < sc.max_strain:
+        strains.append(sc.max_strain)
+    snaps = [Snapshot(0.0, 0, "dumps/atoms.0.lammpstrj", "dumps/bonds.0.lammpstrj")]
+    seg_lines = ["run             0", snapshot_commands(snaps[0])]
+    done = 0
+    for eps in strains:
+        step = steps_for_strain(eps, sc.strain_rate, m.timestep)
+        if step <= done:
+            continue
+        seg_lines.append(f"run             {step - done}")
+        snap = Snapshot(eps, step, f"dumps/atoms.{step}.lammpstrj", f"dumps/bonds.{step}.lammpstrj")
+        seg_lines.append(snapshot_commands(snap))
+        snaps.append(snap)
+        done = step
+    periodic = ""
+    if sc.dump_every > 0:
+        periodic = (f"dump            atoms all custom {sc.dump_every} dumps/atoms.*.lammpstrj id type x y z vx vy vz\n"
+                    f"dump_modify     atoms sort id\n"
+                    f"dump            bonds all local {sc.dump_every} dumps/bonds.*.lammpstrj c_bl[1] c_bl[2] c_bl[3]")
+    pair_lines, max_abar = pair_coeff_lines(type_diameters, m.gamma)
+    # Ghosts must reach both arms of every angle: two stretched bonds plus the skin.
+    comm_cutoff = max(2.0 * m.lambda_c * max_r0, max_abar) + m.skin
+    text = render(
+        "bpm_shear.in",
+        package_version=driver.__version__, config_name=cfg.name, plugin_path=plugin_path,
+        dimension=m.dimension, comm_cutoff=f"{comm_cutoff:.6g}", max_abar=f"{max_abar:.12g}",
+        seed=cfg.seed, pair_coeffs=pair_lines, lambda_c=m.lambda_c, gamma=m.gamma, k_A=m.k_A,
+        theta_c_deg=m.theta_c_deg, skin=m.skin, timestep=m.timestep,
+        enforce2d="fix             planar all enforce2d" if m.dimension == 2 else "",
+        deform_args=deform_args(m.dimension, sc.strain_rate), strain_rate=sc.strain_rate,
+        thermo_every=sc.thermo_every, periodic_dumps=periodic, segments="\n".join(seg_lines),
+    )
+    return ShearPlan(total_steps=done, snapshots=snaps), text
+
+
+def build_system(cfg: RunConfig, rd: RunDir) -> dict:
+    """Packing -> Delaunay network -> data file; returns the network facts for the summary."""
+    m = cfg.model
+    t0 = time.perf_counter()
+    packing = make_packing(m.dimension, m.L, cfg.seed, m.packing_fraction)
+    max_len = None
+    if m.dimension == 3:
+        max_len = m.bond_max_length if m.bond_max_length is not None else 1.25 * 2 ** (1 / 6)
+    net = delaunay_network(packing, max_len)
+    write_data(rd.root / "system.data", packing, net)
+    types = {int(t): float(2 * packing.radii[packing.types == t][0]) for t in np.unique(packing.types)}
+    return {
+        "n_particles": int(len(packing.radii)),
+        "n_bonds": int(len(net.bonds)),
+        "n_angles": int(len(net.angles)),
+        "bonds_per_particle": float(net.bonds_per_particle()),
+        "angles_per_particle": float(net.angles_per_particle()),
+        "max_r0": float(np.max(net.r0)),
+        "mean_diameter": float(np.mean(2 * packing.radii)),
+        "type_diameters": types,
+        "build_seconds": time.perf_counter() - t0,
+    }
+
+
+def run_shear(cfg: RunConfig, rd: RunDir, plugin_path: Path, np_ranks: int, show_progress: bool) -> dict:
+    """Build, run and measure; returns the facts recorded in the summary."""
+    system = build_system(cfg, rd)
+    atomic_write_json(rd.root / "system.json", system)
+    plan, text = plan_and_input(cfg, plugin_path, {int(k): v for k, v in system["type_diameters"].items()},
+                                system["max_r0"])
+    atomic_write_text(rd.root / "in.lammps", text)
+    spec = ProgressSpec(file="thermo.dat", total_steps=plan.total_steps, label=cfg.name,
+                        columns={"strain": 1, "broken": 11})
+    t0 = time.perf_counter()
+    run_input(rd.root, np=np_ranks, progress=spec, show_progress=show_progress)
+    wall = time.perf_counter() - t0
+    atomic_write_json(rd.root / "snapshots.json", [s.__dict__ for s in plan.snapshots])
+    return {"system": system, "total_steps": plan.total_steps, "lammps_wall_seconds": wall,
+            "snapshots": [s.__dict__ for s in plan.snapshots]}
+
+
+def load_snapshots(run_dir: Path) -> list[Snapshot]:
+    return [Snapshot(**s) for s in json.loads((run_dir / "snapshots.json").read_text())]
