@@ -1,0 +1,64 @@
+"""Grain graphs on hand-built bond lists, and N(M) binning."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from analysis.grains import grain_labels, grain_sizes, grains_from_bond_dump, relabel_largest_first
+from analysis.statistics import log_bin_edges, mass_distribution, moments
+
+
+def test_chain_ring_isolated():
+    # atoms 0-1-2-3 chain, 4-5-6-4 ring, 7 isolated, 8-9 pair
+    pairs = np.array([[0, 1], [1, 2], [2, 3], [4, 5], [5, 6], [6, 4], [8, 9]])
+    lab = grain_labels(10, pairs)
+    assert lab.tolist() == [0, 0, 0, 0, 1, 1, 1, 3, 2, 2]
+    assert grain_sizes(lab).tolist() == [4, 3, 2, 1]
+
+
+def test_broken_bonds_split():
+    pairs = np.array([[0, 1], [1, 2], [2, 3]])
+    lab = grain_labels(4, pairs, intact=[True, False, True])
+    assert lab.tolist() == [0, 0, 1, 1]
+
+
+def test_bond_dump_type_zero_is_broken():
+    pairs = np.array([[1, 2], [2, 3], [3, 4], [4, 5]])  # 1-based ids
+    types = np.array([1, 0, 1, 1])
+    lab = grains_from_bond_dump(5, pairs, types)
+    assert grain_sizes(lab).tolist() == [3, 2]
+    assert lab.tolist() == [1, 1, 0, 0, 0]
+
+
+def test_periodic_ring_is_one_grain():
+    """A chain that wraps the periodic box is one grain: grains follow bonds, not positions."""
+    n = 6
+    pairs = np.array([[i, (i + 1) % n] for i in range(n)])
+    assert grain_sizes(grain_labels(n, pairs)).tolist() == [6]
+
+
+def test_relabel_ties_smallest_index_first():
+    raw = np.array([5, 5, 2, 2, 9])
+    assert relabel_largest_first(raw).tolist() == [0, 0, 1, 1, 2]
+
+
+def test_bad_index_rejected():
+    with pytest.raises(ValueError):
+        grain_labels(3, np.array([[0, 3]]))
+
+
+def test_nm_counts_per_unit_mass():
+    masses = np.array([1, 2, 3, 3, 4, 10, 10, 11, 100])
+    nm = mass_distribution(masses, m_min=3, bins_per_decade=5)
+    assert nm["count"].sum() == 7  # grains below the cut are left out
+    # integer widths: first bin [3, 4.75) holds integers 3 and 4
+    assert nm.iloc[0]["width"] == 2 and nm.iloc[0]["count"] == 3
+    assert np.allclose(nm["N"], nm["count"] / nm["width"])
+    edges = log_bin_edges(3, 100, 5)
+    assert edges[0] == 3 and edges[-1] > 100
+
+
+def test_moments_not_normalised():
+    m = moments(np.array([1.0, 2.0, 3.0]))
+    assert m == {"M1": 6.0, "M2": 14.0, "M3": 36.0}
