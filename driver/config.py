@@ -39,7 +39,7 @@ class BPMModel(_Strict):
     gamma: float = Field(50.0, ge=0.0, description="damping (Eq. 5), units sqrt(m u)/a")
     timestep: float = Field(0.005, gt=0.0, le=0.02, description="velocity-Verlet step, units sqrt(m a^2/u)")
     bond_max_length: float | None = Field(
-        None, gt=1.0, description="3D Delaunay edge cut; default 5/4 * 2^(1/6) a (SPEC 2.1); unused in 2D")
+        None, gt=1.0, description="3D Delaunay edge cut; default 5/4 a (SPEC 2.1, see network.py); unused in 2D")
     skin: float = Field(0.3, gt=0.0, le=2.0, description="neighbour-list skin, units of a")
 
 

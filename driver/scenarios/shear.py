@@ -11,7 +11,7 @@ import numpy as np
 
 import driver
 from driver.bpm.datafile import write_data
-from driver.bpm.network import delaunay_network
+from driver.bpm.network import MAX_BOND_LENGTH_3D, delaunay_network
 from driver.bpm.packing import make_packing
 from driver.config import RunConfig, steps_for_strain
 from driver.rundir import RunDir, atomic_write_json, atomic_write_text
@@ -112,7 +112,7 @@ def build_system(cfg: RunConfig, rd: RunDir) -> dict:
     packing = make_packing(m.dimension, m.L, cfg.seed, m.packing_fraction)
     max_len = None
     if m.dimension == 3:
-        max_len = m.bond_max_length if m.bond_max_length is not None else 1.25 * 2 ** (1 / 6)
+        max_len = m.bond_max_length if m.bond_max_length is not None else MAX_BOND_LENGTH_3D
     net = delaunay_network(packing, max_len)
     write_data(rd.root / "system.data", packing, net)
     types = {int(t): float(2 * packing.radii[packing.types == t][0]) for t in np.unique(packing.types)}
@@ -120,8 +120,8 @@ def build_system(cfg: RunConfig, rd: RunDir) -> dict:
         "n_particles": int(len(packing.radii)),
         "n_bonds": int(len(net.bonds)),
         "n_angles": int(len(net.angles)),
-        "bonds_per_particle": float(net.bonds_per_particle()),
-        "angles_per_particle": float(net.angles_per_particle()),
+        "bonds_per_particle": float(net.bonds_per_particle),
+        "angles_per_particle": float(net.angles_per_particle),
         "max_r0": float(np.max(net.r0)),
         "mean_diameter": float(np.mean(2 * packing.radii)),
         "type_diameters": types,

@@ -1,0 +1,1 @@
+"""Clemmer-Robbins bonded particle model (BPM): packing, bond network and LAMMPS data file."""
