@@ -21,7 +21,9 @@ THERMO_COLUMNS = ["step", "strain", "pxx", "pyy", "pzz", "pxy", "pxz", "pyz", "p
 
 def read_thermo(path: Path) -> pd.DataFrame:
     """The `fix print` record of a shear run (one row per record)."""
-    return pd.read_csv(path, sep=r"\s+", comment="#", names=THERMO_COLUMNS, header=None)
+    df = pd.read_csv(path, sep=r"\s+", comment="#", names=THERMO_COLUMNS, header=None)
+    # Each `run` prints its first step again at setup: keep the latest record of a step.
+    return df.drop_duplicates("step", keep="last").reset_index(drop=True)
 
 
 def save_table(df: pd.DataFrame, path_without_suffix: Path) -> None:

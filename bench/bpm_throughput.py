@@ -57,7 +57,7 @@ VARIANTS = {
     "full": PAIR_FULL + "bond_style breakable/cr\nbond_coeff 1 1.05 50\n"
                         "angle_style breakable/cr\nangle_coeff 1 4.0 10.0 1.05\n",
     "bond_cr": "pair_style zero 1.0\npair_coeff * *\nbond_style breakable/cr\nbond_coeff 1 1.05 50\n",
-    "bond_bpm_spring": "pair_style zero 1.0\npair_coeff * *\nbond_style bpm/spring\nbond_coeff 1 1.0 0.05 50\n",
+    "bond_bpm_spring": "pair_style zero 1.0\npair_coeff * *\nbond_style bpm/spring\nbond_coeff 1 1.0 0.2 0.1\n",
     "angle_cr": "pair_style zero 1.0\npair_coeff * *\nbond_style zero\nbond_coeff *\n"
                 "angle_style breakable/cr\nangle_coeff 1 4.0 10.0 1.05\n",
     "angle_harmonic": "pair_style zero 1.0\npair_coeff * *\nbond_style zero\nbond_coeff *\n"

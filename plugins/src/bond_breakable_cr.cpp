@@ -1,0 +1,473 @@
+/* bond_style breakable/cr (SPEC 2.2 Eq. 2, bonded part of Eq. 5).
+
+   Conventions: r = bond length, F > 0 repulsive, energy zero at r = r0.
+     r < r0:                F = (K / r) ((r0/r)^12 - (r0/r)^6),   K = 6 2^(2/3) u r0^2 / a^2
+                            E = (K / 12) ((r0/r)^12 - 2 (r0/r)^6 + 1)
+     r0 <= r <= lambda_c r0: F = C1 (r0 - r) + C3 (r0 - r)^3
+                            E = C1 (r - r0)^2 / 2 + C3 (r - r0)^4 / 4
+     r > lambda_c r0:       the bond breaks (no force from then on); tested as r (1/r0) > lambda_c.
+   Damping (not in the energy): F_D = -gamma (1 - r / (lambda_c r0))^2 (rhat . (v_i - v_j)) rhat.
+
+   Storage: r0 per atom and bond slot in a hidden fix property/atom, so it migrates with atoms
+   and goes to restart files; compute() reads a copy indexed like neighbor->bondlist. A stored
+   r0 of 0 is the value fix property/atom gives a fresh slot: no bond has zero length, so it
+   marks a bond whose reference length has not been taken yet. */
+
+#include "bond_breakable_cr.h"
+
+#include "atom.h"
+#include "breakable_util.h"
+#include "comm.h"
+#include "domain.h"
+#include "error.h"
+#include "fix_breakable_special.h"
+#include "force.h"
+#include "memory.h"
+#include "neighbor.h"
+
+#include <cmath>
+#include <cstring>
+#include <mpi.h>
+#include <utility>
+
+using namespace LAMMPS_NS;
+
+static constexpr double TWO_TWO_THIRDS = 1.5874010519681994;    // 2^(2/3)
+static const char *const STORE_FIX_ID = "BREAKABLE_CR_BOND_R0";
+static const char *const STORE_NAME = "breakable_cr_bond_r0";
+
+/* ---------------------------------------------------------------------- */
+
+BondBreakableCR::BondBreakableCR(LAMMPS *_lmp) :
+    Bond(_lmp), lambda_c(nullptr), gamma(nullptr), a(nullptr), u(nullptr), c1(nullptr),
+    c3r2(nullptr), krep(nullptr), inv_lc(nullptr), cache_valid(false), store_index(-1),
+    r0_max(0.0), special(nullptr)
+{
+  partial_flag = 1;    // broken bonds get type 0: the neighbor code must skip them
+  writedata = 1;
+  born_matrix_enable = 0;
+  // created now when possible so that thermo_style can name f_BREAKABLE_SPECIAL
+  if (domain->box_exist) FixBreakableSpecial::get_or_create(lmp);
+}
+
+/* ----------------------------------------------------------------------
+   the reference-length store and fix breakable/special stay: they carry the
+   state of the bonds (and the break counters) if the style is redefined
+------------------------------------------------------------------------- */
+
+BondBreakableCR::~BondBreakableCR()
+{
+  if (allocated) {
+    memory->destroy(setflag);
+    memory->destroy(lambda_c);
+    memory->destroy(gamma);
+    memory->destroy(a);
+    memory->destroy(u);
+    memory->destroy(c1);
+    memory->destroy(c3r2);
+    memory->destroy(krep);
+    memory->destroy(inv_lc);
+  }
+}
+
+/* ---------------------------------------------------------------------- */
+
+void BondBreakableCR::allocate()
+{
+  allocated = 1;
+  const int n = atom->nbondtypes + 1;
+  memory->create(lambda_c, n, "bond:lambda_c");
+  memory->create(gamma, n, "bond:gamma");
+  memory->create(a, n, "bond:a");
+  memory->create(u, n, "bond:u");
+  memory->create(c1, n, "bond:c1");
+  memory->create(c3r2, n, "bond:c3r2");
+  memory->create(krep, n, "bond:krep");
+  memory->create(inv_lc, n, "bond:inv_lc");
+  memory->create(setflag, n, "bond:setflag");
+  for (int i = 1; i < n; i++) setflag[i] = 0;
+}
+
+/* ---------------------------------------------------------------------- */
+
+void BondBreakableCR::derive(int type)
+{
+  // SPEC 2.2 Eq. 2: C1 = 36 2^(2/3) u / a^2, C3 = -36 2^(2/3) (lambda_c - 1)^-2 u r0^-2 a^-2
+  c1[type] = 36.0 * TWO_TWO_THIRDS * u[type] / (a[type] * a[type]);
+  const double ec = lambda_c[type] - 1.0;
+  c3r2[type] = -c1[type] / (ec * ec);
+  krep[type] = 6.0 * TWO_TWO_THIRDS * u[type] / (a[type] * a[type]);
+  inv_lc[type] = 1.0 / lambda_c[type];
+}
+
+/* ----------------------------------------------------------------------
+   bond_coeff T lambda_c gamma [a value] [u value]
+------------------------------------------------------------------------- */
+
+void BondBreakableCR::coeff(int narg, char **arg)
+{
+  if (narg < 3)
+    error->all(FLERR, "Incorrect args for bond coefficients: "
+                      "bond_coeff T lambda_c gamma [a value] [u value]");
+  if (!allocated) allocate();
+
+  int ilo, ihi;
+  utils::bounds(FLERR, arg[0], 1, atom->nbondtypes, ilo, ihi, error);
+
+  const double lc_one = utils::numeric(FLERR, arg[1], false, lmp);
+  const double gamma_one = utils::numeric(FLERR, arg[2], false, lmp);
+  double a_one = 1.0, u_one = 1.0;
+  for (int iarg = 3; iarg < narg; iarg += 2) {
+    if (iarg + 1 >= narg)
+      error->all(FLERR, "bond_coeff breakable/cr: keyword {} needs a value", arg[iarg]);
+    if (strcmp(arg[iarg], "a") == 0)
+      a_one = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+    else if (strcmp(arg[iarg], "u") == 0)
+      u_one = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+    else
+      error->all(FLERR, "bond_coeff breakable/cr: unknown keyword {} (known: a, u)", arg[iarg]);
+  }
+  if (!(lc_one > 1.0)) error->all(FLERR, "bond_coeff breakable/cr: lambda_c must be > 1");
+  if (!(gamma_one >= 0.0)) error->all(FLERR, "bond_coeff breakable/cr: gamma must be >= 0");
+  if (!(a_one > 0.0)) error->all(FLERR, "bond_coeff breakable/cr: a must be > 0");
+  if (!(u_one > 0.0)) error->all(FLERR, "bond_coeff breakable/cr: u must be > 0");
+
+  int count = 0;
+  for (int i = ilo; i <= ihi; i++) {
+    lambda_c[i] = lc_one;
+    gamma[i] = gamma_one;
+    a[i] = a_one;
+    u[i] = u_one;
+    derive(i);
+    setflag[i] = 1;
+    count++;
+  }
+  if (count == 0) error->all(FLERR, "Incorrect args for bond coefficients");
+  if (domain->box_exist) FixBreakableSpecial::get_or_create(lmp);
+}
+
+/* ---------------------------------------------------------------------- */
+
+void BondBreakableCR::init_style()
+{
+  if (force->newton_bond)
+    error->all(FLERR, "bond_style breakable/cr requires newton_bond off (command: newton on off), "
+                      "so that every rank holding a bond stores it and decides its breaking");
+  if (force->special_lj[1] != 0.0 || force->special_lj[2] != 1.0 || force->special_lj[3] != 1.0 ||
+      force->special_coul[1] != 1.0 || force->special_coul[2] != 1.0 ||
+      force->special_coul[3] != 1.0)
+    error->all(FLERR, "bond_style breakable/cr requires special_bonds lj 0 1 1 coul 1 1 1 "
+                      "(bonded pairs stay in the neighbor lists, with pair forces off)");
+  if (!comm->ghost_velocity)
+    error->all(FLERR, "bond_style breakable/cr requires comm_modify vel yes "
+                      "(the bond damping reads ghost-atom velocities)");
+  if (atom->molecular != Atom::MOLECULAR)
+    error->all(FLERR, "bond_style breakable/cr requires a molecular atom style (not a template)");
+
+  store_index = BreakableUtil::peratom_array(lmp, STORE_FIX_ID, STORE_NAME, atom->bond_per_atom);
+  special = FixBreakableSpecial::get_or_create(lmp);
+  cache_valid = false;
+  r0_max = 0.0;
+}
+
+/* ----------------------------------------------------------------------
+   energy and F / r of one intact bond (SPEC 2.2 Eq. 2), F > 0 repulsive.
+   Takes 1/r^2 rather than 1/r: its division then runs beside the square
+   root instead of after it, which shortens the latency chain of a bond.
+   Both branches are evaluated and one is selected: r < r0 holds for about
+   half of the bonds of a solid, at random, so a branch would be
+   mispredicted half of the time.
+------------------------------------------------------------------------- */
+
+inline double BondBreakableCR::bond_fbond(int type, double r, double inv_rsq, double r0,
+                                          double inv_r0, double &ebond, int eflag) const
+{
+  const bool compressed = r < r0;
+  const double k = krep[type] * r0 * r0;
+  const double x2 = r0 * r0 * inv_rsq;    // (r0/r)^2
+  const double x6 = x2 * x2 * x2;
+  const double x12 = x6 * x6;
+  const double d = r - r0;
+  const double d2 = d * d;
+  const double c3 = c3r2[type] * inv_r0 * inv_r0;
+  if (eflag)
+    ebond = compressed ? (k / 12.0) * (x12 - 2.0 * x6 + 1.0)
+                       : d2 * (0.5 * c1[type] + 0.25 * c3 * d2);
+  const double fr_rep = k * (x12 - x6) * inv_rsq;
+  const double fr_att = -d * (c1[type] + c3 * d2) * r * inv_rsq;
+  return compressed ? fr_rep : fr_att;
+}
+
+/* ---------------------------------------------------------------------- */
+
+void BondBreakableCR::compute(int eflag, int vflag)
+{
+  ev_init(eflag, vflag);
+
+  if (!cache_valid || neighbor->ago == 0 || (int) cache.size() != neighbor->nbondlist)
+    rebuild_cache();
+
+  double **x = atom->x;
+  double **v = atom->v;
+  double **f = atom->f;
+  int **bondlist = neighbor->bondlist;
+  const int nbondlist = neighbor->nbondlist;
+  const int nlocal = atom->nlocal;
+  const Ref *ref = cache.data();
+  double ebond = 0.0;
+
+  for (int n = 0; n < nbondlist; n++) {
+    const int type = bondlist[n][2];
+    if (type <= 0) continue;
+    const int i1 = bondlist[n][0];
+    const int i2 = bondlist[n][1];
+    const double r0 = ref[n].r0;
+
+    const double delx = x[i1][0] - x[i2][0];
+    const double dely = x[i1][1] - x[i2][1];
+    const double delz = x[i1][2] - x[i2][2];
+    const double rsq = delx * delx + dely * dely + delz * delz;
+    const double r = sqrt(rsq);
+    const double inv_rsq = 1.0 / rsq;
+
+    // SPEC 2.2 Eq. 2: broken for r > lambda_c r0, tested as r * (1/r0) > lambda_c: the
+    // angle style tests its arms with the same arithmetic, so both decide alike (up to the
+    // rounding of periodic images when the two took r0 from different images)
+    if (r * ref[n].inv_r0 > lambda_c[type]) {
+      break_bond(n, i1, i2);
+      continue;
+    }
+
+    double fbond = bond_fbond(type, r, inv_rsq, r0, ref[n].inv_r0, ebond, eflag);
+
+    // SPEC 2.2 Eq. 5, bonded: r_max = lambda_c r0
+    if (gamma[type] > 0.0) {
+      const double w = 1.0 - r * ref[n].inv_r0 * inv_lc[type];
+      const double dot = delx * (v[i1][0] - v[i2][0]) + dely * (v[i1][1] - v[i2][1]) +
+          delz * (v[i1][2] - v[i2][2]);
+      fbond -= gamma[type] * w * w * dot * inv_rsq;
+    }
+
+    // newton_bond is off: each rank adds forces to its owned atoms only
+    if (i1 < nlocal) {
+      f[i1][0] += delx * fbond;
+      f[i1][1] += dely * fbond;
+      f[i1][2] += delz * fbond;
+    }
+    if (i2 < nlocal) {
+      f[i2][0] -= delx * fbond;
+      f[i2][1] -= dely * fbond;
+      f[i2][2] -= delz * fbond;
+    }
+
+    if (evflag) ev_tally(i1, i2, nlocal, 0, ebond, fbond, delx, dely, delz);
+  }
+}
+
+/* ----------------------------------------------------------------------
+   the single break path: the bond is gone on this rank for good; the rank
+   owning the atom with the smaller tag counts it, so each break counts once
+------------------------------------------------------------------------- */
+
+void BondBreakableCR::break_bond(int n, int i1, int i2)
+{
+  const int nlocal = atom->nlocal;
+  const tagint t1 = atom->tag[i1], t2 = atom->tag[i2];
+  neighbor->bondlist[n][2] = 0;
+  if (i1 < nlocal) {
+    const int m = BreakableUtil::bond_slot(atom, i1, t2);
+    if (m >= 0) atom->bond_type[i1][m] = 0;
+  }
+  if (i2 < nlocal) {
+    const int m = BreakableUtil::bond_slot(atom, i2, t1);
+    if (m >= 0) atom->bond_type[i2][m] = 0;
+  }
+  const int lower = (t1 < t2) ? i1 : i2;
+  special->add_broken_bond(t1, t2, lower < nlocal ? 1 : 0);
+}
+
+/* ----------------------------------------------------------------------
+   copy r0 of every bondlist entry into the cache. With newton_bond off the
+   neighbor code lists a bond from its owned atom i (first in the entry),
+   walking i's bond slots in order: a cursor over i's slots finds each entry's
+   slot with tag compares only, falling back to a full search when the order
+   differs. A bond whose r0 is not yet taken gets it here from the current
+   geometry (in the setup of its first run), in every copy owned on this rank.
+------------------------------------------------------------------------- */
+
+void BondBreakableCR::rebuild_cache()
+{
+  double **r0s = atom->darray[store_index];
+  double **x = atom->x;
+  const tagint *tag = atom->tag;
+  const int *num_bond = atom->num_bond;
+  tagint **bond_atom = atom->bond_atom;
+  const int nlocal = atom->nlocal;
+  int **bondlist = neighbor->bondlist;
+  const int nbondlist = neighbor->nbondlist;
+
+  cache.resize(nbondlist);
+  int owner = -1, m = 0;
+  for (int n = 0; n < nbondlist; n++) {
+    int i1 = bondlist[n][0], i2 = bondlist[n][1];
+    if (i1 >= nlocal) std::swap(i1, i2);
+    if (i1 >= nlocal)
+      error->one(FLERR, "bond_style breakable/cr: bond {}-{} has no owned atom", tag[i1], tag[i2]);
+    const tagint partner = tag[i2];
+    if (i1 != owner) {
+      owner = i1;
+      m = 0;
+    }
+    while (m < num_bond[i1] && bond_atom[i1][m] != partner) m++;
+    if (m == num_bond[i1] && (m = BreakableUtil::bond_slot(atom, i1, partner)) < 0)
+      error->one(FLERR, "bond_style breakable/cr: bond {}-{} of the bond list is not in the "
+                 "atom's bond arrays", tag[i1], partner);
+
+    double &r0 = r0s[i1][m];
+    if (r0 == 0.0 && bondlist[n][2] > 0) {
+      const double dx = x[i1][0] - x[i2][0], dy = x[i1][1] - x[i2][1], dz = x[i1][2] - x[i2][2];
+      r0 = sqrt(dx * dx + dy * dy + dz * dz);
+      int k;
+      if (i2 < nlocal && (k = BreakableUtil::bond_slot(atom, i2, tag[i1])) >= 0 &&
+          r0s[i2][k] == 0.0)
+        r0s[i2][k] = r0;
+    }
+    cache[n].r0 = r0;
+    cache[n].inv_r0 = (r0 > 0.0) ? 1.0 / r0 : 0.0;
+    m++;
+  }
+  cache_valid = true;
+}
+
+/* ----------------------------------------------------------------------
+   ghost atoms must reach stretched bonds: lambda_c times the largest r0
+   (estimated from the current lengths before r0 is taken). Collective on the
+   first call of a run, which Comm::setup makes on all ranks.
+------------------------------------------------------------------------- */
+
+double BondBreakableCR::equilibrium_distance(int type)
+{
+  if (!allocated || !setflag[type]) return 0.0;
+  if (r0_max == 0.0) {
+    double local = 0.0;
+    double **x = atom->x;
+    double **r0s = (store_index >= 0) ? atom->darray[store_index] : nullptr;
+    for (int i = 0; i < atom->nlocal; i++)
+      for (int m = 0; m < atom->num_bond[i]; m++) {
+        if (atom->bond_type[i][m] == 0) continue;
+        double r = r0s ? r0s[i][m] : 0.0;
+        if (r == 0.0) {
+          int j = atom->map(atom->bond_atom[i][m]);
+          if (j < 0) continue;
+          double dx = x[i][0] - x[j][0], dy = x[i][1] - x[j][1], dz = x[i][2] - x[j][2];
+          domain->minimum_image(FLERR, dx, dy, dz);
+          r = sqrt(dx * dx + dy * dy + dz * dz);
+        }
+        if (r > local) local = r;
+      }
+    MPI_Allreduce(&local, &r0_max, 1, MPI_DOUBLE, MPI_MAX, world);
+  }
+  return lambda_c[type] * r0_max;
+}
+
+/* ---------------------------------------------------------------------- */
+
+void BondBreakableCR::write_restart(FILE *fp)
+{
+  const int n = atom->nbondtypes;
+  fwrite(&lambda_c[1], sizeof(double), n, fp);
+  fwrite(&gamma[1], sizeof(double), n, fp);
+  fwrite(&a[1], sizeof(double), n, fp);
+  fwrite(&u[1], sizeof(double), n, fp);
+}
+
+/* ---------------------------------------------------------------------- */
+
+void BondBreakableCR::read_restart(FILE *fp)
+{
+  allocate();
+  const int n = atom->nbondtypes;
+  if (comm->me == 0) {
+    utils::sfread(FLERR, &lambda_c[1], sizeof(double), n, fp, nullptr, error);
+    utils::sfread(FLERR, &gamma[1], sizeof(double), n, fp, nullptr, error);
+    utils::sfread(FLERR, &a[1], sizeof(double), n, fp, nullptr, error);
+    utils::sfread(FLERR, &u[1], sizeof(double), n, fp, nullptr, error);
+  }
+  MPI_Bcast(&lambda_c[1], n, MPI_DOUBLE, 0, world);
+  MPI_Bcast(&gamma[1], n, MPI_DOUBLE, 0, world);
+  MPI_Bcast(&a[1], n, MPI_DOUBLE, 0, world);
+  MPI_Bcast(&u[1], n, MPI_DOUBLE, 0, world);
+  for (int i = 1; i <= n; i++) {
+    derive(i);
+    setflag[i] = 1;
+  }
+}
+
+/* ---------------------------------------------------------------------- */
+
+void BondBreakableCR::write_data(FILE *fp)
+{
+  for (int i = 1; i <= atom->nbondtypes; i++)
+    fmt::print(fp, "{} {} {} a {} u {}\n", i, lambda_c[i], gamma[i], a[i], u[i]);
+}
+
+/* ----------------------------------------------------------------------
+   r0 of the bond between atoms i and j, from an owned atom's copy
+------------------------------------------------------------------------- */
+
+double BondBreakableCR::reference_length(int i, int j)
+{
+  if (store_index < 0)
+    error->one(FLERR, "bond_style breakable/cr: reference lengths are taken in the first run");
+  double **r0s = atom->darray[store_index];
+  const tagint *tag = atom->tag;
+  const int nlocal = atom->nlocal;
+  int m;
+  double r0 = 0.0;
+  if (i < nlocal && (m = BreakableUtil::bond_slot(atom, i, tag[j])) >= 0)
+    r0 = r0s[i][m];
+  else if (j < nlocal && (m = BreakableUtil::bond_slot(atom, j, tag[i])) >= 0)
+    r0 = r0s[j][m];
+  else
+    error->one(FLERR, "bond_style breakable/cr: atoms {} and {} share no bond on this rank",
+               tag[i], tag[j]);
+  if (!(r0 > 0.0))
+    error->one(FLERR, "bond_style breakable/cr: bond {}-{} has no reference length yet "
+               "(it is taken in the setup of the first run)", tag[i], tag[j]);
+  return r0;
+}
+
+/* ----------------------------------------------------------------------
+   force / r (damping included, as compute() applies it) and energy of the
+   bond between atoms i and j; zero beyond lambda_c r0
+------------------------------------------------------------------------- */
+
+double BondBreakableCR::single(int type, double rsq, int i, int j, double &fforce)
+{
+  fforce = 0.0;
+  if (type <= 0) return 0.0;
+  const double r0 = reference_length(i, j);
+  const double r = sqrt(rsq);
+  const double inv_r0 = 1.0 / r0;
+  if (r * inv_r0 > lambda_c[type]) return 0.0;
+
+  double ebond = 0.0;
+  fforce = bond_fbond(type, r, 1.0 / rsq, r0, inv_r0, ebond, 1);
+
+  if (gamma[type] > 0.0 && atom->v) {
+    double **x = atom->x;
+    double **v = atom->v;
+    const double w = 1.0 - r * inv_r0 * inv_lc[type];
+    const double dot = (x[i][0] - x[j][0]) * (v[i][0] - v[j][0]) +
+        (x[i][1] - x[j][1]) * (v[i][1] - v[j][1]) + (x[i][2] - x[j][2]) * (v[i][2] - v[j][2]);
+    fforce -= gamma[type] * w * w * dot / rsq;
+  }
+  return ebond;
+}
+
+/* ---------------------------------------------------------------------- */
+
+double BondBreakableCR::memory_usage()
+{
+  return Bond::memory_usage() + (double) cache.capacity() * sizeof(Ref);
+}

@@ -1,0 +1,62 @@
+/* fix breakable/special: the bookkeeping shared by the breakable Clemmer-Robbins styles.
+
+   Created internally (id BREAKABLE_SPECIAL) by bond_style and angle_style breakable/cr.
+   - Broken bonds leave the 1-2 special lists of their atoms at the next reneighboring
+     (pre_exchange), and at every run setup the special lists are re-synchronised with the
+     bond types (type 0 = broken), so restarts and special rebuilds cannot revive them.
+   - Until then, pre_force clears the special bits of the broken pair in the perpetual pair
+     neighbor lists, so the non-bonded repulsion acts from the step after the break.
+   - Global vector (cumulative, summed over ranks): [1] bonds broken, [2] angles broken.
+     The count starts, at the first run, from the broken (type 0) bonds and angles the
+     topology already holds, so that it carries on across write_restart / read_restart. */
+
+#ifndef BRITTLE_FIX_BREAKABLE_SPECIAL_H
+#define BRITTLE_FIX_BREAKABLE_SPECIAL_H
+
+#include "fix.h"
+
+#include <utility>
+#include <vector>
+
+namespace LAMMPS_NS {
+
+class FixBreakableSpecial : public Fix {
+ public:
+  static constexpr const char *ID = "BREAKABLE_SPECIAL";
+
+  FixBreakableSpecial(class LAMMPS *, int, char **);
+
+  int setmask() override;
+  void init() override;
+  void setup_pre_exchange() override;
+  void pre_exchange() override;
+  void setup_pre_force(int) override;
+  void pre_force(int) override;
+  void min_pre_exchange() override { pre_exchange(); }
+  void min_pre_force(int vflag) override { pre_force(vflag); }
+  double compute_vector(int) override;
+
+  // called by the styles' single break path; count = 1 on exactly one rank per broken bond
+  void add_broken_bond(tagint tag1, tagint tag2, int count);
+  void add_broken_angle(int count) { nangles_local += count; }
+
+  // the fix with id BREAKABLE_SPECIAL, created first if absent (needs a simulation box)
+  static FixBreakableSpecial *get_or_create(class LAMMPS *);
+
+ private:
+  using TagPair = std::pair<tagint, tagint>;
+  std::vector<TagPair> broken_since_exchange;    // pending special-list removals
+  std::vector<TagPair> broken_since_force;       // pending neighbor-list bit clears
+  bigint nbonds_local, nangles_local;            // breaks counted on this rank
+  bool counted_topology;                         // broken ones already in the topology counted
+
+  void count_broken_in_topology();
+
+  void remove_special12(int i, tagint partner);
+  void resync_special();
+  void clear_neighbor_bits();
+};
+
+}    // namespace LAMMPS_NS
+
+#endif
