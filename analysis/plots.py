@@ -49,8 +49,10 @@ def plot_stress(stress: pd.DataFrame, path: Path, title: str = "") -> None:
     ax1.plot(stress.strain, stress.P, "k--", label="$P$")
     ax1.set_ylabel(r"stress [$u/a^d$]")
     ax1.legend(fontsize=8, frameon=False)
-    ax2.plot(stress.strain, stress.mu, "k-")
-    ax2.set_ylabel(r"$\mu = \sqrt{J_2}/P$")
+    # mu is undefined while the solid is still near zero pressure: show it where P is sizeable.
+    sizeable = stress.P > 0.05 * stress.P.max()
+    ax2.plot(stress.strain[sizeable], stress.mu[sizeable], "k-")
+    ax2.set_ylabel(r"$\mu = \sqrt{J_2}/P$ (where $P > 0.05\,P_{max}$)")
     ax2.set_xlabel(r"true strain $\varepsilon$")
     if title:
         ax1.set_title(title, fontsize=9)

@@ -76,10 +76,12 @@ def script(data: Path, variant: str, plugin: Path, steps: int, seed: int) -> str
 def breakdown(log: str) -> dict[str, float]:
     """Loop time, atoms, steps and the 'Bond' avg time of the last run in a LAMMPS log."""
     loops = re.findall(r"Loop time of ([\d.eE+-]+) on (\d+) procs for (\d+) steps with (\d+) atoms", log)
-    bond = re.findall(r"^Bond\s*\|\s*([\d.eE+-]+)\s*\|\s*([\d.eE+-]+)", log, re.MULTILINE)
+    sections = dict(re.findall(r"^(\w+)\s*\|\s*[\d.eE+-]+\s*\|\s*([\d.eE+-]+)", log.split("Loop time")[-1],
+                               re.MULTILINE))
     t, procs, steps, atoms = loops[-1]
     return {"loop": float(t), "procs": int(procs), "steps": int(steps), "atoms": int(atoms),
-            "bond_time": float(bond[-1][1]) if bond else float("nan")}
+            "bond_time": float(sections.get("Bond", "nan")),
+            "sections": {k: float(v) for k, v in sections.items()}}
 
 
 def run_variant(workdir: Path, data: Path, variant: str, plugin: Path, steps: int, seed: int,
@@ -131,6 +133,8 @@ def main() -> None:
     a_cr, a_nat = per_item(res["angle_cr"], na), per_item(res["angle_harmonic"], na)
     print(f"full model, 1 rank : {r1 / 1e6:6.3f} Matom-steps/s   (target >= 0.8)")
     print(f"full model, 2 ranks: {r2 / 1e6:6.3f} Matom-steps/s   speed-up {r2 / r1:.2f}x (target >= 1.6x)")
+    parts = ", ".join(f"{k} {v / res['full']['loop']:.0%}" for k, v in res["full"]["sections"].items())
+    print(f"full model, 1 rank, time by section: {parts}")
     print(f"bond  breakable/cr : {b_cr:6.1f} ns/bond/step   native bpm/spring {b_nat:6.1f}   "
           f"ratio {b_cr / b_nat:.2f} (target <= 1.3)")
     print(f"angle breakable/cr : {a_cr:6.1f} ns/angle/step  native harmonic   {a_nat:6.1f}   "

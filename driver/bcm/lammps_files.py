@@ -1,0 +1,75 @@
+"""Files that carry a BCM particle into LAMMPS: the data file, the interface geometry, the cells.
+
+- data file (`atom_style hybrid bond sphere`): one atom per cell at its centroid, with mass
+  rmass, a bounding diameter (for neighbour lists only), one bond per interface, and the
+  section `BcmProps` (quaternion, principal moments, angular momentum) read by
+  `fix property/atom d2_bcm_quat 4 d2_bcm_inertia 3 d2_bcm_angmom 3` (plugins/src/bcm_rigid.h);
+- interfaces file (read by `bond_style bcm/griffith geometry FILE`): per interface
+  `tag1 tag2 area nx ny nz npts` and the polygon's vertices in space, reference state.
+All writes are atomic (temporary file, then rename).
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+
+def _atomic(path: Path, text: str) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    with os.fdopen(fd, "w") as fh:
+        fh.write(text)
+    os.replace(tmp, path)
+    return path
+
+
+def _rows(arr: np.ndarray, fmt: str) -> str:
+    buf = io.StringIO()
+    np.savetxt(buf, arr, fmt=fmt)
+    return buf.getvalue()
+
+
+def write_cell_data(path: Path, centroids: np.ndarray, quats: np.ndarray, masses: np.ndarray,
+                    moments: np.ndarray, bound_diameters: np.ndarray, bonds: np.ndarray,
+                    margin: float) -> Path:
+    """LAMMPS data file of the cells (ids 1..n in array order; bonds are 0-based index pairs)."""
+    n = len(centroids)
+    lo = centroids.min(axis=0) - margin
+    hi = centroids.max(axis=0) + margin
+    # sphere sub-style takes a density: choose it so that rmass is the cell's exact mass
+    density = masses / (np.pi / 6.0 * bound_diameters ** 3)
+    head = [
+        "LAMMPS data file: BCM cells (brittle-driver)", "",
+        f"{n} atoms", "1 atom types", f"{len(bonds)} bonds", "1 bond types", "",
+        f"{lo[0]:.17g} {hi[0]:.17g} xlo xhi", f"{lo[1]:.17g} {hi[1]:.17g} ylo yhi",
+        f"{lo[2]:.17g} {hi[2]:.17g} zlo zhi", "",
+        "Masses", "", f"1 {float(np.mean(masses)):.17g}", "",
+        "Atoms # hybrid", "",
+    ]
+    ids = np.arange(1, n + 1)
+    atoms = np.column_stack([ids, np.ones(n), centroids, np.ones(n), bound_diameters, density])
+    body = _rows(atoms, "%d %d %.17g %.17g %.17g %d %.17g %.17g")
+    bond_rows = np.column_stack([np.arange(1, len(bonds) + 1), np.ones(len(bonds)), bonds + 1])
+    props = np.column_stack([ids, quats, moments, np.zeros((n, 3))])
+    text = ("\n".join(head) + "\n" + body + "\nBonds\n\n" + _rows(bond_rows, "%d %d %d %d")
+            + "\nBcmProps\n\n" + _rows(props, "%d" + " %.17g" * 10))
+    return _atomic(path, text)
+
+
+def write_interfaces(path: Path, pairs: np.ndarray, areas: np.ndarray, normals: np.ndarray,
+                     polygons: list[np.ndarray]) -> Path:
+    """Interface geometry in the reference state (pairs 0-based, written as 1-based tags with
+    tag1 < tag2 and the normal pointing from tag1 to tag2)."""
+    lines = ["# tag1 tag2 area nx ny nz npts x1 y1 z1 ... (SI units, reference state)"]
+    for (i, j), s, nrm, poly in zip(pairs, areas, normals, polygons):
+        if i > j:
+            i, j, nrm = j, i, -nrm
+        pts = " ".join(f"{v:.17g}" for v in np.asarray(poly).ravel())
+        lines.append(f"{i + 1} {j + 1} {s:.17g} {nrm[0]:.17g} {nrm[1]:.17g} {nrm[2]:.17g} {len(poly)} {pts}")
+    return _atomic(path, "\n".join(lines) + "\n")

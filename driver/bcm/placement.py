@@ -1,0 +1,54 @@
+"""Placing a tessellated particle for an impact (SPEC 1.4): random orientation, just above the plane."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from driver.bcm.shapes import rotation_to_quaternion
+
+
+def random_rotation(rng: np.random.Generator) -> np.ndarray:
+    """A rotation matrix uniform on SO(3): random axis and angle from a uniform unit quaternion
+    (Shoemake's method)."""
+    u1, u2, u3 = rng.random(3)
+    q = np.array([np.sqrt(1 - u1) * np.sin(2 * np.pi * u2), np.sqrt(1 - u1) * np.cos(2 * np.pi * u2),
+                  np.sqrt(u1) * np.sin(2 * np.pi * u3), np.sqrt(u1) * np.cos(2 * np.pi * u3)])
+    return quat_to_matrix(q)
+
+
+def quat_to_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices of unit quaternions (..., 4) = (w, x, y, z): x_lab = R x_body."""
+    q = np.asarray(q, dtype=float)
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    return np.stack([
+        np.stack([w * w + x * x - y * y - z * z, 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+        np.stack([2 * (x * y + w * z), w * w - x * x + y * y - z * z, 2 * (y * z - w * x)], -1),
+        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), w * w - x * x - y * y + z * z], -1),
+    ], -2)
+
+
+@dataclass
+class Placement:
+    """Rigid motion applied to the tessellation: x_lab = rotation @ (x - pivot) + offset."""
+
+    rotation: np.ndarray  # (3, 3)
+    pivot: np.ndarray  # (3,)
+    offset: np.ndarray  # (3,)
+
+    def apply(self, points: np.ndarray) -> np.ndarray:
+        return (np.asarray(points) - self.pivot) @ self.rotation.T + self.offset
+
+    def orient(self, body_to_lab: np.ndarray) -> np.ndarray:
+        """Quaternions of the cells' new orientations, from their body->lab matrices (n, 3, 3)."""
+        return rotation_to_quaternion(self.rotation @ body_to_lab)
+
+
+def impact_placement(vertices: np.ndarray, pivot: np.ndarray, rotation: np.ndarray, plane_z: float,
+                     lowest_offset: float) -> Placement:
+    """Rotate about `pivot`, then lift so the lowest vertex sits `lowest_offset` above the plane
+    (lowest_offset includes the rounding radius and the initial gap)."""
+    rotated = (vertices - pivot) @ rotation.T
+    return Placement(rotation=rotation, pivot=np.asarray(pivot, dtype=float),
+                     offset=np.array([0.0, 0.0, plane_z + lowest_offset - rotated[:, 2].min()]))
