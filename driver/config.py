@@ -66,6 +66,61 @@ class ShearScenario(_Strict):
         return self
 
 
+# ---------------------------------------------------------------------------- BCM (SPEC 1)
+class CohesiveInterface(_Strict):
+    """Glued face between two cells (SPEC 1.2-1.3), whole-interface values, SI units."""
+
+    kn: float = Field(1e7, gt=0.0, description="normal stiffness, N/m")
+    kt: float = Field(0.8e7, gt=0.0, description="tangential stiffness, N/m")
+    en2: float = Field(0.999, ge=0.0, le=1.0, description="squared normal restitution e_n^2")
+    G_c: float = Field(1.0, gt=0.0, description="fracture energy, J/m^2")
+
+
+class FrictionalContact(_Strict):
+    """Cohesionless contact: broken interfaces, cell-cell and cell-plane contacts (SPEC 1.2-1.3)."""
+
+    kn: float = Field(1e8, gt=0.0, description="normal stiffness, N/m")
+    kt: float = Field(8e7, gt=0.0, description="tangential stiffness, N/m")
+    en2: float = Field(0.001, ge=0.0, le=1.0, description="squared normal restitution e_n^2")
+    mu: float = Field(0.3, ge=0.0, description="Coulomb friction coefficient mu_s")
+
+
+class BCMModel(_Strict):
+    """Bonded cell method (SPEC 1): a particle tessellated into rigid Voronoi cells, SI units."""
+
+    kind: Literal["bcm"] = "bcm"
+    shape: Literal["truncated_pentakis_dodecahedron", "cube", "icosphere_like"] = "truncated_pentakis_dodecahedron"
+    diameter: float = Field(2e-3, gt=0.0, description="parent diameter, m")
+    diameter_kind: Literal["circumscribed", "equal_volume"] = "circumscribed"
+    n_cells: int = Field(1728, ge=2, le=200_000, description="number of Voronoi cells N_c")
+    density: float = Field(6000.0, gt=0.0, description="solid density rho_s, kg/m^3")
+    rounding: float = Field(0.02, ge=0.0, lt=0.3,
+                            description="rounding radius r_m as a fraction of the mean cell size h = (V/N_c)^(1/3)")
+    interface: CohesiveInterface = Field(default_factory=CohesiveInterface)
+    contact: FrictionalContact = Field(default_factory=FrictionalContact)
+    griffith_energy: Literal["stored", "rockable", "literal"] = Field(
+        "stored", description="energy in the Griffith criterion (SPEC 1.2): what the springs store (default), "
+                              "Rockable's N_p-fold sum, or Eq. 5 read literally (1/N_p)")
+    lloyd_tol: float = Field(2e-3, gt=0.0, lt=0.1, description="Lloyd stop: RMS seed step / h")
+    lloyd_max_iter: int = Field(400, ge=0, le=10_000)
+
+
+class ImpactScenario(_Strict):
+    """One particle hits a rigid plane (SPEC 1.4)."""
+
+    kind: Literal["impact"] = "impact"
+    velocity: float = Field(4.5, gt=0.0, le=100.0, description="impact velocity v_0 normal to the plane, m/s")
+    gap: float = Field(1e-3, ge=0.0, lt=1.0, description="initial gap to the plane, fraction of the diameter")
+    steps_per_period: float = Field(50.0, ge=10.0, description="time step = shortest contact period / this")
+    max_time: float = Field(5e-4, gt=0.0, description="hard stop on simulated time, s")
+    settle_window: float = Field(5e-6, gt=0.0, description="window over which the outcome must not change, s")
+    ke_tolerance: float = Field(1e-3, gt=0.0, lt=1.0,
+                                description="settled when kinetic energy changes by less than this fraction "
+                                            "over a window with no break and no cell on the plane")
+    thermo_every: int = Field(100, ge=1, description="steps between energy records")
+    dump_every: int = Field(0, ge=0, description="steps between cell dumps; 0 = start and end only")
+
+
 class Output(_Strict):
     dir: Path | None = Field(None, description="run directory; default runs/<name>")
     plots: bool = True
@@ -75,8 +130,8 @@ class Execution(_Strict):
     np: int = Field(1, ge=1, le=4096, description="MPI ranks for LAMMPS")
 
 
-MODEL_KINDS = ("bpm",)
-SCENARIO_KINDS = ("shear",)
+MODEL_KINDS = ("bpm", "bcm")
+SCENARIO_KINDS = ("shear", "impact")
 
 
 class RunConfig(_Strict):
@@ -84,8 +139,9 @@ class RunConfig(_Strict):
 
     name: str = Field("run", pattern=r"^[A-Za-z0-9_.\-]+$", description="run name (directory-safe)")
     seed: int = Field(1, ge=1, le=2**31 - 1, description="seeds the packing/tessellation and orientations")
-    model: Annotated[Union[BPMModel], Field(discriminator="kind")] = Field(default_factory=BPMModel)
-    scenario: Annotated[Union[ShearScenario], Field(discriminator="kind")] = Field(default_factory=ShearScenario)
+    model: Annotated[Union[BPMModel, BCMModel], Field(discriminator="kind")] = Field(default_factory=BPMModel)
+    scenario: Annotated[Union[ShearScenario, ImpactScenario], Field(discriminator="kind")] = Field(
+        default_factory=ShearScenario)
     output: Output = Field(default_factory=Output)
     execution: Execution = Field(default_factory=Execution)
 
@@ -103,8 +159,10 @@ class RunConfig(_Strict):
     @model_validator(mode="after")
     def _consistent(self) -> "RunConfig":
         if self.scenario.kind == "shear" and self.model.kind != "bpm":
-            raise ValueError("scenario 'shear' needs model kind 'bpm'")
-        if self.model.kind == "bpm":
+            raise ValueError("scenario 'shear' needs model kind 'bpm' (BCM shear is not available yet)")
+        if self.scenario.kind == "impact" and self.model.kind != "bcm":
+            raise ValueError("scenario 'impact' needs model kind 'bcm' (BPM particle impact is not available yet)")
+        if self.model.kind == "bpm" and self.scenario.kind == "shear":
             steps = self.scenario.max_strain / (self.scenario.strain_rate * self.model.timestep)
             if steps > 2e9:
                 raise ValueError(f"max_strain / (strain_rate * timestep) = {steps:.3g} steps is beyond 2e9")
@@ -145,7 +203,7 @@ def _model_at(loc: tuple[Any, ...], data: Any) -> type[BaseModel] | None:
 def format_validation_error(exc: ValidationError, source: str, raw: Any) -> str:
     lines = [f"{source}: invalid configuration ({exc.error_count()} problem(s))"]
     for err in exc.errors():
-        loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and p in {"bpm", "shear"}))
+        loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and p in MODEL_KINDS + SCENARIO_KINDS))
         path = ".".join(str(p) for p in loc) or "<top level>"
         msg = err["msg"].removeprefix("Value error, ")
         if err["type"] == "extra_forbidden":
