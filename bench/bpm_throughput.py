@@ -24,9 +24,9 @@ from pathlib import Path
 
 from driver.bpm.datafile import write_data
 from driver.bpm.network import MAX_BOND_LENGTH_3D, delaunay_network
-from driver.bpm.packing import make_packing
+from driver.bpm.packing import cached_packing
 from driver.engine import Lammps, venv_bin
-from driver.plugin_build import plugin_library
+from driver.plugin_build import cache_base, plugin_library
 
 COMMON = """
 units lj
@@ -105,7 +105,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     args = ap.parse_args()
     plugin = plugin_library()
-    packing = make_packing(3, args.L, args.seed)
+    packing = cached_packing(cache_base() / "packings", 3, args.L, args.seed)
     net = delaunay_network(packing, MAX_BOND_LENGTH_3D)
     n = len(packing.radii)
     nb, na = len(net.bonds), len(net.angles)

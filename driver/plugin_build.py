@@ -36,10 +36,14 @@ def plugin_source_dir() -> Path:
     raise PluginBuildError(f"plugin sources not found next to {here}")
 
 
-def cache_root() -> Path:
+def cache_base() -> Path:
+    """The project's cache directory: $BRITTLE_CACHE or ~/.cache/brittle."""
     env = os.environ.get("BRITTLE_CACHE")
-    base = Path(env) if env else Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "brittle"
-    return base / "plugins"
+    return Path(env) if env else Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "brittle"
+
+
+def cache_root() -> Path:
+    return cache_base() / "plugins"
 
 
 def _compiler_id() -> str:

@@ -29,9 +29,13 @@ Serial LAMMPS minimisation is deterministic, so the same seed gives identical po
 
 from __future__ import annotations
 
+import json
 import math
+import os
+import tempfile
 import warnings
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -226,3 +230,27 @@ def _relax(x, types, diameter, lo, hi, dimension):
     if dimension == 2:
         out[:, 2] = 0.0
     return out, relaxation
+
+
+def cached_packing(cache_dir: str | Path, dimension: int, L: float, seed: int, phi: float | None = None) -> Packing:
+    """`make_packing`, read from `cache_dir` when this (dimension, L, seed, phi) was built before.
+
+    Relaxing a 3D packing of 30,000 particles takes minutes; a sweep over bond parameters on the
+    same packing should pay it once. The file is written atomically.
+    """
+    phi_val = DEFAULT_PHI[dimension] if phi is None else phi
+    cache_dir = Path(cache_dir)
+    path = cache_dir / f"packing_d{dimension}_L{L:.12g}_s{seed}_phi{phi_val:.12g}.npz"
+    if path.exists():
+        with np.load(path) as z:
+            return Packing(positions=z["positions"], radii=z["radii"], types=z["types"],
+                           box=(z["lo"], z["hi"]), dimension=dimension,
+                           relaxation=json.loads(str(z["relaxation"])))
+    pack = make_packing(dimension, L, seed, phi)
+    cache_dir.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=".packing.", suffix=".npz", dir=cache_dir)
+    os.close(fd)
+    np.savez(tmp, positions=pack.positions, radii=pack.radii, types=pack.types, lo=pack.box[0], hi=pack.box[1],
+             relaxation=json.dumps(pack.relaxation, default=float))
+    os.replace(tmp, path)
+    return pack

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -12,16 +11,12 @@ import numpy as np
 import driver
 from driver.bpm.datafile import write_data
 from driver.bpm.network import MAX_BOND_LENGTH_3D, delaunay_network
-from driver.bpm.packing import make_packing
+from driver.bpm.packing import cached_packing
 from driver.config import RunConfig, steps_for_strain
+from driver.plugin_build import cache_base
 from driver.rundir import RunDir, atomic_write_json, atomic_write_text
 from driver.runner import ProgressSpec, run_input
 from driver.templates import render
-
-# Columns of thermo.dat written by the template's `fix print`.
-THERMO_COLUMNS = ["step", "strain", "pxx", "pyy", "pzz", "pxy", "pxz", "pyz", "pe", "ke", "vol",
-                  "bonds_broken", "angles_broken"]
-
 
 @dataclass
 class Snapshot:
@@ -109,7 +104,7 @@ def build_system(cfg: RunConfig, rd: RunDir) -> dict:
     """Packing -> Delaunay network -> data file; returns the network facts for the summary."""
     m = cfg.model
     t0 = time.perf_counter()
-    packing = make_packing(m.dimension, m.L, cfg.seed, m.packing_fraction)
+    packing = cached_packing(cache_base() / "packings", m.dimension, m.L, cfg.seed, m.packing_fraction)
     max_len = None
     if m.dimension == 3:
         max_len = m.bond_max_length if m.bond_max_length is not None else MAX_BOND_LENGTH_3D
@@ -144,7 +139,3 @@ def run_shear(cfg: RunConfig, rd: RunDir, plugin_path: Path, np_ranks: int, show
     atomic_write_json(rd.root / "snapshots.json", [s.__dict__ for s in plan.snapshots])
     return {"system": system, "total_steps": plan.total_steps, "lammps_wall_seconds": wall,
             "snapshots": [s.__dict__ for s in plan.snapshots]}
-
-
-def load_snapshots(run_dir: Path) -> list[Snapshot]:
-    return [Snapshot(**s) for s in json.loads((run_dir / "snapshots.json").read_text())]
