@@ -1,0 +1,101 @@
+"""Offscreen pictures of a frame: cells (BCM) or particles (BPM) coloured by grain/fragment.
+
+matplotlib (Agg) renders without a display; polyhedra are drawn as shaded face polygons.
+Grain 0 is the largest; colours cycle through a qualitative map, and single-cell or
+single-particle grains are drawn light grey so that fragments stand out in greyscale too.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.collections import PatchCollection  # noqa: E402
+from matplotlib.patches import Circle  # noqa: E402
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
+
+from driver.rundir import atomic_save  # noqa: E402
+
+_SINGLE = (0.85, 0.85, 0.85, 1.0)
+
+
+def grain_colours(labels: np.ndarray) -> np.ndarray:
+    """RGBA per item: a qualitative colour per grain; grains of one item light grey."""
+    labels = np.asarray(labels)
+    sizes = np.bincount(labels)
+    cmap = plt.get_cmap("tab20")
+    cols = np.array([cmap(k % 20) for k in range(len(sizes))])
+    cols[sizes == 1] = _SINGLE
+    return cols[labels]
+
+
+def render_cells(cell_vertices: list[np.ndarray], cell_faces: list[list[np.ndarray]], labels: np.ndarray,
+                 path: Path, title: str = "", view=(20.0, -60.0), length_unit: float = 1e-3,
+                 unit_name: str = "mm") -> None:
+    """Polyhedral cells (lab-frame vertices per cell, faces as vertex loops) coloured by label."""
+    cols = grain_colours(labels)
+    polys, face_cols = [], []
+    light = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    for verts, faces, col in zip(cell_vertices, cell_faces, cols):
+        v = np.asarray(verts) / length_unit
+        for f in faces:
+            p = v[np.asarray(f)]
+            n = np.cross(p[1] - p[0], p[2] - p[0])
+            nn = np.linalg.norm(n)
+            shade = 0.55 + 0.45 * abs(np.dot(n / nn, light)) if nn > 0 else 1.0
+            polys.append(p)
+            face_cols.append((*(np.asarray(col[:3]) * shade), 1.0))
+    allv = np.concatenate([np.asarray(v) for v in cell_vertices]) / length_unit
+    fig = plt.figure(figsize=(5.5, 5.0), dpi=150)
+    ax = fig.add_subplot(projection="3d")
+    ax.add_collection3d(Poly3DCollection(polys, facecolors=face_cols, edgecolors=(0, 0, 0, 0.25), linewidths=0.2))
+    centre, half = allv.mean(0), 0.5 * (allv.max(0) - allv.min(0)).max()
+    for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre):
+        setter(c - half, c + half)
+    ax.set_box_aspect((1, 1, 1))
+    ax.view_init(*view)
+    ax.set_xlabel(f"x [{unit_name}]")
+    ax.set_ylabel(f"y [{unit_name}]")
+    ax.set_zlabel(f"z [{unit_name}]")
+    if title:
+        ax.set_title(title, fontsize=9)
+    atomic_save(path, lambda p: fig.savefig(p, format="png"))
+    plt.close(fig)
+
+
+def render_particles_2d(positions: np.ndarray, radii: np.ndarray, labels: np.ndarray, box: np.ndarray,
+                        path: Path, title: str = "") -> None:
+    """Disks (BPM 2D) coloured by grain; box = [[xlo, xhi], [ylo, yhi], ...] in units of a."""
+    cols = grain_colours(labels)
+    fig, ax = plt.subplots(figsize=(5.5, 5.5 * (box[1][1] - box[1][0]) / (box[0][1] - box[0][0]) + 0.5), dpi=150)
+    patches = [Circle((x, y), r) for (x, y), r in zip(positions[:, :2], radii)]
+    ax.add_collection(PatchCollection(patches, facecolors=cols, edgecolors=(0, 0, 0, 0.4), linewidths=0.2))
+    ax.set_xlim(*box[0])
+    ax.set_ylim(*box[1])
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [a]")
+    ax.set_ylabel("y [a]")
+    if title:
+        ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    atomic_save(path, lambda p: fig.savefig(p, format="png"))
+    plt.close(fig)
+
+
+def render_particles_3d(positions: np.ndarray, labels: np.ndarray, path: Path, title: str = "") -> None:
+    """Spheres (BPM 3D) as points coloured by grain."""
+    cols = grain_colours(labels)
+    fig = plt.figure(figsize=(5.5, 5.0), dpi=150)
+    ax = fig.add_subplot(projection="3d")
+    ax.scatter(*positions.T, c=cols, s=4, depthshade=True)
+    ax.set_xlabel("x [a]")
+    ax.set_ylabel("y [a]")
+    ax.set_zlabel("z [a]")
+    if title:
+        ax.set_title(title, fontsize=9)
+    atomic_save(path, lambda p: fig.savefig(p, format="png"))
+    plt.close(fig)
