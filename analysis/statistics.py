@@ -26,18 +26,22 @@ def mass_distribution(masses: np.ndarray, m_min: float, bins_per_decade: int = 5
 
     With integer masses (BPM: M = number of particles) a bin's width is the number of
     integers it holds, so N(M) is exactly a count per unit mass. Columns: m_lo, m_hi,
-    m_center (geometric), count, width, N.
+    m_center (geometric), m_mean (mean mass of the bin's grains: the abscissa to fit
+    exponents against, since the law varies across a wide bin), count, width, N.
     """
     masses = np.asarray(masses, dtype=float)
     kept = masses[masses >= m_min]
     if len(kept) == 0:
-        return pd.DataFrame(columns=["m_lo", "m_hi", "m_center", "count", "width", "N"])
+        return pd.DataFrame(columns=["m_lo", "m_hi", "m_center", "m_mean", "count", "width", "N"])
     edges = log_bin_edges(m_min, kept.max(), bins_per_decade)
     counts, _ = np.histogram(kept, bins=edges)
+    sums, _ = np.histogram(kept, bins=edges, weights=kept)
     lo, hi = edges[:-1], edges[1:]
     width = (np.ceil(hi) - np.ceil(lo)) if integer_masses else (hi - lo)
     ok = width > 0
-    df = pd.DataFrame({"m_lo": lo[ok], "m_hi": hi[ok], "m_center": np.sqrt(lo * hi)[ok],
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
+    df = pd.DataFrame({"m_lo": lo[ok], "m_hi": hi[ok], "m_center": np.sqrt(lo * hi)[ok], "m_mean": mean[ok],
                        "count": counts[ok], "width": width[ok]})
     df["N"] = df["count"] / df["width"]
     return df

@@ -62,3 +62,8 @@ def test_nm_counts_per_unit_mass():
 def test_moments_not_normalised():
     m = moments(np.array([1.0, 2.0, 3.0]))
     assert m == {"M1": 6.0, "M2": 14.0, "M3": 36.0}
+
+
+def test_nm_mean_mass_of_bin():
+    nm = mass_distribution(np.array([3, 3, 4, 10]), m_min=3, bins_per_decade=5)
+    assert nm.iloc[0]["m_mean"] == (3 + 3 + 4) / 3
