@@ -11,6 +11,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from driver.rundir import atomic_save  # noqa: E402
@@ -19,16 +20,24 @@ _MARKERS = "osD^v<>ph*"
 _LINES = ["-", "--", "-.", ":"]
 
 
-def plot_nm(nm: pd.DataFrame, path: Path, title: str = "", mass_unit: str = "m") -> None:
-    """N(M) per strain, log-log. nm has columns strain, m_center, N."""
+def plot_nm(nm: pd.DataFrame, path: Path, title: str = "", mass_unit: str = "m", fit: dict | None = None) -> None:
+    """N(M) per strain, log-log, at each bin's mean grain mass. nm has columns strain, m_mean, N;
+    `fit` (strain, tau, sigma, xmin) draws the fitted slope through the last strain's data."""
     fig, ax = plt.subplots(figsize=(5.0, 4.0), dpi=150)
     for k, (eps, grp) in enumerate(nm.groupby("strain", sort=True)):
         grp = grp[grp["N"] > 0]
         if grp.empty:
             continue
-        ax.loglog(grp["m_center"], grp["N"], marker=_MARKERS[k % len(_MARKERS)],
+        ax.loglog(grp["m_mean"], grp["N"], marker=_MARKERS[k % len(_MARKERS)],
                   linestyle=_LINES[k % len(_LINES)], color=str(0.75 * k / max(1, nm.strain.nunique() - 1)),
                   mfc="white", label=rf"$\varepsilon$ = {eps:g}")
+    if fit and fit.get("tau") is not None:
+        last = nm[(nm.strain == fit["strain"]) & (nm.N > 0)]
+        if not last.empty:
+            x = np.array([last.m_mean.min(), last.m_mean.max()])
+            y0 = np.exp(np.mean(np.log(last.N) + fit["tau"] * np.log(last.m_mean)))
+            ax.loglog(x, y0 * x ** -fit["tau"], "k:", lw=1.0,
+                      label=rf"$M^{{-\tau}}$, $\tau$ = {fit['tau']:.2f} $\pm$ {fit['sigma']:.2f}")
     ax.set_xlabel(f"grain mass $M$ [{mass_unit}]")
     ax.set_ylabel(f"$N(M)$ [grains per unit mass, 1/{mass_unit}]")
     if title:

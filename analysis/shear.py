@@ -8,9 +8,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.dumps import bond_pairs, read_local_dump
+from analysis.dumps import bond_pairs, read_atom_dump, read_local_dump
 from analysis.grains import grain_sizes, grains_from_bond_dump
+from analysis.pictures import render_particles_2d, render_particles_3d
 from analysis.plots import plot_nm, plot_stress
+from analysis.powerlaw import fit_power_law
 from analysis.statistics import SMALL_GRAIN_CUT, mass_distribution, moments
 from analysis.stress import inertial_number, stress_measures
 from driver.rundir import atomic_save
@@ -51,7 +53,8 @@ def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
     stress["I"] = inertial_number(scen["strain_rate"], system["mean_diameter"], stress["density"], stress["P"])
 
     # Grains at each snapshot.
-    grain_rows, nm_rows, frame_rows = [], [], []
+    grain_rows, nm_rows, frame_rows, fit_rows = [], [], [], []
+    labels = None
     for snap in snaps:
         frame = read_local_dump(run_dir / snap["bonds"])[-1]
         pairs, types = bond_pairs(frame)
@@ -60,6 +63,7 @@ def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
         grain_rows.append(pd.DataFrame({"strain": snap["strain"], "step": snap["step"],
                                         "grain": np.arange(len(masses)), "mass": masses}))
         nm = mass_distribution(masses, m_min=cut)
+        fit_rows.append(_fit_tau(masses, cut, snap))
         nm.insert(0, "strain", snap["strain"])
         nm_rows.append(nm)
         frame_rows.append({"strain": snap["strain"], "step": snap["step"], "n_grains": int(len(masses)),
@@ -69,16 +73,19 @@ def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
     grains = pd.concat(grain_rows, ignore_index=True)
     nm_all = pd.concat(nm_rows, ignore_index=True)
     frames = pd.DataFrame(frame_rows)
+    fits = pd.DataFrame(fit_rows)
 
     res = run_dir / "results"
     save_table(stress, res / "stress")
     save_table(grains, res / "grains")
     save_table(nm_all, res / "nm")
     save_table(frames, res / "frames")
+    save_table(fits, res / "nm_fits")
     if plots:
         title = f"BPM {dim}D, L = {model['L']:g}, edot = {scen['strain_rate']:g}, k_A = {model['k_A']:g}"
-        plot_nm(nm_all[nm_all.strain > 0], run_dir / "plots" / "nm.png", title)
+        plot_nm(nm_all[nm_all.strain > 0], run_dir / "plots" / "nm.png", title, fit=fit_rows[-1])
         plot_stress(stress, run_dir / "plots" / "stress.png", title)
+        _picture(run_dir, snaps[-1], labels, dim, system, f"{title}, strain {snaps[-1]['strain']:g}")
 
     last = stress.iloc[-1]
     return {
@@ -91,4 +98,28 @@ def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
         "grains_at_strain": {f"{r['strain']:g}": r["n_grains"] for r in frame_rows},
         f"grains_M>={cut}_at_strain": {f"{r['strain']:g}": r[f"n_grains_M>={cut}"] for r in frame_rows},
         "final_mu": float(last.mu) if np.isfinite(last.mu) else None,
+        "tau_final": fit_rows[-1]["tau"], "tau_final_sigma": fit_rows[-1]["sigma"],
     }
+
+
+def _fit_tau(masses: np.ndarray, cut: int, snap: dict) -> dict:
+    """Discrete maximum-likelihood exponent of N(M) ~ M^-tau over grains with M >= cut."""
+    kept = masses[masses >= cut]
+    row = {"strain": snap["strain"], "step": snap["step"], "xmin": cut, "n": int(len(kept)),
+           "tau": None, "sigma": None}
+    if len(kept) >= 10 and kept.max() > cut:
+        fit = fit_power_law(kept, xmin=cut, discrete=True)
+        row.update(tau=float(fit.tau), sigma=float(fit.sigma))
+    return row
+
+
+def _picture(run_dir: Path, snap: dict, labels: np.ndarray, dim: int, system: dict, title: str) -> None:
+    """Particles of the last snapshot coloured by grain (largest grain first in colour order)."""
+    frame = read_atom_dump(run_dir / snap["atoms"])[-1]
+    diam = {int(k): v for k, v in system["type_diameters"].items()}
+    radii = 0.5 * np.array([diam[int(t)] for t in frame.types])
+    lab = labels[frame.ids - 1]
+    if dim == 2:
+        render_particles_2d(frame.positions, radii, lab, frame.box, run_dir / "plots" / "grains.png", title)
+    else:
+        render_particles_3d(frame.positions, lab, run_dir / "plots" / "grains.png", title)
