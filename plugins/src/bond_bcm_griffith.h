@@ -1,0 +1,99 @@
+/* bond_style bcm/griffith: the cohesive interface of the bonded cell method (SPEC 1.2), one
+   bond per face shared by two cells. Multi-point spring-dashpot interface, Griffith breaking
+   (Eq. 4-6), then cohesionless frictional point contacts (Eq. 1, 7). The geometry of every
+   interface comes from a file; the per-interface state lives per atom and bond slot. See
+   plugins/doc/bond_bcm_griffith.md. */
+
+#ifndef BRITTLE_BOND_BCM_GRIFFITH_H
+#define BRITTLE_BOND_BCM_GRIFFITH_H
+
+#include "bond.h"
+
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace LAMMPS_NS {
+
+class BondBcmGriffith : public Bond {
+ public:
+  static constexpr int MAX_POINTS = 16;    // contact points per interface
+  static constexpr int NVECTOR = 8;        // global vector of fix bcm/griffith
+
+  BondBcmGriffith(class LAMMPS *);
+  ~BondBcmGriffith() override;
+
+  void compute(int, int) override;
+  void settings(int, char **) override;
+  void coeff(int, char **) override;
+  void init_style() override;
+  double equilibrium_distance(int) override;
+  void write_restart(FILE *) override;
+  void read_restart(FILE *) override;
+  void write_restart_settings(FILE *) override;
+  void read_restart_settings(FILE *) override;
+  void write_data(FILE *) override;
+  double single(int, double, int, int, double &) override;
+  double memory_usage() override;
+
+  // this rank's share of the global vector of fix bcm/griffith (each interface counted by
+  // the owner of its cell with the smaller ID)
+  void tally(double *sums);
+  // force evaluations so far: changes whenever the per-interface state may have
+  bigint evaluations() const { return nevaluations; }
+
+ private:
+  enum Convention { STORED, ROCKABLE, LITERAL };
+
+  // per type: bond_coeff values and derived damping ratios (SPEC Eq. 2)
+  double *kn, *kt, *en2, *gc, *kn_c, *kt_c, *en2_c, *mu;
+  double *alpha, *alpha_c;
+
+  // interface geometry, identical on every rank
+  struct Interface {
+    tagint tag1, tag2;
+    int npts;
+    double area;
+    long soff;      // into space: normal (3), then the points (3 npts)
+    long boff;      // into body: normal (3), points in cell 1's frame, then in cell 2's
+  };
+  std::vector<Interface> interfaces;
+  std::vector<double> space;    // reference state, space frame, from the geometry file
+  std::vector<double> body;     // normal in cell 1's frame, points in cell 1's, then cell 2's
+  std::unordered_map<long long, int> lookup;    // (tag1, tag2) -> interface
+  std::string geometry_file;
+  int convention;
+  int maxpts;             // largest npts of the geometry: sets the per-slot store size
+  int reference_taken;    // body-frame geometry computed (first init after the file was read)
+  double span_max;        // largest distance between bonded centres, reference state
+
+  // per bondlist entry, rebuilt whenever the bondlist is
+  struct Entry {
+    int iface;
+    int c1, c2;        // local indices of the cells with the smaller and the larger ID
+    double *slot;      // state of the interface in the bondlist atom's bond slot
+    double *twin;      // the partner's copy when the partner is owned here too, or nullptr
+  };
+  std::vector<Entry> cache;
+  bool cache_valid;
+  std::vector<double> rot;    // rotation matrix of every owned and ghost cell, this evaluation
+
+  int store_index;     // atom->darray index of the per-slot state
+  int slot_size;       // doubles per bond slot
+  int iquat;           // atom->darray index of d2_bcm_quat
+  bigint nevaluations;
+
+  void allocate();
+  void read_geometry(const std::string &file);
+  void broadcast_geometry();
+  void index_geometry();
+  void take_reference();
+  void rebuild_cache();
+  int find_interface(tagint t1, tagint t2) const;
+  const double *slot_of(int i, int j) const;
+  static long long key(tagint t1, tagint t2);
+};
+
+}    // namespace LAMMPS_NS
+
+#endif

@@ -1,0 +1,40 @@
+/* fix bcm/griffith: the interface counters of bond_style bcm/griffith as a global vector.
+
+   Created internally (id BCM_GRIFFITH) by the bond style, so that thermo and fix print can
+   name f_BCM_GRIFFITH[k]. Summed over ranks, each interface counted once:
+     [1] intact interfaces            [5] elastic energy stored in the interfaces (intact
+     [2] broken interfaces                springs and contact springs of broken ones)
+     [3] broken area A                [6] energy dissipated by damping
+     [4] fracture energy W_f = 2 A G_c [7] energy dissipated by friction (sliding)
+                                      [8] energy dissipated at the switch to contacts
+   The per-interface values live in the bond style's per-atom store, so they migrate with
+   their cells and carry on through restart files. */
+
+#ifndef BRITTLE_FIX_BCM_GRIFFITH_H
+#define BRITTLE_FIX_BCM_GRIFFITH_H
+
+#include "fix.h"
+
+namespace LAMMPS_NS {
+
+class FixBcmGriffith : public Fix {
+ public:
+  static constexpr const char *ID = "BCM_GRIFFITH";
+
+  FixBcmGriffith(class LAMMPS *, int, char **);
+
+  int setmask() override { return 0; }
+  double compute_vector(int) override;
+
+  // the fix with id BCM_GRIFFITH, created first if absent (needs a simulation box)
+  static FixBcmGriffith *get_or_create(class LAMMPS *);
+
+ private:
+  double totals[8];
+  bigint cached_step, cached_evaluations;
+  bool cached;
+};
+
+}    // namespace LAMMPS_NS
+
+#endif

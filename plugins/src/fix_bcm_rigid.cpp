@@ -1,0 +1,312 @@
+/* fix bcm/rigid (see fix_bcm_rigid.h and plugins/doc/fix_bcm_rigid.md).
+
+   One step of length h, per cell (m = rmass, I = principal moments, L = space-frame angular
+   momentum, q = orientation, tau = atom->torque):
+     initial_integrate:  v += (h/2) f/m;  x += h v;  L += (h/2) tau;
+                         free rotor over h by NO_SQUISH: with Lb = R(q)^T L, the exact flows
+                         of Lb_k^2 / (2 I_k) in the symmetric order 3 (h/2), 2 (h/2), 1 (h),
+                         2 (h/2), 3 (h/2). Each flow turns the body by phi = h' Lb_k / I_k about
+                         its body axis k (q <- q (cos phi/2, sin phi/2 e_k)) and the body
+                         components of L by -phi (L itself is fixed in space).
+     pre_force:          forward communication of q, so ghost cells carry the new orientation
+     final_integrate:    v += (h/2) f/m;  L += (h/2) tau;
+   and omega = R (I^-1 Lb) after every update of q or L. */
+
+#include "fix_bcm_rigid.h"
+
+#include "atom.h"
+#include "bcm_rigid.h"
+#include "comm.h"
+#include "error.h"
+#include "force.h"
+#include "update.h"
+
+#include <algorithm>
+#include <cmath>
+#include <mpi.h>
+
+using namespace LAMMPS_NS;
+using namespace FixConst;
+
+namespace {
+
+// exact flow of the rotor piece Lb[k]^2 / (2 I_k) over time h (one NO_SQUISH substep)
+void rotate_about_body_axis(int k, double h, const double *inertia, double *q, double *lb)
+{
+  const int a = (k + 1) % 3, b = (k + 2) % 3;
+  const double half = 0.5 * h * lb[k] / inertia[k];
+  const double c2 = std::cos(half), s2 = std::sin(half);
+  const double c = c2 * c2 - s2 * s2, s = 2.0 * s2 * c2;    // cos, sin of the full angle
+
+  // body components of L turn by -phi about axis k (L is fixed in space)
+  const double la = lb[a], lbb = lb[b];
+  lb[a] = c * la + s * lbb;
+  lb[b] = -s * la + c * lbb;
+
+  // q <- q * (cos(phi/2), sin(phi/2) e_k); vector part of q is q[1..3]
+  const double w = q[0], vk = q[1 + k], va = q[1 + a], vb = q[1 + b];
+  q[0] = c2 * w - s2 * vk;
+  q[1 + k] = c2 * vk + s2 * w;
+  q[1 + a] = c2 * va + s2 * vb;
+  q[1 + b] = c2 * vb - s2 * va;
+}
+
+}    // namespace
+
+/* ---------------------------------------------------------------------- */
+
+FixBcmRigid::FixBcmRigid(LAMMPS *_lmp, int narg, char **arg) :
+    Fix(_lmp, narg, arg), dtv(0.0), dtf(0.0), iquat(-1), iinertia(-1), iangmom(-1),
+    comm_with_omega(0)
+{
+  if (narg != 3)
+    error->all(FLERR, "Illegal fix bcm/rigid command: takes no arguments (fix ID group bcm/rigid)");
+  time_integrate = 1;
+  scalar_flag = 1;
+  global_freq = 1;
+  extscalar = 1;
+  comm_forward = 7;    // quaternion, plus omega in the setup communication
+}
+
+/* ---------------------------------------------------------------------- */
+
+int FixBcmRigid::setmask()
+{
+  return INITIAL_INTEGRATE | PRE_FORCE | FINAL_INTEGRATE;
+}
+
+/* ----------------------------------------------------------------------
+   index of the per-atom array d2_<name> with ncols columns
+------------------------------------------------------------------------- */
+
+int FixBcmRigid::find_array(const char *name, int ncols)
+{
+  int flag = -1, cols = -1, ghost = 0;
+  const int index = atom->find_custom_ghost(name, flag, cols, ghost);
+  if (index < 0 || flag != 1 || cols != ncols)
+    error->all(FLERR,
+               "Fix bcm/rigid requires the per-atom array d2_{} with {} columns: declare "
+               "`fix ID all property/atom d2_{} {} d2_{} {} d2_{} {} ghost yes` before read_data",
+               name, ncols, BcmRigid::QUAT, 4, BcmRigid::INERTIA, 3, BcmRigid::ANGMOM, 3);
+  if (!ghost)
+    error->all(FLERR, "Fix bcm/rigid requires d2_{} with `ghost yes` (ghost cells need it)", name);
+  return index;
+}
+
+/* ---------------------------------------------------------------------- */
+
+void FixBcmRigid::init()
+{
+  if (!atom->rmass || !atom->omega || !atom->torque)
+    error->all(FLERR, "Fix bcm/rigid requires per-atom rmass, omega and torque "
+                      "(atom_style hybrid bond sphere)");
+  iquat = find_array(BcmRigid::QUAT, 4);
+  iinertia = find_array(BcmRigid::INERTIA, 3);
+  iangmom = find_array(BcmRigid::ANGMOM, 3);
+  reset_dt();
+
+  // every cell needs positive principal moments, a mass and an orientation; the smallest
+  // offending atom ID over all ranks is named
+  double **quat = atom->darray[iquat];
+  double **inertia = atom->darray[iinertia];
+  const double *rmass = atom->rmass;
+  const int *mask = atom->mask;
+  const tagint *tag = atom->tag;
+  const int nlocal = atom->nlocal;
+  tagint bad_moment = MAXTAGINT, bad_quat = MAXTAGINT, bad_mass = MAXTAGINT;
+  for (int i = 0; i < nlocal; i++) {
+    if (!(mask[i] & groupbit)) continue;
+    const double *in = inertia[i];
+    if (!(in[0] > 0.0 && in[1] > 0.0 && in[2] > 0.0 && std::isfinite(in[0] + in[1] + in[2])))
+      bad_moment = std::min(bad_moment, tag[i]);
+    if (!(rmass[i] > 0.0)) bad_mass = std::min(bad_mass, tag[i]);
+    const double *q = quat[i];
+    const double qq = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+    if (!(qq > 0.0) || !std::isfinite(qq)) bad_quat = std::min(bad_quat, tag[i]);
+  }
+  tagint local[3] = {bad_moment, bad_quat, bad_mass}, global[3];
+  MPI_Allreduce(local, global, 3, MPI_LMP_TAGINT, MPI_MIN, world);
+  if (global[0] != MAXTAGINT)
+    error->all(FLERR, "Fix bcm/rigid: atom {} has a zero or negative principal moment in d2_{}",
+               global[0], BcmRigid::INERTIA);
+  if (global[1] != MAXTAGINT)
+    error->all(FLERR, "Fix bcm/rigid: atom {} has no orientation (zero quaternion in d2_{})",
+               global[1], BcmRigid::QUAT);
+  if (global[2] != MAXTAGINT)
+    error->all(FLERR, "Fix bcm/rigid: atom {} has no positive mass", global[2]);
+
+  for (int i = 0; i < nlocal; i++)
+    if (mask[i] & groupbit) {
+      BcmRigid::normalize_quat(quat[i]);
+      set_omega(i);
+    }
+}
+
+/* ---------------------------------------------------------------------- */
+
+void FixBcmRigid::reset_dt()
+{
+  dtv = update->dt;
+  dtf = 0.5 * update->dt * force->ftm2v;
+}
+
+/* ----------------------------------------------------------------------
+   omega = R I^-1 R^T L of owned atom i
+------------------------------------------------------------------------- */
+
+void FixBcmRigid::set_omega(int i)
+{
+  double R[3][3], lb[3];
+  BcmRigid::quat_to_mat(atom->darray[iquat][i], R);
+  BcmRigid::rotate_back(R, atom->darray[iangmom][i], lb);
+  const double *in = atom->darray[iinertia][i];
+  for (int k = 0; k < 3; k++) lb[k] /= in[k];
+  BcmRigid::rotate(R, lb, atom->omega[i]);
+}
+
+/* ----------------------------------------------------------------------
+   ghosts get the orientations and angular velocities set by init()
+------------------------------------------------------------------------- */
+
+void FixBcmRigid::setup_pre_force(int /*vflag*/)
+{
+  comm_with_omega = 1;
+  comm->forward_comm(this, 7);
+  comm_with_omega = 0;
+}
+
+/* ---------------------------------------------------------------------- */
+
+void FixBcmRigid::initial_integrate(int /*vflag*/)
+{
+  double **x = atom->x;
+  double **v = atom->v;
+  double **f = atom->f;
+  double **omega = atom->omega;
+  double **torque = atom->torque;
+  const double *rmass = atom->rmass;
+  const int *mask = atom->mask;
+  double **quat = atom->darray[iquat];
+  double **inertia = atom->darray[iinertia];
+  double **angmom = atom->darray[iangmom];
+  const int nlocal = atom->nlocal;
+  const double half = 0.5 * dtv;
+
+  for (int i = 0; i < nlocal; i++) {
+    if (!(mask[i] & groupbit)) continue;
+    const double dtfm = dtf / rmass[i];
+    for (int k = 0; k < 3; k++) {
+      v[i][k] += dtfm * f[i][k];
+      x[i][k] += dtv * v[i][k];
+      angmom[i][k] += dtf * torque[i][k];
+    }
+
+    double R[3][3], lb[3];
+    double *q = quat[i];
+    const double *in = inertia[i];
+    BcmRigid::quat_to_mat(q, R);
+    BcmRigid::rotate_back(R, angmom[i], lb);
+    rotate_about_body_axis(2, half, in, q, lb);
+    rotate_about_body_axis(1, half, in, q, lb);
+    rotate_about_body_axis(0, dtv, in, q, lb);
+    rotate_about_body_axis(1, half, in, q, lb);
+    rotate_about_body_axis(2, half, in, q, lb);
+    BcmRigid::normalize_quat(q);
+
+    // the space-frame L is unchanged by the free rotor: it is kept as is (exactly conserved
+    // without torques); omega from the body components the rotor carried along
+    BcmRigid::quat_to_mat(q, R);
+    for (int k = 0; k < 3; k++) lb[k] /= in[k];
+    BcmRigid::rotate(R, lb, omega[i]);
+  }
+}
+
+/* ----------------------------------------------------------------------
+   after the positions moved (and before any force): ghost orientations.
+   Ghost velocities and omega travel with comm_modify vel yes.
+------------------------------------------------------------------------- */
+
+void FixBcmRigid::pre_force(int /*vflag*/)
+{
+  comm->forward_comm(this, 4);
+}
+
+/* ---------------------------------------------------------------------- */
+
+void FixBcmRigid::final_integrate()
+{
+  double **v = atom->v;
+  double **f = atom->f;
+  double **torque = atom->torque;
+  const double *rmass = atom->rmass;
+  const int *mask = atom->mask;
+  double **angmom = atom->darray[iangmom];
+  const int nlocal = atom->nlocal;
+
+  for (int i = 0; i < nlocal; i++) {
+    if (!(mask[i] & groupbit)) continue;
+    const double dtfm = dtf / rmass[i];
+    for (int k = 0; k < 3; k++) {
+      v[i][k] += dtfm * f[i][k];
+      angmom[i][k] += dtf * torque[i][k];
+    }
+    set_omega(i);
+  }
+}
+
+/* ----------------------------------------------------------------------
+   rotational kinetic energy of the group, sum over cells of Lb_k^2 / (2 I_k)
+------------------------------------------------------------------------- */
+
+double FixBcmRigid::compute_scalar()
+{
+  double **quat = atom->darray[iquat];
+  double **inertia = atom->darray[iinertia];
+  double **angmom = atom->darray[iangmom];
+  const int *mask = atom->mask;
+  const int nlocal = atom->nlocal;
+
+  double local = 0.0;
+  for (int i = 0; i < nlocal; i++) {
+    if (!(mask[i] & groupbit)) continue;
+    double R[3][3], lb[3];
+    BcmRigid::quat_to_mat(quat[i], R);
+    BcmRigid::rotate_back(R, angmom[i], lb);
+    for (int k = 0; k < 3; k++) local += 0.5 * lb[k] * lb[k] / inertia[i][k];
+  }
+  double total = 0.0;
+  MPI_Allreduce(&local, &total, 1, MPI_DOUBLE, MPI_SUM, world);
+  return total * force->mvv2e;
+}
+
+/* ---------------------------------------------------------------------- */
+
+int FixBcmRigid::pack_forward_comm(int n, int *list, double *buf, int /*pbc_flag*/,
+                                   int * /*pbc*/)
+{
+  double **quat = atom->darray[iquat];
+  double **omega = atom->omega;
+  int m = 0;
+  for (int ii = 0; ii < n; ii++) {
+    const int j = list[ii];
+    for (int k = 0; k < 4; k++) buf[m++] = quat[j][k];
+    if (comm_with_omega)
+      for (int k = 0; k < 3; k++) buf[m++] = omega[j][k];
+  }
+  return m;
+}
+
+/* ---------------------------------------------------------------------- */
+
+void FixBcmRigid::unpack_forward_comm(int n, int first, double *buf)
+{
+  double **quat = atom->darray[iquat];
+  double **omega = atom->omega;
+  int m = 0;
+  const int last = first + n;
+  for (int i = first; i < last; i++) {
+    for (int k = 0; k < 4; k++) quat[i][k] = buf[m++];
+    if (comm_with_omega)
+      for (int k = 0; k < 3; k++) omega[i][k] = buf[m++];
+  }
+}
