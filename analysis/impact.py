@@ -8,7 +8,20 @@ Energies in J, areas in m^2. The SPEC 1.5 definitions:
 
 from __future__ import annotations
 
+import json
 import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis.dumps import read_atom_dump, read_local_dump
+from analysis.grains import grain_labels
+from analysis.pictures import render_cells
+from analysis.plots import plot_energies
+from analysis.shapes import fragment_table, shape_averages, vertices_in_space
+from analysis.tables import save_table
+from driver.bcm.lammps_files import read_cells
 
 
 def impact_measures(wk_minus: float, wk_plus: float, wk_plus_cm: float, broken_area: float,
@@ -33,3 +46,83 @@ def impact_measures(wk_minus: float, wk_plus: float, wk_plus_cm: float, broken_a
         # the balance W_k^- = W_k^+ + W_f + W_c + E_el(end), with W_c measured directly
         out["balance_residual"] = (wk_minus - wk_plus - w_f - dissipated_measured - elastic_end) / wk_minus
     return out
+
+
+# ----------------------------------------------------------------------- run directory
+THERMO_COLUMNS = ["step", "time", "ke_trans", "ke_rot", "intact", "broken", "broken_area", "W_f", "E_interfaces",
+                  "W_damp", "W_friction", "W_switch", "wall_contacts", "wall_force", "W_wall", "E_wall"]
+INTERFACE_COLUMNS = ["atom1", "atom2", "state", "area", "energy", "break_step", "break_time", "energy_at_break"]
+
+
+def read_impact_thermo(path: Path) -> pd.DataFrame:
+    """The `fix print` energy record of an impact run, one row per record (latest per step)."""
+    df = pd.read_csv(path, sep=r"\s+", comment="#", names=THERMO_COLUMNS, header=None)
+    df = df.drop_duplicates("step", keep="last").reset_index(drop=True)
+    df["kinetic"] = df.ke_trans + df.ke_rot
+    df["elastic"] = df.E_interfaces + df.E_wall
+    df["dissipated"] = df.W_damp + df.W_friction + df.W_switch + df.W_wall
+    return df
+
+
+def read_interfaces(path: Path) -> pd.DataFrame:
+    frame = read_local_dump(path)[-1]
+    cols = list(frame.columns.values())
+    return pd.DataFrame({name: col for name, col in zip(INTERFACE_COLUMNS, cols)})
+
+
+def fragments_of(n_cells: int, interfaces: pd.DataFrame) -> np.ndarray:
+    """SPEC 1.5: fragments are connected components of the graph of intact interfaces."""
+    pairs = interfaces[["atom1", "atom2"]].to_numpy(dtype=np.int64) - 1
+    return grain_labels(n_cells, pairs, interfaces["state"].to_numpy() > 0.5)
+
+
+def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
+    """Measures, fragment table, energy series, plots and picture of a finished impact run."""
+    run_dir = Path(run_dir)
+    model, scen = cfg["model"], cfg["scenario"]
+    system = json.loads((run_dir / "system.json").read_text())
+    thermo = read_impact_thermo(run_dir / "thermo.dat")
+    cells = read_atom_dump(run_dir / "dumps" / "cells.end.lammpstrj")[-1]
+    ifaces = read_interfaces(run_dir / "dumps" / "interfaces.end.lammpstrj")
+    n = len(cells.ids)
+    labels = fragments_of(n, ifaces)
+    masses = cells.extra["mass"]
+    volumes = masses / model["density"]
+    body, faces = read_cells(run_dir / "cells.txt")
+    offsets = np.concatenate([[0], np.cumsum([len(v) for v in body])])
+    space = vertices_in_space(np.concatenate(body), offsets, cells.positions, cells.quaternions())
+    frags = fragment_table(labels, masses, volumes, (space, offsets))
+
+    # fragments' centre-of-mass kinetic energy (SPEC 1.5: part of W_k^+)
+    mom = np.zeros((len(frags), 3))
+    np.add.at(mom, labels, masses[:, None] * cells.velocities)
+    frag_mass = np.bincount(labels, weights=masses)
+    frags["v_cm"] = np.linalg.norm(mom / frag_mass[:, None], axis=1)
+    wk_cm = float(0.5 * np.sum(np.sum(mom ** 2, axis=1) / frag_mass))
+
+    last = thermo.iloc[-1]
+    wk_minus = 0.5 * system["mass"] * scen["velocity"] ** 2
+    measures = impact_measures(
+        wk_minus=wk_minus, wk_plus=float(last.kinetic), wk_plus_cm=wk_cm, broken_area=float(last.broken_area),
+        total_area=system["A0"], g_c=model["interface"]["G_c"], elastic_end=float(last.elastic),
+        dissipated_measured=float(last.dissipated))
+    measures.update({
+        "n_fragments": int(len(frags)), "n_fragments_multi_cell": int((~frags.single_cell).sum()),
+        "largest_fragment_mass_fraction": float(frags.mass.max() / system["mass"]),
+        "broken_interfaces": int(last.broken), "end_time": float(last.time), "end_step": int(last.step),
+        "timestep": system["timestep"], "settled": bool(last.wall_contacts == 0),
+        **{f"shape_{k}": v for k, v in shape_averages(frags).items()},
+    })
+
+    res = run_dir / "results"
+    save_table(thermo, res / "energies")
+    save_table(frags, res / "fragments")
+    save_table(ifaces, res / "interfaces")
+    if plots:
+        title = (f"BCM impact, N_c = {system['n_cells']}, v0 = {scen['velocity']:g} m/s, "
+                 f"G_c = {model['interface']['G_c']:g} J/m²")
+        plot_energies(thermo, wk_minus, run_dir / "plots" / "energies.png", title)
+        cell_vertices = [space[offsets[i]:offsets[i + 1]] for i in range(n)]
+        render_cells(cell_vertices, faces, labels, run_dir / "plots" / "fragments.png",
+                     f"{title}\n{len(frags)} fragments, D_w = {measures['D_w']:.3f}")
+    return measures

@@ -15,7 +15,7 @@ from analysis.plots import plot_nm, plot_stress
 from analysis.powerlaw import fit_power_law
 from analysis.statistics import SMALL_GRAIN_CUT, mass_distribution, moments
 from analysis.stress import inertial_number, stress_measures
-from driver.rundir import atomic_save
+from analysis.tables import save_table
 
 THERMO_COLUMNS = ["step", "strain", "pxx", "pyy", "pzz", "pxy", "pxz", "pyz", "pe", "ke", "vol",
                   "bonds_broken", "angles_broken"]
@@ -26,12 +26,6 @@ def read_thermo(path: Path) -> pd.DataFrame:
     df = pd.read_csv(path, sep=r"\s+", comment="#", names=THERMO_COLUMNS, header=None)
     # Each `run` prints its first step again at setup: keep the latest record of a step.
     return df.drop_duplicates("step", keep="last").reset_index(drop=True)
-
-
-def save_table(df: pd.DataFrame, path_without_suffix: Path) -> None:
-    """Write a table as parquet and CSV, each atomically."""
-    atomic_save(path_without_suffix.with_suffix(".parquet"), lambda p: df.to_parquet(p, index=False))
-    atomic_save(path_without_suffix.with_suffix(".csv"), lambda p: df.to_csv(p, index=False))
 
 
 def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True) -> dict:

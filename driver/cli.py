@@ -63,13 +63,11 @@ def validate(input_yaml: Path = typer.Argument(..., help="run configuration (YAM
 @app.command()
 def post(run_dir: Path = typer.Argument(..., help="run directory of an earlier `driver run`")) -> None:
     """Recompute tables and plots of a run directory from its dumps (no LAMMPS)."""
-    from analysis.shear import analyse_shear  # noqa: PLC0415
-    from driver.pipeline import load_resolved  # noqa: PLC0415
+    from driver.pipeline import analyse_run, load_resolved  # noqa: PLC0415
 
     if not (run_dir / "config.resolved.yaml").exists():
         _fail(f"{run_dir}: not a run directory (no config.resolved.yaml)", 2)
-    cfg = load_resolved(run_dir)
-    summary = analyse_shear(run_dir, cfg, plots=cfg["output"]["plots"])
+    summary = analyse_run(run_dir, load_resolved(run_dir))
     typer.echo(json.dumps(summary, indent=2))
 
 

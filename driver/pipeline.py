@@ -34,13 +34,11 @@ def execute(cfg: RunConfig, source: Path | None = None, force: bool = False, np_
     atomic_write_json(rd.root / "provenance.json", prov)
     try:
         if cfg.scenario.kind == "shear":
-            from analysis.shear import analyse_shear  # noqa: PLC0415
-            from driver.scenarios.shear import run_shear  # noqa: PLC0415
-
-            facts = run_shear(cfg, rd, plugin, ranks, show_progress)
-            summary = analyse_shear(rd.root, cfg.model_dump(mode="json"), plots=cfg.output.plots)
-        else:  # guarded by the config schema
-            raise NotImplementedError(cfg.scenario.kind)
+            from driver.scenarios.shear import run_shear as run_scenario  # noqa: PLC0415
+        else:
+            from driver.scenarios.impact import run_impact as run_scenario  # noqa: PLC0415
+        facts = run_scenario(cfg, rd, plugin, ranks, show_progress)
+        summary = analyse_run(rd.root, cfg.model_dump(mode="json"))
     except BaseException as exc:
         rd.set_state("failed", error=f"{type(exc).__name__}: {exc}")
         raise
@@ -54,3 +52,15 @@ def execute(cfg: RunConfig, source: Path | None = None, force: bool = False, np_
 
 def load_resolved(run_dir: Path) -> dict:
     return yaml.safe_load((Path(run_dir) / "config.resolved.yaml").read_text())
+
+
+def analyse_run(run_dir: Path, cfg: dict) -> dict:
+    """The analysis of a run directory for its scenario: what `driver run` ends with and
+    `driver post` repeats."""
+    if cfg["scenario"]["kind"] == "shear":
+        from analysis.shear import analyse_shear  # noqa: PLC0415
+
+        return analyse_shear(run_dir, cfg, plots=cfg["output"]["plots"])
+    from analysis.impact import analyse_impact  # noqa: PLC0415
+
+    return analyse_impact(run_dir, cfg, plots=cfg["output"]["plots"])

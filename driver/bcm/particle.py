@@ -41,7 +41,7 @@ class Particle:
     moments: np.ndarray  # (n, 3) principal moments (kg m^2)
     core_vertices: list[np.ndarray]  # body frame, per cell
     core_faces: list[list[np.ndarray]]
-    bound_radius: np.ndarray  # (n,) core circumradius about the centroid + r_m
+    bound_radius: np.ndarray  # (n,) circumradius of the Voronoi cell about its centroid
     interface_polygons: list[np.ndarray]  # lab frame, reference state
 
     @property
@@ -63,7 +63,9 @@ def build_particle(tess: Tessellation, density: float, rounding: float, rng: np.
         body = (core.vertices - tess.centroid[i]) @ tess.principal_axes[i]  # R^T (v - c)
         cores_v.append(body)
         cores_f.append(core.faces)
-        bound[i] = np.linalg.norm(body, axis=1).max() + r_m
+        # bounding radius of the whole (unrounded) cell: it holds the rounded core and the
+        # interface polygons, whose corners lie farther out than the core's
+        bound[i] = np.linalg.norm(cell.vertices - tess.centroid[i], axis=1).max()
     rotation = random_rotation(rng) if orient else np.eye(3)
     pivot = (tess.centroid * tess.volume[:, None]).sum(0) / tess.volume.sum()
     lab_core = np.concatenate([v @ tess.principal_axes[i].T + tess.centroid[i] for i, v in enumerate(cores_v)])
