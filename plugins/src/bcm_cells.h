@@ -1,0 +1,123 @@
+/* Geometry of BCM cells for the contact styles (pair_style bcm/contact, fix bcm/wall):
+   the table of every cell's convex core polyhedron in its body frame, read from a cells file
+   (format in plugins/doc/pair_bcm_contact.md), and the detection of contact points between
+   two rounded cores (SPEC 1.2, last bullets).
+
+   A cell's material is its core polyhedron P swept by a sphere of radius r_m (Minkowski
+   sum); two cells touch where their cores are closer than 2 r_m. The table is read on rank 0,
+   broadcast, and replicated on every rank, indexed by atom tag (about 2.5 kB per cell of 26
+   vertices and 15 faces). Styles of one LAMMPS instance that read identical files share one
+   table. */
+
+#ifndef BRITTLE_BCM_CELLS_H
+#define BRITTLE_BCM_CELLS_H
+
+#include "lmptype.h"
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace LAMMPS_NS {
+
+class LAMMPS;
+
+class BcmCells {
+ public:
+  struct Cell {
+    int nv, nf, ne;    // vertices, faces, edges
+    int v0;            // first vertex: vert[3 v0 ...], adj_first[v0 ...]
+    int f0;            // first face: plane[4 f0 ...], face_first[f0 ...]
+    int e0;            // first edge: edge[4 e0 ...]
+    double rbound;     // largest |vertex| (origin = body-frame origin = the atom position)
+  };
+
+  // body-frame data, flat over all cells; vertex and face indices inside a cell are local
+  std::vector<double> vert;        // 3 per vertex
+  std::vector<double> plane;       // 4 per face: outward unit normal, offset d (n.x = d)
+  std::vector<int> face_first;     // per face + 1 sentinel: range in face_vert
+  std::vector<int> face_vert;      // face loops, counter-clockwise seen from outside
+  std::vector<int> edge;           // 4 per edge: a, b, face traversing a->b, face traversing b->a
+  std::vector<int> adj_first;      // per vertex + 1 sentinel: range in adj
+  std::vector<int> adj;            // neighbour vertices of each vertex (along edges)
+  std::vector<Cell> cells;
+  std::unordered_map<tagint, int> index_of_tag;
+  std::string source;              // file name, for messages
+
+  // the table of a cells file, shared with the other styles of this instance that read the
+  // same content; collective over all ranks (rank 0 reads, then broadcasts)
+  static std::shared_ptr<const BcmCells> load(LAMMPS *lmp, const std::string &file);
+
+  const Cell *find(tagint tag) const
+  {
+    auto it = index_of_tag.find(tag);
+    return it == index_of_tag.end() ? nullptr : &cells[it->second];
+  }
+  double memory_usage() const;
+
+ private:
+  void parse(LAMMPS *lmp, const std::string &text);
+  void finish_cell(LAMMPS *lmp, tagint tag, Cell &c);
+};
+
+/* A cell's core placed in space for one force evaluation: x + R(q) b for every body-frame
+   vertex b, outward normals R(q) n and offsets n'.x. */
+struct BcmSpaceCell {
+  const BcmCells *table;
+  const BcmCells::Cell *cell;
+  const double *x;        // atom position (body-frame origin)
+  const double *vert;     // 3 nv
+  const double *plane;    // 4 nf
+};
+
+// fills vert (3 nv) and plane (4 nf) of a cell at position x with unit quaternion q
+void bcm_place_cell(const BcmCells &table, const BcmCells::Cell &c, const double *x,
+                    const double *q, double *vert, double *plane);
+
+// One contact point between cores A and B.
+struct BcmContactPoint {
+  double p[3];     // contact point: midpoint of the core-to-core segment
+  double n[3];     // unit normal from B to A: the normal force on A is along +n
+  double h;        // core-to-core distance along n (< 0 when the cores interpenetrate)
+  int64_t key;     // feature pair: kind << 40 | feature of A << 20 | feature of B
+};
+
+// kinds of feature pairs (the key's top bits)
+enum BcmContactKind : int64_t {
+  BCM_VF = 1,    // vertex of A on face of B
+  BCM_FV = 2,    // face of A under vertex of B
+  BCM_EE = 3,    // edge of A across edge of B
+  BCM_VE = 4,    // vertex of A against edge of B
+  BCM_EV = 5,    // edge of A against vertex of B
+  BCM_VV = 6     // vertex of A against vertex of B
+};
+
+// Scratch arrays reused between calls (one per style instance).
+struct BcmContactWork {
+  std::vector<double> ha, hb;          // heights of A's vertices over B's face planes, and B's
+  std::vector<double> hmaxa, hmaxb;    // largest height of each vertex
+  std::vector<int> livea, liveb;       // edges that may come within reach
+};
+
+/* Contact points between the cores of A and B closer than dcut = 2 r_m (SPEC 1.2):
+   vertex-face, edge-edge, vertex-edge and vertex-vertex pairs, each a point; a face-face
+   contact comes out as the corners of the overlap polygon of the two faces (>= 3 points),
+   an edge-face contact as its 2 ends. Appends to out; returns the number appended. */
+int bcm_find_contacts(const BcmSpaceCell &A, const BcmSpaceCell &B, double dcut,
+                      BcmContactWork &work, std::vector<BcmContactPoint> &out);
+
+/* SPEC 1.2, Eq. 2: damping ratio alpha of a restitution coefficient e_n (given as e_n^2). */
+double bcm_damping_alpha(double en2);
+
+/* Index into atom->darray of a per-atom array `name` (ncols columns) kept by a hidden
+   fix property/atom of id fix_id (created if absent), so that it migrates with the atoms,
+   follows sorting and goes to restart files; ghost = also communicated to ghost atoms at
+   each reneighboring. */
+int bcm_peratom_array(LAMMPS *lmp, const std::string &fix_id, const std::string &name,
+                      int ncols, bool ghost);
+
+}    // namespace LAMMPS_NS
+
+#endif

@@ -1,0 +1,343 @@
+/* fix bcm/wall (see fix_bcm_wall.h).
+
+   Plane x[axis] = coord with unit normal n_w = side e_axis pointing to the cells' side.
+   A cell with N vertices at heights h_k < r_m over the plane has N contact points, each
+   with overlap delta_k = h_k - r_m < 0, at the midpoint between the plane and the bottom
+   of the vertex's sphere, and (SPEC 1.2 Eq. 1, 2, 7; m = the cell's mass, wall at rest)
+     f_n = k_n/N (-delta) + (2 alpha sqrt(k_n m)/N) (-d delta/dt),   clamped at f_n >= 0
+     f_t = -k_t/N u_t,  |f_t| <= mu f_n  (at the limit u_t = -f_t N / k_t)
+   u_t = tangential displacement of the vertex's material point along the plane since the
+   contact began, kept per (cell, vertex) in slots of a hidden per-atom array
+   (vertex + 1, step, u_t[3]); a slot is current when written at this step or the previous
+   one. The setup force evaluation reads the history without advancing it.
+   Accounting per point and step (not during setup): dissipated += (f_n - k_n/N (-delta))
+   (-d delta/dt) dt (damping, including the energy a clamped f_n lets go) + |f_t| (slip
+   beyond the spring's reach) (friction); stored = k_n/N delta^2/2 + k_t/N |u_t|^2/2. */
+
+#include "fix_bcm_wall.h"
+
+#include "atom.h"
+#include "bcm_rigid.h"
+#include "comm.h"
+#include "error.h"
+#include "memory.h"
+#include "update.h"
+
+#include <cmath>
+#include <cstring>
+#include <mpi.h>
+
+using namespace LAMMPS_NS;
+using namespace FixConst;
+using BcmRigid::cross;
+using BcmRigid::dot;
+
+static constexpr int SLOT = 5;    // vertex + 1, step, u_t[3]
+
+/* ----------------------------------------------------------------------
+   fix ID group bcm/wall cells FILE rm R plane FACE VALUE kn kt en2 mu [slots N]
+------------------------------------------------------------------------- */
+
+FixBcmWall::FixBcmWall(LAMMPS *_lmp, int narg, char **arg) :
+    Fix(_lmp, narg, arg), rm(0.0), axis(2), side(1.0), coord(0.0), kn(0.0), kt(0.0), en2(0.0),
+    mu(0.0), alpha(1.0), nslots(16), iquat(-1), ihist(-1), local_now{0.0, 0.0, 0.0},
+    dissipated(0.0), totals{0.0, 0.0, 0.0, 0.0}, totals_valid(false), warned_slots(false),
+    nmax_touch(0),
+    touch(nullptr)
+{
+  const char *usage =
+      "fix ID group bcm/wall cells FILE rm R plane FACE VALUE kn kt en2 mu [slots N]";
+  if (narg < 14) error->all(FLERR, "Illegal fix bcm/wall command: {}", usage);
+  if (strcmp(arg[3], "cells") != 0 || strcmp(arg[5], "rm") != 0 || strcmp(arg[7], "plane") != 0)
+    error->all(FLERR, "Illegal fix bcm/wall command: {}", usage);
+  cells_file = arg[4];
+  rm = utils::numeric(FLERR, arg[6], false, lmp);
+  const std::string face = arg[8];
+  if (face.size() != 3 || face[0] < 'x' || face[0] > 'z' ||
+      (face.substr(1) != "lo" && face.substr(1) != "hi"))
+    error->all(FLERR, "fix bcm/wall: plane must be xlo, xhi, ylo, yhi, zlo or zhi, not {}", face);
+  axis = face[0] - 'x';
+  side = face.substr(1) == "lo" ? 1.0 : -1.0;
+  coord = utils::numeric(FLERR, arg[9], false, lmp);
+  kn = utils::numeric(FLERR, arg[10], false, lmp);
+  kt = utils::numeric(FLERR, arg[11], false, lmp);
+  en2 = utils::numeric(FLERR, arg[12], false, lmp);
+  mu = utils::numeric(FLERR, arg[13], false, lmp);
+  for (int iarg = 14; iarg < narg; iarg += 2) {
+    if (iarg + 1 >= narg) error->all(FLERR, "fix bcm/wall: keyword {} needs a value", arg[iarg]);
+    if (strcmp(arg[iarg], "slots") == 0)
+      nslots = utils::inumeric(FLERR, arg[iarg + 1], false, lmp);
+    else
+      error->all(FLERR, "fix bcm/wall: unknown keyword {} (known: slots)", arg[iarg]);
+  }
+  if (!(rm >= 0.0)) error->all(FLERR, "fix bcm/wall: rm must be >= 0");
+  if (!(kn > 0.0)) error->all(FLERR, "fix bcm/wall: kn must be > 0");
+  if (!(kt >= 0.0)) error->all(FLERR, "fix bcm/wall: kt must be >= 0");
+  if (!(en2 >= 0.0 && en2 <= 1.0)) error->all(FLERR, "fix bcm/wall: en2 must be in [0, 1]");
+  if (!(mu >= 0.0)) error->all(FLERR, "fix bcm/wall: mu must be >= 0");
+  if (nslots < 1) error->all(FLERR, "fix bcm/wall: slots must be >= 1");
+  alpha = bcm_damping_alpha(en2);
+
+  table = BcmCells::load(lmp, cells_file);
+
+  scalar_flag = 1;
+  vector_flag = 1;
+  size_vector = 4;
+  global_freq = 1;
+  extscalar = 1;
+  extvector = 1;
+  energy_global_flag = 1;
+  peratom_flag = 1;
+  size_peratom_cols = 0;
+  peratom_freq = 1;
+  restart_global = 1;
+
+  hist_id = std::string("BCM_WALL_") + id;
+  hist_name = std::string("bcm_wall_") + id;
+}
+
+/* ---------------------------------------------------------------------- */
+
+FixBcmWall::~FixBcmWall()
+{
+  memory->destroy(touch);
+}
+
+/* ----------------------------------------------------------------------
+   the history store is a fix of its own: created here, once this fix is in
+   place (creating a fix from a constructor would disturb the fix list)
+------------------------------------------------------------------------- */
+
+void FixBcmWall::post_constructor()
+{
+  ihist = bcm_peratom_array(lmp, hist_id, hist_name, SLOT * nslots, false);
+}
+
+/* ---------------------------------------------------------------------- */
+
+int FixBcmWall::setmask()
+{
+  return POST_FORCE;
+}
+
+/* ---------------------------------------------------------------------- */
+
+void FixBcmWall::init()
+{
+  if (!atom->rmass_flag || !atom->omega_flag || !atom->torque_flag)
+    error->all(FLERR, "fix bcm/wall requires per-atom rmass, omega and torque "
+                      "(atom_style hybrid bond sphere)");
+  int flag = -1, cols = -1;
+  iquat = atom->find_custom(BcmRigid::QUAT, flag, cols);
+  if (iquat < 0 || flag != 1 || cols != 4)
+    error->all(FLERR, "fix bcm/wall requires the per-atom array d2_{} with 4 columns",
+               BcmRigid::QUAT);
+  ihist = bcm_peratom_array(lmp, hist_id, hist_name, SLOT * nslots, false);
+
+  const int nlocal = atom->nlocal;
+  tagint missing = 0, any = 0;
+  for (int i = 0; i < nlocal; i++)
+    if ((atom->mask[i] & groupbit) && !table->find(atom->tag[i]) && !missing)
+      missing = atom->tag[i];
+  MPI_Allreduce(&missing, &any, 1, MPI_LMP_TAGINT, MPI_MAX, world);
+  if (any) error->all(FLERR, "fix bcm/wall: cell {} has no geometry in {}", any, cells_file);
+}
+
+/* ---------------------------------------------------------------------- */
+
+void FixBcmWall::setup(int /*vflag*/)
+{
+  wall_forces(false);
+}
+
+void FixBcmWall::post_force(int /*vflag*/)
+{
+  wall_forces(true);
+}
+
+/* ---------------------------------------------------------------------- */
+
+void FixBcmWall::wall_forces(bool advance)
+{
+  double **x = atom->x, **v = atom->v, **f = atom->f;
+  double **omega = atom->omega, **torque = atom->torque;
+  double **quat = atom->darray[iquat];
+  double **hist = atom->darray[ihist];
+  const double *rmass = atom->rmass;
+  const int *mask = atom->mask;
+  const tagint *tag = atom->tag;
+  const int nlocal = atom->nlocal;
+  const double dt = update->dt;
+  const bigint step = update->ntimestep;
+  const double now = static_cast<double>(step), before = static_cast<double>(step - 1);
+
+  if (atom->nmax > nmax_touch) {
+    nmax_touch = atom->nmax;
+    memory->destroy(touch);
+    memory->create(touch, nmax_touch, "bcm/wall:touch");
+  }
+  vector_atom = touch;
+
+  double ncells = 0.0, fnsum = 0.0, stored = 0.0, diss = 0.0;
+  double nw[3] = {0.0, 0.0, 0.0};
+  nw[axis] = side;
+
+  for (int i = 0; i < nlocal; i++) {
+    touch[i] = 0.0;
+    if (!(mask[i] & groupbit)) continue;
+    const BcmCells::Cell *c = table->find(tag[i]);
+    if (!c) error->one(FLERR, "fix bcm/wall: cell {} has no geometry in {}", tag[i], cells_file);
+    const double hc = side * (x[i][axis] - coord);
+    if (hc - c->rbound >= rm) continue;
+
+    double q[4] = {quat[i][0], quat[i][1], quat[i][2], quat[i][3]};
+    BcmRigid::normalize_quat(q);
+    double R[3][3];
+    BcmRigid::quat_to_mat(q, R);
+    const double *bv = &table->vert[3 * c->v0];
+    touching.clear();
+    for (int k = 0; k < c->nv; k++) {
+      const double *b = bv + 3 * k;
+      const double off = R[axis][0] * b[0] + R[axis][1] * b[1] + R[axis][2] * b[2];
+      if (hc + side * off < rm) touching.push_back(k);
+    }
+    const int np = static_cast<int>(touching.size());
+    if (np == 0) continue;
+    touch[i] = np;
+    ncells += 1.0;
+
+    const double knp = kn / np, ktp = kt / np;
+    // SPEC 1.2 Eq. 1: damping 2 alpha sqrt(k_n m) of the cell's contact, shared like k_n
+    const double gamma = 2.0 * alpha * std::sqrt(kn * rmass[i]) / np;
+
+    for (const int k : touching) {
+      double r[3];
+      BcmRigid::rotate(R, bv + 3 * k, r);
+      const double height = hc + side * r[axis];
+      const double overlap = rm - height;
+      r[axis] -= side * 0.5 * (height + rm);    // contact point p = x + r
+      double w[3], vp[3];
+      cross(omega[i], r, w);
+      for (int d = 0; d < 3; d++) vp[d] = v[i][d] + w[d];
+      const double vn = dot(vp, nw);
+
+      const double fel = knp * overlap;
+      double fn = fel - gamma * vn;
+      if (fn < 0.0) fn = 0.0;
+
+      double ft[3] = {0.0, 0.0, 0.0}, u[3] = {0.0, 0.0, 0.0};
+      double slip_work = 0.0;
+      if (ktp > 0.0) {
+        double *h = hist[i];
+        int slot = -1, freeslot = -1;
+        for (int m = 0; m < nslots; m++) {
+          const double *s = h + SLOT * m;
+          const bool current = s[0] != 0.0 && (s[1] == now || s[1] == before);
+          if (current && s[0] == k + 1) {
+            slot = m;
+            break;
+          }
+          if (!current && freeslot < 0) freeslot = m;
+        }
+        if (slot >= 0)
+          for (int d = 0; d < 3; d++) u[d] = h[SLOT * slot + 2 + d];
+        u[axis] = 0.0;    // the plane does not turn: u_t stays in it
+        if (advance)
+          for (int d = 0; d < 3; d++)
+            if (d != axis) u[d] += vp[d] * dt;
+        for (int d = 0; d < 3; d++) ft[d] = -ktp * u[d];
+        const double ftm = std::sqrt(dot(ft, ft)), fmax = mu * fn;
+        if (ftm > fmax) {
+          slip_work = fmax * (ftm - fmax) / ktp;
+          const double scale = fmax / ftm;
+          for (int d = 0; d < 3; d++) {
+            ft[d] *= scale;
+            u[d] = -ft[d] / ktp;
+          }
+        }
+        if (advance) {
+          if (slot < 0) slot = freeslot;
+          if (slot >= 0) {
+            double *s = h + SLOT * slot;
+            s[0] = k + 1;
+            s[1] = now;
+            for (int d = 0; d < 3; d++) s[2 + d] = u[d];
+          } else if (!warned_slots) {
+            warned_slots = true;
+            error->warning(FLERR, "fix bcm/wall: cell {} touches with more than {} vertices: "
+                                  "raise slots", tag[i], nslots);
+          }
+        }
+      }
+
+      double F[3], tq[3];
+      for (int d = 0; d < 3; d++) F[d] = fn * nw[d] + ft[d];
+      cross(r, F, tq);
+      for (int d = 0; d < 3; d++) {
+        f[i][d] += F[d];
+        torque[i][d] += tq[d];
+      }
+      fnsum += fn;
+      stored += 0.5 * knp * overlap * overlap + 0.5 * ktp * dot(u, u);
+      if (advance) diss += (fn - fel) * (-vn) * dt + slip_work;
+    }
+  }
+  local_now[0] = ncells;
+  local_now[1] = fnsum;
+  local_now[2] = stored;
+  dissipated += diss;
+  totals_valid = false;
+}
+
+/* ---------------------------------------------------------------------- */
+
+void FixBcmWall::sum_totals()
+{
+  if (totals_valid) return;
+  const double mine[4] = {local_now[0], local_now[1], dissipated, local_now[2]};
+  MPI_Allreduce(mine, totals, 4, MPI_DOUBLE, MPI_SUM, world);
+  totals_valid = true;
+}
+
+double FixBcmWall::compute_scalar()
+{
+  sum_totals();
+  return totals[3];
+}
+
+double FixBcmWall::compute_vector(int n)
+{
+  sum_totals();
+  return totals[n];
+}
+
+/* ----------------------------------------------------------------------
+   the dissipated energy carries on across restarts (kept on rank 0)
+------------------------------------------------------------------------- */
+
+void FixBcmWall::write_restart(FILE *fp)
+{
+  double total = 0.0;
+  MPI_Reduce(&dissipated, &total, 1, MPI_DOUBLE, MPI_SUM, 0, world);
+  if (comm->me == 0) {
+    const int size = sizeof(double);
+    fwrite(&size, sizeof(int), 1, fp);
+    fwrite(&total, sizeof(double), 1, fp);
+  }
+}
+
+void FixBcmWall::restart(char *buf)
+{
+  double total = 0.0;
+  std::memcpy(&total, buf, sizeof(double));
+  dissipated = comm->me == 0 ? total : 0.0;
+}
+
+/* ---------------------------------------------------------------------- */
+
+double FixBcmWall::memory_usage()
+{
+  double bytes = sizeof(double) * nmax_touch;
+  if (table) bytes += table->memory_usage();
+  return bytes;
+}

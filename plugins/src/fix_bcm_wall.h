@@ -1,0 +1,64 @@
+/* fix bcm/wall: a rigid plane against the rounded BCM cells (SPEC 1.2 last bullet): each
+   vertex of a cell's core closer than r_m to the plane is a contact point, with the
+   frictional-contact law of pair_style bcm/contact (Eq. 1, 2, 7); the stiffness of one
+   cell's contact is shared by its touching vertices. See plugins/doc/fix_bcm_wall.md. */
+
+#ifndef BRITTLE_FIX_BCM_WALL_H
+#define BRITTLE_FIX_BCM_WALL_H
+
+#include "bcm_cells.h"
+#include "fix.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace LAMMPS_NS {
+
+class FixBcmWall : public Fix {
+ public:
+  FixBcmWall(class LAMMPS *, int, char **);
+  ~FixBcmWall() override;
+
+  int setmask() override;
+  void post_constructor() override;
+  void init() override;
+  void setup(int) override;
+  void post_force(int) override;
+  double compute_scalar() override;
+  double compute_vector(int) override;
+  void write_restart(FILE *) override;
+  void restart(char *) override;
+  double memory_usage() override;
+
+ private:
+  std::string cells_file;
+  std::shared_ptr<const BcmCells> table;
+  double rm;                 // rounding radius r_m
+  int axis;                  // 0, 1, 2: the plane is x[axis] = coord
+  double side;               // +1 (xlo, ...: cells above) or -1 (xhi, ...: cells below)
+  double coord;
+  double kn, kt, en2, mu, alpha;
+  int nslots;
+
+  std::string hist_id, hist_name;
+  int iquat, ihist;
+
+  // this rank's part of the last evaluation: cells touching, sum of f_n, stored energy
+  double local_now[3];
+  double dissipated;         // this rank's damping + friction work since the fix began
+  double totals[4];
+  bool totals_valid;
+
+  bool warned_slots;        // a cell touched with more vertices than slots (warned once)
+  int nmax_touch;
+  double *touch;             // per atom: touching vertices (vector_atom)
+  std::vector<int> touching;
+
+  void wall_forces(bool advance);
+  void sum_totals();
+};
+
+}    // namespace LAMMPS_NS
+
+#endif

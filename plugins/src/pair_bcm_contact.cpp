@@ -1,0 +1,465 @@
+/* pair_style bcm/contact (SPEC 1.2 last bullets, Eq. 1, 2, 7; see pair_bcm_contact.h).
+
+   For a pair of cells A (smaller tag) and B with N contact points (bcm_find_contacts), at
+   each point of overlap delta = h - 2 r_m < 0 (h = core distance), normal n from B to A:
+     f_n = k_n/N (-delta) + (2 alpha sqrt(k_n m) / N) (-d delta/dt),   clamped at f_n >= 0
+     f_t = -k_t/N u_t, |f_t| <= mu f_n (Coulomb; at the limit u_t = -f_t N / k_t)
+   with m = m_A m_B / (m_A + m_B), alpha from e_n (Eq. 2), u_t the tangential spring of the
+   point: the tangential displacement of A's material point relative to B's, rotated into
+   the current tangent plane (its length kept) and advanced by v_t dt each step. k_n and k_t
+   are the stiffnesses of the whole contact, shared by its N points: N equal overlaps of a
+   face-face contact give k_n delta in total, as one vertex-face point does. The force acts
+   at the point on both cells, with torques (p - x) x F, so that linear and angular momentum
+   are conserved. Energy (eng_vdwl): the springs' energy, k_n/N delta^2/2 + k_t/N |u_t|^2/2
+   per point.
+
+   History: u_t is kept per (pair, contact feature) in slots of a hidden per-atom array
+   (fix property/atom, ghost yes): slot = (partner tag, feature key, step, u_t[3]), written
+   into one cell of the pair owned by the computing rank (one of them is: the list's i; when
+   both are, A if tag_A + tag_B is even, else B), always with the orientation A -> B. A slot is current when its step is this step or the
+   previous one; a lookup takes the newer of the current copies in A and B. The written copy
+   sits in an owned cell, migrates with it, and at reneighboring ghost cells get their
+   owner's copies: whichever rank computes the pair next finds it. A copy left behind in the
+   other cell is stale after one step and its slot free again. During setup (run 0, the first
+   force evaluation of a run) the history is read, not advanced. */
+
+#include "pair_bcm_contact.h"
+
+#include "atom.h"
+#include "bcm_rigid.h"
+#include "comm.h"
+#include "error.h"
+#include "force.h"
+#include "memory.h"
+#include "neigh_list.h"
+#include "neighbor.h"
+#include "update.h"
+
+#include <cmath>
+#include <cstring>
+#include <mpi.h>
+
+using namespace LAMMPS_NS;
+using BcmRigid::cross;
+using BcmRigid::dot;
+
+static const char *const HIST_FIX_ID = "BCM_CONTACT_HISTORY";
+static const char *const HIST_NAME = "bcm_contact_history";
+static constexpr int SLOT = 6;    // partner tag, feature key, step, u_t[3]
+
+/* ---------------------------------------------------------------------- */
+
+PairBcmContact::PairBcmContact(LAMMPS *_lmp) :
+    Pair(_lmp), rm(0.0), nslots(64), kn(nullptr), kt(nullptr), en2(nullptr), mu(nullptr),
+    alpha(nullptr), iquat(-1), ihist(-1), maxrad(0.0), warned_slots(false)
+{
+  single_enable = 0;
+  restartinfo = 0;
+  finitecutflag = 1;
+  born_matrix_enable = 0;
+  // extra values for compute pair: contact points, pairs in contact, points without a
+  // history slot, in the last force evaluation
+  nextra = 3;
+  pvector = new double[nextra];
+  for (int k = 0; k < nextra; k++) pvector[k] = 0.0;
+}
+
+/* ---------------------------------------------------------------------- */
+
+PairBcmContact::~PairBcmContact()
+{
+  delete[] pvector;
+  if (allocated) {
+    memory->destroy(setflag);
+    memory->destroy(cutsq);
+    memory->destroy(kn);
+    memory->destroy(kt);
+    memory->destroy(en2);
+    memory->destroy(mu);
+    memory->destroy(alpha);
+  }
+}
+
+/* ---------------------------------------------------------------------- */
+
+void PairBcmContact::allocate()
+{
+  allocated = 1;
+  const int n = atom->ntypes + 1;
+  memory->create(setflag, n, n, "pair:setflag");
+  memory->create(cutsq, n, n, "pair:cutsq");
+  memory->create(kn, n, n, "pair:kn");
+  memory->create(kt, n, n, "pair:kt");
+  memory->create(en2, n, n, "pair:en2");
+  memory->create(mu, n, n, "pair:mu");
+  memory->create(alpha, n, n, "pair:alpha");
+  for (int i = 0; i < n; i++)
+    for (int j = 0; j < n; j++) setflag[i][j] = 0;
+}
+
+/* ----------------------------------------------------------------------
+   pair_style bcm/contact cells FILE rm R [slots N]
+------------------------------------------------------------------------- */
+
+void PairBcmContact::settings(int narg, char **arg)
+{
+  const char *usage = "pair_style bcm/contact cells FILE rm R [slots N]";
+  std::string file;
+  bool have_rm = false;
+  for (int iarg = 0; iarg < narg; iarg += 2) {
+    if (iarg + 1 >= narg) error->all(FLERR, "{}: keyword {} needs a value", usage, arg[iarg]);
+    if (strcmp(arg[iarg], "cells") == 0) {
+      file = arg[iarg + 1];
+    } else if (strcmp(arg[iarg], "rm") == 0) {
+      rm = utils::numeric(FLERR, arg[iarg + 1], false, lmp);
+      have_rm = true;
+    } else if (strcmp(arg[iarg], "slots") == 0) {
+      nslots = utils::inumeric(FLERR, arg[iarg + 1], false, lmp);
+    } else {
+      error->all(FLERR, "{}: unknown keyword {} (known: cells, rm, slots)", usage, arg[iarg]);
+    }
+  }
+  if (file.empty() || !have_rm) error->all(FLERR, "{}: cells and rm are required", usage);
+  if (!(rm >= 0.0)) error->all(FLERR, "pair_style bcm/contact: rm must be >= 0");
+  if (nslots < 1) error->all(FLERR, "pair_style bcm/contact: slots must be >= 1");
+  cells_file = file;
+  table = BcmCells::load(lmp, cells_file);
+}
+
+/* ----------------------------------------------------------------------
+   pair_coeff I J kn kt en2 mu
+------------------------------------------------------------------------- */
+
+void PairBcmContact::coeff(int narg, char **arg)
+{
+  if (narg != 6) error->all(FLERR, "Incorrect args for pair coefficients: pair_coeff I J kn kt en2 mu");
+  if (!allocated) allocate();
+  int ilo, ihi, jlo, jhi;
+  utils::bounds(FLERR, arg[0], 1, atom->ntypes, ilo, ihi, error);
+  utils::bounds(FLERR, arg[1], 1, atom->ntypes, jlo, jhi, error);
+  const double kn_one = utils::numeric(FLERR, arg[2], false, lmp);
+  const double kt_one = utils::numeric(FLERR, arg[3], false, lmp);
+  const double en2_one = utils::numeric(FLERR, arg[4], false, lmp);
+  const double mu_one = utils::numeric(FLERR, arg[5], false, lmp);
+  if (!(kn_one > 0.0)) error->all(FLERR, "pair_coeff bcm/contact: kn must be > 0");
+  if (!(kt_one >= 0.0)) error->all(FLERR, "pair_coeff bcm/contact: kt must be >= 0");
+  if (!(en2_one >= 0.0 && en2_one <= 1.0))
+    error->all(FLERR, "pair_coeff bcm/contact: en2 (e_n squared) must be in [0, 1]");
+  if (!(mu_one >= 0.0)) error->all(FLERR, "pair_coeff bcm/contact: mu must be >= 0");
+
+  int count = 0;
+  for (int i = ilo; i <= ihi; i++)
+    for (int j = std::max(jlo, i); j <= jhi; j++) {
+      kn[i][j] = kn_one;
+      kt[i][j] = kt_one;
+      en2[i][j] = en2_one;
+      mu[i][j] = mu_one;
+      alpha[i][j] = bcm_damping_alpha(en2_one);
+      setflag[i][j] = 1;
+      count++;
+    }
+  if (count == 0) error->all(FLERR, "Incorrect args for pair coefficients");
+}
+
+/* ---------------------------------------------------------------------- */
+
+void PairBcmContact::init_style()
+{
+  if (!atom->radius_flag || !atom->rmass_flag || !atom->omega_flag || !atom->torque_flag)
+    error->all(FLERR, "pair_style bcm/contact requires per-atom radius, rmass, omega and torque "
+                      "(atom_style hybrid bond sphere)");
+  if (!comm->ghost_velocity)
+    error->all(FLERR, "pair_style bcm/contact requires comm_modify vel yes "
+                      "(the contact damping reads ghost velocities and angular velocities)");
+  if (atom->molecular != Atom::ATOMIC && atom->nbonds > 0 && force->special_lj[1] != 0.0)
+    error->all(FLERR, "pair_style bcm/contact requires special_bonds lj 0 1 1: bonded cells "
+                      "(interfaces) must not touch through contacts");
+
+  int flag = -1, cols = -1, ghost = -1;
+  iquat = atom->find_custom_ghost(BcmRigid::QUAT, flag, cols, ghost);
+  if (iquat < 0 || flag != 1 || cols != 4 || !ghost)
+    error->all(FLERR, "pair_style bcm/contact requires the per-atom array d2_{} with 4 columns "
+                      "and ghost yes (fix property/atom d2_{} 4 ... ghost yes)",
+               BcmRigid::QUAT, BcmRigid::QUAT);
+  ihist = bcm_peratom_array(lmp, HIST_FIX_ID, HIST_NAME, SLOT * nslots, true);
+
+  neighbor->add_request(this, NeighConst::REQ_SIZE);
+
+  // every owned cell has a geometry and a radius that covers its rounded core
+  const int nlocal = atom->nlocal;
+  const tagint *tag = atom->tag;
+  const double *radius = atom->radius;
+  tagint missing = 0, small = 0;
+  double rad = 0.0;
+  for (int i = 0; i < nlocal; i++) {
+    rad = std::max(rad, radius[i]);
+    const BcmCells::Cell *c = table->find(tag[i]);
+    if (!c) {
+      if (!missing) missing = tag[i];
+    } else if (radius[i] < (c->rbound + rm) * (1.0 - 1.0e-12)) {
+      if (!small) small = tag[i];
+    }
+  }
+  tagint any[2] = {missing, small}, all_[2];
+  MPI_Allreduce(any, all_, 2, MPI_LMP_TAGINT, MPI_MAX, world);
+  if (all_[0])
+    error->all(FLERR, "pair_style bcm/contact: cell {} has no geometry in {}", all_[0],
+               cells_file);
+  if (all_[1])
+    error->all(FLERR,
+               "pair_style bcm/contact: cell {} has a radius smaller than its bounding radius "
+               "plus rm (the neighbour lists would miss contacts)",
+               all_[1]);
+  MPI_Allreduce(&rad, &maxrad, 1, MPI_DOUBLE, MPI_MAX, world);
+}
+
+/* ---------------------------------------------------------------------- */
+
+double PairBcmContact::init_one(int i, int j)
+{
+  if (!setflag[i][j])
+    error->all(FLERR, "pair_style bcm/contact: no pair_coeff for types {} {} (no mixing)", i, j);
+  kn[j][i] = kn[i][j];
+  kt[j][i] = kt[i][j];
+  en2[j][i] = en2[i][j];
+  mu[j][i] = mu[i][j];
+  alpha[j][i] = alpha[i][j];
+  // pairs enter the (size) neighbour list by their radii; this only sizes bins and ghosts
+  return 2.0 * maxrad;
+}
+
+/* ---------------------------------------------------------------------- */
+
+const BcmCells::Cell *PairBcmContact::cell(int i)
+{
+  if (!cell_of[i]) {
+    cell_of[i] = table->find(atom->tag[i]);
+    if (!cell_of[i])
+      error->one(FLERR, "pair_style bcm/contact: cell {} has no geometry in {}", atom->tag[i],
+                 cells_file);
+  }
+  return cell_of[i];
+}
+
+int PairBcmContact::place(int i)
+{
+  if (placed[i] < 0) {
+    const BcmCells::Cell *c = cell(i);
+    placed[i] = static_cast<int>(geom.size());
+    geom.resize(geom.size() + 3 * c->nv + 4 * c->nf);
+    bcm_place_cell(*table, *c, atom->x[i], atom->darray[iquat][i], &geom[placed[i]],
+                   &geom[placed[i] + 3 * c->nv]);
+  }
+  return placed[i];
+}
+
+/* ---------------------------------------------------------------------- */
+
+int PairBcmContact::find_slot(int i, tagint partner, double key, bigint step) const
+{
+  const double *h = atom->darray[ihist][i];
+  const double now = static_cast<double>(step), before = static_cast<double>(step - 1);
+  const double ptag = static_cast<double>(partner);
+  for (int m = 0; m < nslots; m++, h += SLOT)
+    if (h[0] == ptag && h[1] == key && (h[2] == now || h[2] == before)) return m;
+  return -1;
+}
+
+int PairBcmContact::free_slot(int i, bigint step) const
+{
+  const double *h = atom->darray[ihist][i];
+  const double now = static_cast<double>(step), before = static_cast<double>(step - 1);
+  for (int m = 0; m < nslots; m++, h += SLOT)
+    if (h[0] == 0.0 || (h[2] != now && h[2] != before)) return m;
+  return -1;
+}
+
+/* ---------------------------------------------------------------------- */
+
+void PairBcmContact::compute(int eflag, int vflag)
+{
+  ev_init(eflag, vflag);
+
+  double **x = atom->x, **v = atom->v, **f = atom->f;
+  double **omega = atom->omega, **torque = atom->torque;
+  const double *rmass = atom->rmass;
+  const tagint *tag = atom->tag;
+  const int *type = atom->type;
+  double **hist = atom->darray[ihist];
+  const int nlocal = atom->nlocal;
+  const int nall = nlocal + atom->nghost;
+  const int newton_pair = force->newton_pair;
+  const double *weight = force->special_lj;
+  const bigint step = update->ntimestep;
+  const bool advance = !update->setupflag;
+  const double dt = update->dt;
+  const double dcut = 2.0 * rm;
+
+  cell_of.assign(nall, nullptr);
+  placed.assign(nall, -1);
+  geom.clear();
+  bigint npoints = 0, npairs = 0, nlost = 0;
+
+  const int inum = list->inum;
+  const int *ilist = list->ilist;
+  const int *numneigh = list->numneigh;
+  int **firstneigh = list->firstneigh;
+
+  for (int ii = 0; ii < inum; ii++) {
+    const int i = ilist[ii];
+    const int *jlist = firstneigh[i];
+    const int jnum = numneigh[i];
+    for (int jj = 0; jj < jnum; jj++) {
+      int j = jlist[jj];
+      if (weight[sbmask(j)] == 0.0) continue;    // bonded: an interface, not a contact
+      j &= NEIGHMASK;
+
+      // A = the smaller tag: both cells' history copies and every rank agree on the order
+      const int a = tag[i] < tag[j] ? i : j;
+      const int b = a == i ? j : i;
+      double dx[3] = {x[a][0] - x[b][0], x[a][1] - x[b][1], x[a][2] - x[b][2]};
+      const BcmCells::Cell *ca = cell(a), *cb = cell(b);
+      const double reach = ca->rbound + cb->rbound + dcut;
+      if (dot(dx, dx) >= reach * reach) continue;
+
+      const int oa = place(a), ob = place(b);
+      const BcmSpaceCell sa{table.get(), ca, x[a], &geom[oa], &geom[oa + 3 * ca->nv]};
+      const BcmSpaceCell sb{table.get(), cb, x[b], &geom[ob], &geom[ob + 3 * cb->nv]};
+      points.clear();
+      const int np = bcm_find_contacts(sa, sb, dcut, work, points);
+      if (np == 0) continue;
+      npairs++;
+      npoints += np;
+
+      const int itype = type[i], jtype = type[j];
+      const double kn_ = kn[itype][jtype], kt_ = kt[itype][jtype], mu_ = mu[itype][jtype];
+      const double meff = rmass[a] * rmass[b] / (rmass[a] + rmass[b]);
+      const double knp = kn_ / np, ktp = kt_ / np;
+      // SPEC 1.2 Eq. 1: damping 2 alpha sqrt(k_n m) of the whole contact, shared like k_n
+      const double gamma = 2.0 * alpha[itype][jtype] * std::sqrt(kn_ * meff) / np;
+
+      double fa[3] = {0.0, 0.0, 0.0}, ta[3] = {0.0, 0.0, 0.0}, tb[3] = {0.0, 0.0, 0.0};
+      double epair = 0.0;
+      for (const BcmContactPoint &c : points) {
+        const double *n = c.n;
+        const double overlap = dcut - c.h;    // -delta > 0
+        double ra[3], rb[3], wa[3], wb[3], vrel[3];
+        for (int d = 0; d < 3; d++) {
+          ra[d] = c.p[d] - x[a][d];
+          rb[d] = c.p[d] - x[b][d];
+        }
+        cross(omega[a], ra, wa);
+        cross(omega[b], rb, wb);
+        for (int d = 0; d < 3; d++) vrel[d] = v[a][d] + wa[d] - v[b][d] - wb[d];
+        const double vn = dot(vrel, n);
+
+        // SPEC 1.2 Eq. 1, clamped: damping may not pull
+        const double fel = knp * overlap;
+        double fn = fel - gamma * vn;
+        if (fn < 0.0) fn = 0.0;
+
+        // SPEC 1.2 Eq. 7: tangential spring with Coulomb limit
+        double ft[3] = {0.0, 0.0, 0.0}, u[3] = {0.0, 0.0, 0.0};
+        const double key = static_cast<double>(c.key);
+        if (ktp > 0.0) {
+          const int sa_ = find_slot(a, tag[b], key, step);
+          const int sb_ = find_slot(b, tag[a], key, step);
+          const double *src = nullptr;
+          if (sa_ >= 0) src = &hist[a][SLOT * sa_];
+          if (sb_ >= 0 && (!src || hist[b][SLOT * sb_ + 2] > src[2])) src = &hist[b][SLOT * sb_];
+          if (src) {
+            for (int d = 0; d < 3; d++) u[d] = src[3 + d];
+            // into the current tangent plane, length kept
+            const double len0 = std::sqrt(dot(u, u));
+            const double un = dot(u, n);
+            for (int d = 0; d < 3; d++) u[d] -= un * n[d];
+            const double len1 = std::sqrt(dot(u, u));
+            if (len1 > 0.0)
+              for (double &ud : u) ud *= len0 / len1;
+          }
+          if (advance)
+            for (int d = 0; d < 3; d++) u[d] += (vrel[d] - vn * n[d]) * dt;
+          for (int d = 0; d < 3; d++) ft[d] = -ktp * u[d];
+          const double ftm = std::sqrt(dot(ft, ft)), fmax = mu_ * fn;
+          if (ftm > fmax) {
+            const double scale = fmax / ftm;
+            for (int d = 0; d < 3; d++) {
+              ft[d] *= scale;
+              u[d] = -ft[d] / ktp;
+            }
+          }
+          if (advance) {
+            // one copy, in an owned cell of the pair (i always is); when both are owned,
+            // the parity of the tag sum picks one, so that cells share the load evenly
+            const bool in_a = b >= nlocal || (a < nlocal && ((tag[a] + tag[b]) & 1) == 0);
+            const int o = in_a ? a : b;
+            const tagint partner = o == a ? tag[b] : tag[a];
+            int m = find_slot(o, partner, key, step);
+            if (m < 0) m = free_slot(o, step);
+            if (m >= 0) {
+              double *dst = &hist[o][SLOT * m];
+              dst[0] = static_cast<double>(partner);
+              dst[1] = key;
+              dst[2] = static_cast<double>(step);
+              for (int d = 0; d < 3; d++) dst[3 + d] = u[d];
+            } else {
+              nlost++;
+            }
+          }
+        }
+
+        double F[3], tqa[3], tqb[3];
+        for (int d = 0; d < 3; d++) F[d] = fn * n[d] + ft[d];
+        cross(ra, F, tqa);
+        cross(rb, F, tqb);
+        for (int d = 0; d < 3; d++) {
+          fa[d] += F[d];
+          ta[d] += tqa[d];
+          tb[d] -= tqb[d];
+        }
+        if (eflag) epair += 0.5 * knp * overlap * overlap + 0.5 * ktp * dot(u, u);
+      }
+
+      if (a < nlocal || newton_pair) {
+        for (int d = 0; d < 3; d++) {
+          f[a][d] += fa[d];
+          torque[a][d] += ta[d];
+        }
+      }
+      if (b < nlocal || newton_pair) {
+        for (int d = 0; d < 3; d++) {
+          f[b][d] -= fa[d];
+          torque[b][d] += tb[d];
+        }
+      }
+      if (evflag) {
+        // force on i, separation x_i - x_j
+        const double sgn = a == i ? 1.0 : -1.0;
+        ev_tally_xyz(i, j, nlocal, newton_pair, epair, 0.0, sgn * fa[0], sgn * fa[1],
+                     sgn * fa[2], sgn * dx[0], sgn * dx[1], sgn * dx[2]);
+      }
+    }
+  }
+
+  pvector[0] = static_cast<double>(npoints);
+  pvector[1] = static_cast<double>(npairs);
+  pvector[2] = static_cast<double>(nlost);
+  if (nlost && !warned_slots) {
+    warned_slots = true;
+    error->warning(FLERR,
+                   "pair_style bcm/contact: {} contact points found no free history slot "
+                   "(slots {}): their friction restarts from zero; raise slots",
+                   nlost, nslots);
+  }
+}
+
+/* ---------------------------------------------------------------------- */
+
+double PairBcmContact::memory_usage()
+{
+  double bytes = Pair::memory_usage();
+  bytes += sizeof(double) * geom.capacity() + sizeof(int) * placed.capacity() +
+      sizeof(void *) * cell_of.capacity() + sizeof(BcmContactPoint) * points.capacity();
+  if (table) bytes += table->memory_usage();
+  return bytes;
+}

@@ -1,0 +1,61 @@
+/* pair_style bcm/contact: frictional contacts between BCM cells that are not bonded (never
+   bonded cells, and cells of different fragments), as rounded convex polyhedra (SPEC 1.2,
+   last bullets; Eq. 1, 2, 7). Geometry from a cells file (bcm_cells.h); contact points from
+   bcm_find_contacts(); the stiffness of a pair is shared by its contact points. See
+   plugins/doc/pair_bcm_contact.md. */
+
+#ifndef BRITTLE_PAIR_BCM_CONTACT_H
+#define BRITTLE_PAIR_BCM_CONTACT_H
+
+#include "bcm_cells.h"
+#include "pair.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace LAMMPS_NS {
+
+class PairBcmContact : public Pair {
+ public:
+  PairBcmContact(class LAMMPS *);
+  ~PairBcmContact() override;
+
+  void compute(int, int) override;
+  void settings(int, char **) override;
+  void coeff(int, char **) override;
+  void init_style() override;
+  double init_one(int, int) override;
+  double memory_usage() override;
+
+ private:
+  std::string cells_file;
+  std::shared_ptr<const BcmCells> table;
+  double rm;      // rounding radius r_m
+  int nslots;     // history slots per cell
+
+  // per type pair: frictional-contact parameters and alpha (SPEC 1.2 Eq. 2)
+  double **kn, **kt, **en2, **mu, **alpha;
+
+  int iquat;             // atom->darray index of the orientation (bcm_rigid.h)
+  int ihist;             // atom->darray index of the tangential history slots
+  double maxrad;         // largest atom radius over all ranks
+  bool warned_slots;     // a point found no free history slot (warned once)
+
+  // per force evaluation: each local cell placed in space once, on first use
+  std::vector<const BcmCells::Cell *> cell_of;
+  std::vector<int> placed;       // offset into geom, or -1
+  std::vector<double> geom;      // 3 nv vertices then 4 nf planes per placed cell
+  std::vector<BcmContactPoint> points;
+  BcmContactWork work;
+
+  void allocate();
+  const BcmCells::Cell *cell(int i);
+  int place(int i);
+  int find_slot(int i, tagint partner, double key, bigint step) const;
+  int free_slot(int i, bigint step) const;
+};
+
+}    // namespace LAMMPS_NS
+
+#endif
