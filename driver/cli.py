@@ -72,6 +72,44 @@ def post(run_dir: Path = typer.Argument(..., help="run directory of an earlier `
 
 
 @app.command()
+def sweep(input_yaml: Path = typer.Argument(..., help="base configuration (YAML)"),
+          set_: list[str] = typer.Option(..., "--set", help="KEY.PATH=V1,V2,... (repeat for a grid)"),
+          out: Optional[Path] = typer.Option(None, "--out", help="sweep directory (default runs/<name>_sweep)"),
+          np: Optional[int] = typer.Option(None, "--np", min=1, help="MPI ranks per run"),
+          columns: str = typer.Option("", "--columns", help="comma-separated summary columns to print")) -> None:
+    """Run a config over a grid of values; finished runs are kept (a re-run resumes)."""
+    import yaml  # noqa: PLC0415
+    from rich.table import Table  # noqa: PLC0415
+
+    from analysis.tables import save_table  # noqa: PLC0415
+    from driver.pipeline import execute  # noqa: PLC0415
+    from driver.sweep import expand, parse_assignment, pending, sweep_table  # noqa: PLC0415
+
+    try:
+        base_cfg = load_config(input_yaml)  # the base itself must be valid
+        base = yaml.safe_load(input_yaml.read_text())
+        sweep_dir = out or Path("runs") / f"{base_cfg.name}_sweep"
+        runs = expand(base, [parse_assignment(a) for a in set_], sweep_dir, str(input_yaml))
+    except ConfigError as exc:
+        _fail(str(exc), 2)
+    todo = pending(runs)
+    err.print(f"sweep: {len(runs)} runs, {len(runs) - len(todo)} already finished, in {sweep_dir}")
+    for values, cfg in todo:
+        err.print(f"[bold]run[/] {values}")
+        try:
+            execute(cfg, np_ranks=np, show_progress=True, console=err)
+        except LammpsError as exc:
+            err.print(f"[red]failed[/] {values}: {exc}")
+    table = sweep_table(runs)
+    save_table(table, sweep_dir / "sweep")
+    shown = [c for c in columns.split(",") if c] or list(table.columns)
+    rt = Table(*shown)
+    for _, row in table.iterrows():
+        rt.add_row(*(f"{row[c]:.4g}" if isinstance(row[c], float) else str(row[c]) for c in shown))
+    Console().print(rt)
+
+
+@app.command()
 def plugins(verbose: bool = typer.Option(False, "--verbose")) -> None:
     """Build (if needed) the LAMMPS plugin library and print its path."""
     from driver.plugin_build import plugin_library  # noqa: PLC0415
