@@ -29,7 +29,8 @@ def impact_measures(wk_minus: float, wk_plus: float, wk_plus_cm: float, broken_a
                     dissipated_measured: float | None = None) -> dict[str, float]:
     """SPEC 1.5 measures of one impact. `wk_plus_cm` is the fragments' centre-of-mass part of
     W_k^+; `dissipated_measured` is W_c from the work of the dissipative forces (damping,
-    friction, switch), reported beside the balance value as a check."""
+    friction, switch, changes of a contact's number of points: see read_impact_thermo),
+    reported beside the balance value as a check."""
     w_f = 2.0 * broken_area * g_c
     w_s = 2.0 * total_area * g_c
     w_c = wk_minus - wk_plus - w_f
@@ -50,17 +51,33 @@ def impact_measures(wk_minus: float, wk_plus: float, wk_plus_cm: float, broken_a
 
 # ----------------------------------------------------------------------- run directory
 THERMO_COLUMNS = ["step", "time", "ke_trans", "ke_rot", "intact", "broken", "broken_area", "W_f", "E_interfaces",
-                  "W_damp", "W_friction", "W_switch", "wall_contacts", "wall_force", "W_wall", "E_wall"]
+                  "W_damp", "W_friction", "W_switch", "wall_contacts", "wall_force", "W_wall", "E_wall",
+                  "W_wall_damp", "W_wall_friction", "W_wall_npoints", "work_wall",
+                  "E_contacts", "W_contact_damp", "W_contact_friction", "W_contact_npoints", "work_contacts"]
 INTERFACE_COLUMNS = ["atom1", "atom2", "state", "area", "energy", "break_step", "break_time", "energy_at_break"]
 
 
 def read_impact_thermo(path: Path) -> pd.DataFrame:
-    """The `fix print` energy record of an impact run, one row per record (latest per step)."""
+    """The `fix print` energy record of an impact run, one row per record (latest per step).
+
+    Stores and sinks of the three force styles (plugins/doc): the interfaces
+    (bond bcm/griffith: E_interfaces, W_f, W_damp, W_friction, W_switch), the plane (fix
+    bcm/wall: E_wall, W_wall = W_wall_damp + W_wall_friction + W_wall_npoints) and the contacts
+    of cells that share no interface (pair bcm/contact: E_contacts, W_contact_damp,
+    W_contact_friction, W_contact_npoints). `*_npoints` is the energy lost when a contact's
+    number of points changes (its stiffness is shared by them; < 0 when gained).
+    Derived: kinetic, elastic (all stores), dissipated (all sinks but W_f), and the parts of
+    dissipated: dissipated_damping, dissipated_friction, dissipated_npoints (W_switch apart).
+    work_wall and work_contacts, the work of those styles' forces on the cells, are a check:
+    work + change of stored + dissipated = 0 for each."""
     df = pd.read_csv(path, sep=r"\s+", comment="#", names=THERMO_COLUMNS, header=None)
     df = df.drop_duplicates("step", keep="last").reset_index(drop=True)
     df["kinetic"] = df.ke_trans + df.ke_rot
-    df["elastic"] = df.E_interfaces + df.E_wall
-    df["dissipated"] = df.W_damp + df.W_friction + df.W_switch + df.W_wall
+    df["elastic"] = df.E_interfaces + df.E_wall + df.E_contacts
+    df["dissipated_damping"] = df.W_damp + df.W_wall_damp + df.W_contact_damp
+    df["dissipated_friction"] = df.W_friction + df.W_wall_friction + df.W_contact_friction
+    df["dissipated_npoints"] = df.W_wall_npoints + df.W_contact_npoints
+    df["dissipated"] = df.dissipated_damping + df.dissipated_friction + df.dissipated_npoints + df.W_switch
     return df
 
 
@@ -107,6 +124,8 @@ def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
         total_area=system["A0"], g_c=model["interface"]["G_c"], elastic_end=float(last.elastic),
         dissipated_measured=float(last.dissipated))
     measures.update({
+        "W_c_damping": float(last.dissipated_damping), "W_c_friction": float(last.dissipated_friction),
+        "W_c_switch": float(last.W_switch), "W_c_npoints": float(last.dissipated_npoints),
         "n_fragments": int(len(frags)), "n_fragments_multi_cell": int((~frags.single_cell).sum()),
         "largest_fragment_mass_fraction": float(frags.mass.max() / system["mass"]),
         "broken_interfaces": int(last.broken), "end_time": float(last.time), "end_step": int(last.step),

@@ -74,7 +74,7 @@ def plot_energies(energies: pd.DataFrame, wk_minus: float, path: Path, title: st
     """Energy budget of an impact against time, as fractions of W_k^- (SPEC 1.5)."""
     fig, ax = plt.subplots(figsize=(5.5, 4.0), dpi=150)
     t = energies.time * 1e6
-    for col, label, style in [("kinetic", "kinetic $W_k$", "k-"), ("elastic", "elastic (interfaces + wall)", "k--"),
+    for col, label, style in [("kinetic", "kinetic $W_k$", "k-"), ("elastic", "elastic (interfaces + contacts)", "k--"),
                               ("W_f", "fracture $W_f = 2AG_c$", "k-."), ("dissipated", "dissipated $W_c$", "k:")]:
         ax.plot(t, energies[col] / wk_minus, style, label=label)
     total = (energies.kinetic + energies.elastic + energies.W_f + energies.dissipated) / wk_minus

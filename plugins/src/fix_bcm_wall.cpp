@@ -8,11 +8,16 @@
      f_t = -k_t/N u_t,  |f_t| <= mu f_n  (at the limit u_t = -f_t N / k_t)
    u_t = tangential displacement of the vertex's material point along the plane since the
    contact began, kept per (cell, vertex) in slots of a hidden per-atom array
-   (vertex + 1, step, u_t[3]); a slot is current when written at this step or the previous
-   one. The setup force evaluation reads the history without advancing it.
-   Accounting per point and step (not during setup): dissipated += (f_n - k_n/N (-delta))
-   (-d delta/dt) dt (damping, including the energy a clamped f_n lets go) + |f_t| (slip
-   beyond the spring's reach) (friction); stored = k_n/N delta^2/2 + k_t/N |u_t|^2/2. */
+   (vertex + 1, step, u_t[3], |f_t|, N); a slot is current when written at this step or the
+   previous one. The setup force evaluation reads the history without advancing it.
+   Energy accounting (the same as pair_style bcm/contact and bond_style bcm/griffith):
+   stored = k_n/N delta^2/2 + k_t/N |u_t|^2/2; damping: the exact work of the damping force
+   (f_n - k_n/N (-delta)) n_w (the energy a clamped f_n lets go included) over the half kicks
+   of velocity Verlet (bcm_kick_work.h); friction: per Coulomb cap, the mean of the previous
+   and the capped |f_t| times the slip, and when a vertex stops touching, its spring's
+   energy (it slips free); a change of N: (1/N - 1/N_before) times the cell's springs' energy
+   at the whole-contact stiffnesses, mean of the last and this step (< 0 when energy is
+   gained). */
 
 #include "fix_bcm_wall.h"
 
@@ -32,7 +37,11 @@ using namespace FixConst;
 using BcmRigid::cross;
 using BcmRigid::dot;
 
-static constexpr int SLOT = 5;    // vertex + 1, step, u_t[3]
+// slot: vertex + 1, step written, u_t[3], |f_t|, and the cell's number of touching vertices
+// N and its springs' energy at the whole-contact stiffnesses at that step (friction work and
+// the energy of a change of N)
+static constexpr int SLOT = 8;
+enum { S_VERTEX, S_STEP, S_U, S_FT = 5, S_NPTS, S_EWHOLE };
 
 /* ----------------------------------------------------------------------
    fix ID group bcm/wall cells FILE rm R plane FACE VALUE kn kt en2 mu [slots N]
@@ -41,9 +50,8 @@ static constexpr int SLOT = 5;    // vertex + 1, step, u_t[3]
 FixBcmWall::FixBcmWall(LAMMPS *_lmp, int narg, char **arg) :
     Fix(_lmp, narg, arg), rm(0.0), axis(2), side(1.0), coord(0.0), kn(0.0), kt(0.0), en2(0.0),
     mu(0.0), alpha(1.0), nslots(16), iquat(-1), ihist(-1), local_now{0.0, 0.0, 0.0},
-    dissipated(0.0), totals{0.0, 0.0, 0.0, 0.0}, totals_valid(false), warned_slots(false),
-    nmax_touch(0),
-    touch(nullptr)
+    w_fric(0.0), w_npoints(0.0), totals{}, totals_valid(false), warned_slots(false),
+    nmax_touch(0), touch(nullptr)
 {
   const char *usage =
       "fix ID group bcm/wall cells FILE rm R plane FACE VALUE kn kt en2 mu [slots N]";
@@ -82,7 +90,7 @@ FixBcmWall::FixBcmWall(LAMMPS *_lmp, int narg, char **arg) :
 
   scalar_flag = 1;
   vector_flag = 1;
-  size_vector = 4;
+  size_vector = NVECTOR;
   global_freq = 1;
   extscalar = 1;
   extvector = 1;
@@ -133,6 +141,9 @@ void FixBcmWall::init()
     error->all(FLERR, "fix bcm/wall requires the per-atom array d2_{} with 4 columns",
                BcmRigid::QUAT);
   ihist = bcm_peratom_array(lmp, hist_id, hist_name, SLOT * nslots, false);
+  if (atom->map_style == Atom::MAP_NONE)
+    error->all(FLERR, "fix bcm/wall requires an atom map (atom_modify map array): the "
+                      "damping work of a step is settled at the next one by atom ID");
 
   const int nlocal = atom->nlocal;
   tagint missing = 0, any = 0;
@@ -177,8 +188,11 @@ void FixBcmWall::wall_forces(bool advance)
     memory->create(touch, nmax_touch, "bcm/wall:touch");
   }
   vector_atom = touch;
+  // energy accounting: the previous evaluation's forces settled now (bcm_kick_work.h)
+  damp_work.begin(lmp, "fix bcm/wall");
+  all_work.begin(lmp, "fix bcm/wall");
 
-  double ncells = 0.0, fnsum = 0.0, stored = 0.0, diss = 0.0;
+  double ncells = 0.0, fnsum = 0.0, stored = 0.0, fric = 0.0, npoints = 0.0;
   double nw[3] = {0.0, 0.0, 0.0};
   nw[axis] = side;
 
@@ -196,6 +210,7 @@ void FixBcmWall::wall_forces(bool advance)
     BcmRigid::quat_to_mat(q, R);
     const double *bv = &table->vert[3 * c->v0];
     touching.clear();
+    slots_used.clear();
     for (int k = 0; k < c->nv; k++) {
       const double *b = bv + 3 * k;
       const double off = R[axis][0] * b[0] + R[axis][1] * b[1] + R[axis][2] * b[2];
@@ -209,6 +224,11 @@ void FixBcmWall::wall_forces(bool advance)
     const double knp = kn / np, ktp = kt / np;
     // SPEC 1.2 Eq. 1: damping 2 alpha sqrt(k_n m) of the cell's contact, shared like k_n
     const double gamma = 2.0 * alpha * std::sqrt(kn * rmass[i]) / np;
+    double fcell[3] = {0.0, 0.0, 0.0}, tcell[3] = {0.0, 0.0, 0.0};
+    double fdamp[3] = {0.0, 0.0, 0.0}, tdamp[3] = {0.0, 0.0, 0.0};
+    // for the energy of a change of N (see pair_bcm_contact.cpp)
+    double e_whole = 0.0, e_whole_before = 0.0;
+    int np_before = 0;
 
     for (const int k : touching) {
       double r[3];
@@ -224,23 +244,29 @@ void FixBcmWall::wall_forces(bool advance)
       const double fel = knp * overlap;
       double fn = fel - gamma * vn;
       if (fn < 0.0) fn = 0.0;
+      e_whole += 0.5 * kn * overlap * overlap;
 
       double ft[3] = {0.0, 0.0, 0.0}, u[3] = {0.0, 0.0, 0.0};
-      double slip_work = 0.0;
       if (ktp > 0.0) {
         double *h = hist[i];
         int slot = -1, freeslot = -1;
         for (int m = 0; m < nslots; m++) {
           const double *s = h + SLOT * m;
-          const bool current = s[0] != 0.0 && (s[1] == now || s[1] == before);
-          if (current && s[0] == k + 1) {
+          const bool current = s[S_VERTEX] != 0.0 && (s[S_STEP] == now || s[S_STEP] == before);
+          if (current && s[S_VERTEX] == k + 1) {
             slot = m;
             break;
           }
           if (!current && freeslot < 0) freeslot = m;
         }
-        if (slot >= 0)
-          for (int d = 0; d < 3; d++) u[d] = h[SLOT * slot + 2 + d];
+        double ft_before = 0.0;
+        if (slot >= 0) {
+          const double *s = h + SLOT * slot;
+          for (int d = 0; d < 3; d++) u[d] = s[S_U + d];
+          ft_before = s[S_FT];
+          np_before = static_cast<int>(s[S_NPTS]);
+          e_whole_before = s[S_EWHOLE];
+        }
         u[axis] = 0.0;    // the plane does not turn: u_t stays in it
         if (advance)
           for (int d = 0; d < 3; d++)
@@ -248,20 +274,25 @@ void FixBcmWall::wall_forces(bool advance)
         for (int d = 0; d < 3; d++) ft[d] = -ktp * u[d];
         const double ftm = std::sqrt(dot(ft, ft)), fmax = mu * fn;
         if (ftm > fmax) {
-          slip_work = fmax * (ftm - fmax) / ktp;
+          // Coulomb limit (friction work as pair_style bcm/contact)
+          if (advance) fric += 0.5 * (ft_before + fmax) * (ftm - fmax) / ktp;
           const double scale = fmax / ftm;
           for (int d = 0; d < 3; d++) {
             ft[d] *= scale;
             u[d] = -ft[d] / ktp;
           }
         }
+        e_whole += 0.5 * kt * dot(u, u);
         if (advance) {
           if (slot < 0) slot = freeslot;
           if (slot >= 0) {
             double *s = h + SLOT * slot;
-            s[0] = k + 1;
-            s[1] = now;
-            for (int d = 0; d < 3; d++) s[2 + d] = u[d];
+            s[S_VERTEX] = k + 1;
+            s[S_STEP] = now;
+            for (int d = 0; d < 3; d++) s[S_U + d] = u[d];
+            s[S_FT] = ktp * std::sqrt(dot(u, u));
+            s[S_NPTS] = np;
+            slots_used.push_back(slot);
           } else if (!warned_slots) {
             warned_slots = true;
             error->warning(FLERR, "fix bcm/wall: cell {} touches with more than {} vertices: "
@@ -274,18 +305,57 @@ void FixBcmWall::wall_forces(bool advance)
       for (int d = 0; d < 3; d++) F[d] = fn * nw[d] + ft[d];
       cross(r, F, tq);
       for (int d = 0; d < 3; d++) {
-        f[i][d] += F[d];
-        torque[i][d] += tq[d];
+        fcell[d] += F[d];
+        tcell[d] += tq[d];
+      }
+      // the damping part of the normal force (with the clamp: what it lets go)
+      double Fd[3];
+      for (int d = 0; d < 3; d++) Fd[d] = (fn - fel) * nw[d];
+      cross(r, Fd, tq);
+      for (int d = 0; d < 3; d++) {
+        fdamp[d] += Fd[d];
+        tdamp[d] += tq[d];
       }
       fnsum += fn;
       stored += 0.5 * knp * overlap * overlap + 0.5 * ktp * dot(u, u);
-      if (advance) diss += (fn - fel) * (-vn) * dt + slip_work;
+    }
+    for (int d = 0; d < 3; d++) {
+      f[i][d] += fcell[d];
+      torque[i][d] += tcell[d];
+    }
+    damp_work.add(lmp, i, -1, fdamp, tdamp, nullptr);
+    all_work.add(lmp, i, -1, fcell, tcell, nullptr);
+    if (advance) {
+      // the jump of the springs' energy when N changes falls between the last step and this
+      // one; velocity Verlet's trapezoid places it at the middle: the mean of the energies
+      if (np_before > 0 && np_before != np)
+        npoints -= (1.0 / np - 1.0 / np_before) * 0.5 * (e_whole + e_whole_before);
+      for (const int m : slots_used) hist[i][SLOT * m + S_EWHOLE] = e_whole;
     }
   }
+
+  // vertices that touched at the last step and no longer do: the spring slips free, its
+  // energy is dissipated (f_n reached 0 first, so it is small unless the vertex left by
+  // turning away)
+  if (advance && kt > 0.0) {
+    for (int i = 0; i < nlocal; i++) {
+      if (!(mask[i] & groupbit)) continue;
+      double *h = hist[i];
+      for (int m = 0; m < nslots; m++) {
+        double *s = h + SLOT * m;
+        if (s[S_VERTEX] != 0.0 && s[S_STEP] == before) {
+          fric += 0.5 * s[S_FT] * std::sqrt(dot(s + S_U, s + S_U));
+          s[S_VERTEX] = 0.0;
+        }
+      }
+    }
+  }
+
   local_now[0] = ncells;
   local_now[1] = fnsum;
   local_now[2] = stored;
-  dissipated += diss;
+  w_fric += fric;
+  w_npoints += npoints;
   totals_valid = false;
 }
 
@@ -294,8 +364,10 @@ void FixBcmWall::wall_forces(bool advance)
 void FixBcmWall::sum_totals()
 {
   if (totals_valid) return;
-  const double mine[4] = {local_now[0], local_now[1], dissipated, local_now[2]};
-  MPI_Allreduce(mine, totals, 4, MPI_DOUBLE, MPI_SUM, world);
+  const double damp = -damp_work.work();
+  const double mine[NVECTOR] = {local_now[0], local_now[1], damp + w_fric + w_npoints,
+                                local_now[2], damp, w_fric, w_npoints, all_work.work()};
+  MPI_Allreduce(mine, totals, NVECTOR, MPI_DOUBLE, MPI_SUM, world);
   totals_valid = true;
 }
 
@@ -312,25 +384,30 @@ double FixBcmWall::compute_vector(int n)
 }
 
 /* ----------------------------------------------------------------------
-   the dissipated energy carries on across restarts (kept on rank 0)
+   the dissipated energies carry on across restarts (kept on rank 0): damping (with the
+   pending half kick of the last step), friction, change of N
 ------------------------------------------------------------------------- */
 
 void FixBcmWall::write_restart(FILE *fp)
 {
-  double total = 0.0;
-  MPI_Reduce(&dissipated, &total, 1, MPI_DOUBLE, MPI_SUM, 0, world);
+  const double mine[3] = {-damp_work.work(), w_fric, w_npoints};
+  double total[3] = {0.0, 0.0, 0.0};
+  MPI_Reduce(mine, total, 3, MPI_DOUBLE, MPI_SUM, 0, world);
   if (comm->me == 0) {
-    const int size = sizeof(double);
+    const int size = 3 * sizeof(double);
     fwrite(&size, sizeof(int), 1, fp);
-    fwrite(&total, sizeof(double), 1, fp);
+    fwrite(total, sizeof(double), 3, fp);
   }
 }
 
 void FixBcmWall::restart(char *buf)
 {
-  double total = 0.0;
-  std::memcpy(&total, buf, sizeof(double));
-  dissipated = comm->me == 0 ? total : 0.0;
+  double total[3];
+  std::memcpy(total, buf, sizeof(total));
+  const bool root = comm->me == 0;
+  damp_work.restore(root ? -total[0] : 0.0);
+  w_fric = root ? total[1] : 0.0;
+  w_npoints = root ? total[2] : 0.0;
 }
 
 /* ---------------------------------------------------------------------- */

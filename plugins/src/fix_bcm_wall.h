@@ -7,6 +7,7 @@
 #define BRITTLE_FIX_BCM_WALL_H
 
 #include "bcm_cells.h"
+#include "bcm_kick_work.h"
 #include "fix.h"
 
 #include <memory>
@@ -46,14 +47,22 @@ class FixBcmWall : public Fix {
 
   // this rank's part of the last evaluation: cells touching, sum of f_n, stored energy
   double local_now[3];
-  double dissipated;         // this rank's damping + friction work since the fix began
-  double totals[4];
+  // this rank's energy accounting since the fix began: work of the damping forces and of
+  // all the wall's forces on the cells, energy dissipated by friction, energy lost at
+  // changes of a cell's number of touching vertices (< 0: gained)
+  BcmKickWork damp_work, all_work;
+  double w_fric, w_npoints;
+  // the global vector: [1] cells touching, [2] sum of f_n, [3] dissipated ([5] + [6] + [7]),
+  // [4] stored, [5] damping, [6] friction, [7] change of N, [8] work of the wall's forces
+  static constexpr int NVECTOR = 8;
+  double totals[NVECTOR];
   bool totals_valid;
 
   bool warned_slots;        // a cell touched with more vertices than slots (warned once)
   int nmax_touch;
   double *touch;             // per atom: touching vertices (vector_atom)
   std::vector<int> touching;
+  std::vector<int> slots_used;    // history slots written for the current cell
 
   void wall_forces(bool advance);
   void sum_totals();

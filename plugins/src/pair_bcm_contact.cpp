@@ -11,7 +11,10 @@
    face-face contact give k_n delta in total, as one vertex-face point does. The force acts
    at the point on both cells, with torques (p - x) x F, so that linear and angular momentum
    are conserved. Energy (eng_vdwl): the springs' energy, k_n/N delta^2/2 + k_t/N |u_t|^2/2
-   per point.
+   per point. Dissipated (compute pair extra values, cumulative, each pair counted once):
+   the exact work of the normal damping over velocity Verlet's half kicks (bcm_kick_work.h),
+   Coulomb slip (mean of the last and the capped |f_t| times the slip), and the jump of the
+   springs' energy when N changes (their stiffness is shared by the N points).
 
    History: u_t is kept per (pair, contact feature) in slots of a hidden per-atom array
    (fix property/atom, ghost yes): slot = (partner tag, feature key, step, u_t[3]), written
@@ -45,21 +48,25 @@ using BcmRigid::dot;
 
 static const char *const HIST_FIX_ID = "BCM_CONTACT_HISTORY";
 static const char *const HIST_NAME = "bcm_contact_history";
-static constexpr int SLOT = 6;    // partner tag, feature key, step, u_t[3]
+// slot: partner tag, feature key, step written, u_t[3], |f_t|, and the contact's number of
+// points N and its springs' energy at the whole-contact stiffnesses at that step (friction
+// work and the energy of a change of N)
+static constexpr int SLOT = 9;
+enum { S_PARTNER, S_KEY, S_STEP, S_U, S_FT = 6, S_NPTS, S_EWHOLE };
 
 /* ---------------------------------------------------------------------- */
 
 PairBcmContact::PairBcmContact(LAMMPS *_lmp) :
     Pair(_lmp), rm(0.0), nslots(64), kn(nullptr), kt(nullptr), en2(nullptr), mu(nullptr),
-    alpha(nullptr), iquat(-1), ihist(-1), maxrad(0.0), warned_slots(false)
+    alpha(nullptr), iquat(-1), ihist(-1), maxrad(0.0), warned_slots(false), w_fric(0.0),
+    w_npoints(0.0)
 {
   single_enable = 0;
   restartinfo = 0;
   finitecutflag = 1;
   born_matrix_enable = 0;
-  // extra values for compute pair: contact points, pairs in contact, points without a
-  // history slot, in the last force evaluation
-  nextra = 3;
+  // extra values for compute pair (see pair_bcm_contact.h)
+  nextra = NEXTRA;
   pvector = new double[nextra];
   for (int k = 0; k < nextra; k++) pvector[k] = 0.0;
 }
@@ -182,6 +189,9 @@ void PairBcmContact::init_style()
                       "and ghost yes (fix property/atom d2_{} 4 ... ghost yes)",
                BcmRigid::QUAT, BcmRigid::QUAT);
   ihist = bcm_peratom_array(lmp, HIST_FIX_ID, HIST_NAME, SLOT * nslots, true);
+  if (atom->map_style == Atom::MAP_NONE)
+    error->all(FLERR, "pair_style bcm/contact requires an atom map (atom_modify map array): "
+                      "the damping work of a step is settled at the next one by atom ID");
 
   neighbor->add_request(this, NeighConst::REQ_SIZE);
 
@@ -261,7 +271,8 @@ int PairBcmContact::find_slot(int i, tagint partner, double key, bigint step) co
   const double now = static_cast<double>(step), before = static_cast<double>(step - 1);
   const double ptag = static_cast<double>(partner);
   for (int m = 0; m < nslots; m++, h += SLOT)
-    if (h[0] == ptag && h[1] == key && (h[2] == now || h[2] == before)) return m;
+    if (h[S_PARTNER] == ptag && h[S_KEY] == key && (h[S_STEP] == now || h[S_STEP] == before))
+      return m;
   return -1;
 }
 
@@ -270,7 +281,7 @@ int PairBcmContact::free_slot(int i, bigint step) const
   const double *h = atom->darray[ihist][i];
   const double now = static_cast<double>(step), before = static_cast<double>(step - 1);
   for (int m = 0; m < nslots; m++, h += SLOT)
-    if (h[0] == 0.0 || (h[2] != now && h[2] != before)) return m;
+    if (h[S_PARTNER] == 0.0 || (h[S_STEP] != now && h[S_STEP] != before)) return m;
   return -1;
 }
 
@@ -299,6 +310,9 @@ void PairBcmContact::compute(int eflag, int vflag)
   placed.assign(nall, -1);
   geom.clear();
   bigint npoints = 0, npairs = 0, nlost = 0;
+  // energy accounting: the previous evaluation's forces settled now (bcm_kick_work.h)
+  damp_work.begin(lmp, "pair_style bcm/contact");
+  all_work.begin(lmp, "pair_style bcm/contact");
 
   const int inum = list->inum;
   const int *ilist = list->ilist;
@@ -330,6 +344,9 @@ void PairBcmContact::compute(int eflag, int vflag)
       if (np == 0) continue;
       npairs++;
       npoints += np;
+      // with newton_pair off a pair across ranks is computed on both: its energy
+      // accounting is kept by the rank owning A
+      const bool counted = newton_pair || a < nlocal;
 
       const int itype = type[i], jtype = type[j];
       const double kn_ = kn[itype][jtype], kt_ = kt[itype][jtype], mu_ = mu[itype][jtype];
@@ -339,7 +356,14 @@ void PairBcmContact::compute(int eflag, int vflag)
       const double gamma = 2.0 * alpha[itype][jtype] * std::sqrt(kn_ * meff) / np;
 
       double fa[3] = {0.0, 0.0, 0.0}, ta[3] = {0.0, 0.0, 0.0}, tb[3] = {0.0, 0.0, 0.0};
-      double epair = 0.0;
+      double fda[3] = {0.0, 0.0, 0.0}, tda[3] = {0.0, 0.0, 0.0}, tdb[3] = {0.0, 0.0, 0.0};
+      double epair = 0.0, fric = 0.0;
+      // for the energy of a change of N: the springs' energy at the whole-contact
+      // stiffnesses (sum of k_n delta^2/2 + k_t |u_t|^2/2) now and at the last step, and N
+      // at the last step (0: the contact is new)
+      double e_whole = 0.0, e_whole_before = 0.0;
+      int np_before = 0;
+      written.clear();
       for (const BcmContactPoint &c : points) {
         const double *n = c.n;
         const double overlap = dcut - c.h;    // -delta > 0
@@ -357,6 +381,7 @@ void PairBcmContact::compute(int eflag, int vflag)
         const double fel = knp * overlap;
         double fn = fel - gamma * vn;
         if (fn < 0.0) fn = 0.0;
+        e_whole += 0.5 * kn_ * overlap * overlap;
 
         // SPEC 1.2 Eq. 7: tangential spring with Coulomb limit
         double ft[3] = {0.0, 0.0, 0.0}, u[3] = {0.0, 0.0, 0.0};
@@ -366,9 +391,11 @@ void PairBcmContact::compute(int eflag, int vflag)
           const int sb_ = find_slot(b, tag[a], key, step);
           const double *src = nullptr;
           if (sa_ >= 0) src = &hist[a][SLOT * sa_];
-          if (sb_ >= 0 && (!src || hist[b][SLOT * sb_ + 2] > src[2])) src = &hist[b][SLOT * sb_];
+          if (sb_ >= 0 && (!src || hist[b][SLOT * sb_ + S_STEP] > src[S_STEP]))
+            src = &hist[b][SLOT * sb_];
+          double ft_before = 0.0;
           if (src) {
-            for (int d = 0; d < 3; d++) u[d] = src[3 + d];
+            for (int d = 0; d < 3; d++) u[d] = src[S_U + d];
             // into the current tangent plane, length kept
             const double len0 = std::sqrt(dot(u, u));
             const double un = dot(u, n);
@@ -376,18 +403,27 @@ void PairBcmContact::compute(int eflag, int vflag)
             const double len1 = std::sqrt(dot(u, u));
             if (len1 > 0.0)
               for (double &ud : u) ud *= len0 / len1;
+            ft_before = src[S_FT];
+            np_before = static_cast<int>(src[S_NPTS]);
+            e_whole_before = src[S_EWHOLE];
           }
           if (advance)
             for (int d = 0; d < 3; d++) u[d] += (vrel[d] - vn * n[d]) * dt;
           for (int d = 0; d < 3; d++) ft[d] = -ktp * u[d];
           const double ftm = std::sqrt(dot(ft, ft)), fmax = mu_ * fn;
           if (ftm > fmax) {
+            // Coulomb limit: the spring goes back along itself to |f_t| = mu f_n, the rest
+            // is slip. Dissipated: the mean of the force magnitudes at the last and this
+            // evaluation times the slip (the trapezoidal work of the force over the step less
+            // the change of the spring energy), as bond_style bcm/griffith
+            if (advance) fric += 0.5 * (ft_before + fmax) * (ftm - fmax) / ktp;
             const double scale = fmax / ftm;
             for (int d = 0; d < 3; d++) {
               ft[d] *= scale;
               u[d] = -ft[d] / ktp;
             }
           }
+          e_whole += 0.5 * kt_ * dot(u, u);
           if (advance) {
             // one copy, in an owned cell of the pair (i always is); when both are owned,
             // the parity of the tag sum picks one, so that cells share the load evenly
@@ -398,10 +434,13 @@ void PairBcmContact::compute(int eflag, int vflag)
             if (m < 0) m = free_slot(o, step);
             if (m >= 0) {
               double *dst = &hist[o][SLOT * m];
-              dst[0] = static_cast<double>(partner);
-              dst[1] = key;
-              dst[2] = static_cast<double>(step);
-              for (int d = 0; d < 3; d++) dst[3 + d] = u[d];
+              dst[S_PARTNER] = static_cast<double>(partner);
+              dst[S_KEY] = key;
+              dst[S_STEP] = static_cast<double>(step);
+              for (int d = 0; d < 3; d++) dst[S_U + d] = u[d];
+              dst[S_FT] = ktp * std::sqrt(dot(u, u));
+              dst[S_NPTS] = np;
+              written.push_back(dst);
             } else {
               nlost++;
             }
@@ -417,8 +456,34 @@ void PairBcmContact::compute(int eflag, int vflag)
           ta[d] += tqa[d];
           tb[d] -= tqb[d];
         }
+        // the damping part of the normal force (with the clamp: what it lets go)
+        double Fd[3];
+        for (int d = 0; d < 3; d++) Fd[d] = (fn - fel) * n[d];
+        cross(ra, Fd, tqa);
+        cross(rb, Fd, tqb);
+        for (int d = 0; d < 3; d++) {
+          fda[d] += Fd[d];
+          tda[d] += tqa[d];
+          tdb[d] -= tqb[d];
+        }
         if (eflag) epair += 0.5 * knp * overlap * overlap + 0.5 * ktp * dot(u, u);
       }
+
+      if (counted) {
+        damp_work.add(lmp, a, b, fda, tda, tdb);
+        all_work.add(lmp, a, b, fa, ta, tb);
+        if (advance) {
+          w_fric += fric;
+          // the contact's stiffness is shared by its N points: when N changes, the springs
+          // change their energy by (1/N - 1/N_before) times their energy at the whole-contact
+          // stiffnesses (counted as dissipated, < 0 if gained). The change falls between the
+          // last step and this one; velocity Verlet's trapezoid places it at the middle: the
+          // mean of the energies at both steps
+          if (np_before > 0 && np_before != np)
+            w_npoints -= (1.0 / np - 1.0 / np_before) * 0.5 * (e_whole + e_whole_before);
+        }
+      }
+      for (double *dst : written) dst[S_EWHOLE] = e_whole;
 
       if (a < nlocal || newton_pair) {
         for (int d = 0; d < 3; d++) {
@@ -444,6 +509,10 @@ void PairBcmContact::compute(int eflag, int vflag)
   pvector[0] = static_cast<double>(npoints);
   pvector[1] = static_cast<double>(npairs);
   pvector[2] = static_cast<double>(nlost);
+  pvector[3] = -damp_work.work();
+  pvector[4] = w_fric;
+  pvector[5] = w_npoints;
+  pvector[6] = all_work.work();
   if (nlost && !warned_slots) {
     warned_slots = true;
     error->warning(FLERR,

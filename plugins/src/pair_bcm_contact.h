@@ -8,6 +8,7 @@
 #define BRITTLE_PAIR_BCM_CONTACT_H
 
 #include "bcm_cells.h"
+#include "bcm_kick_work.h"
 #include "pair.h"
 
 #include <memory>
@@ -42,11 +43,20 @@ class PairBcmContact : public Pair {
   double maxrad;         // largest atom radius over all ranks
   bool warned_slots;     // a point found no free history slot (warned once)
 
+  // compute pair extra values: [1] contact points, [2] pairs in contact, [3] points without
+  // a history slot (last evaluation); cumulative, this rank's pairs: [4] energy dissipated
+  // by normal damping, [5] by Coulomb slip, [6] lost at changes of a contact's number of
+  // points (< 0: gained), [7] work done on the cells by all the pair's forces
+  static constexpr int NEXTRA = 7;
+  BcmKickWork damp_work, all_work;
+  double w_fric, w_npoints;
+
   // per force evaluation: each local cell placed in space once, on first use
   std::vector<const BcmCells::Cell *> cell_of;
   std::vector<int> placed;       // offset into geom, or -1
   std::vector<double> geom;      // 3 nv vertices then 4 nf planes per placed cell
   std::vector<BcmContactPoint> points;
+  std::vector<double *> written;    // history slots written for the current pair
   BcmContactWork work;
 
   void allocate();

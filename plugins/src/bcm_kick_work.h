@@ -1,0 +1,72 @@
+/* Work done on BCM cells by forces held over the half kicks of velocity Verlet (fix
+   bcm/rigid), settled exactly: the damping work of pair_style bcm/contact and fix bcm/wall,
+   and the work of all their forces (a check of their energy accounting).
+
+   A force F computed at one evaluation (at velocities v_k) acts in up to two half kicks:
+   the one closing its step and the one opening the next. A half kick of length h/2 changes
+   the kinetic energy of a cell by (h/2) (F . v + tau . w) with v, w the means over the kick,
+   whatever other forces kick at the same time (the change is linear in the impulse). Both
+   kicks use the same F, so the velocity between them is the mean of those before and after:
+   the work of F is
+       W = n_kicks (h/4) (P_k + P_k+1),   P = F . v_a + tau_a . w_a - F . v_b + tau_b . w_b,
+   with P_k+1 the same force at the velocities of the next evaluation and n_kicks =
+   [evaluation k was a step] + [evaluation k+1 is a step] (a run's setup evaluation is not).
+   Exact for translation; with rotation the space-frame w of the next evaluation has also
+   turned with the cell (second order), as in bond_style bcm/griffith.
+
+   The forces of one evaluation are kept per rank with the atom IDs of their cells; the next
+   evaluation finds the cells through the atom map (owned or ghost: a cell touching at one
+   step is within the ghost cutoff of the same rank at the next, and ghost v and omega are
+   current with comm_modify vel yes). */
+
+#ifndef BRITTLE_BCM_KICK_WORK_H
+#define BRITTLE_BCM_KICK_WORK_H
+
+#include "lmptype.h"
+
+#include <vector>
+
+namespace LAMMPS_NS {
+
+class LAMMPS;
+
+class BcmKickWork {
+ public:
+  enum Kind { NONE = 0, SETUP = 1, STEP = 2 };
+
+  // what the current force evaluation is (a step of a run, a run's setup, neither)
+  static int evaluation_kind(LAMMPS *lmp);
+
+  // settle the forces of the previous evaluation with the current velocities and start
+  // a new list; call once per force evaluation, before add()
+  void begin(LAMMPS *lmp, const char *style);
+
+  // F on cell i (local index) with torque ti about its centre, and -F on cell j with
+  // torque tj (j < 0: a single cell against an immobile wall)
+  void add(LAMMPS *lmp, int i, int j, const double *F, const double *ti, const double *tj);
+
+  // work done on the cells since the start, with the pending first half kick of the
+  // last step's forces estimated as (h/2) P_k (settled exactly at the next evaluation)
+  double work() const;
+
+  // start again from a work w (read from a restart file), nothing pending
+  void restore(double w);
+
+ private:
+  struct Entry {
+    tagint a, b;    // atom IDs (b = 0: no second cell)
+    double f[3], ta[3], tb[3];
+    double p;    // P at the evaluation that computed the force
+  };
+  std::vector<Entry> entries;
+  int last_kind = NONE;
+  double last_dt = 0.0;
+  double settled = 0.0;
+  double pending_power = 0.0;    // sum of P over the entries
+
+  static double power(LAMMPS *lmp, const Entry &e, int ia, int ib);
+};
+
+}    // namespace LAMMPS_NS
+
+#endif
