@@ -405,3 +405,22 @@ def test_default_1728_cells():
     assert tess.volume.sum() == pytest.approx(shape.volume, rel=1e-9)
     internal = tess.face_area[tess.face_neighbor >= 0].sum()
     assert internal == pytest.approx(2 * tess.total_interface_area, rel=1e-12)
+
+
+def test_erosion_of_a_nearly_vanishing_face_stays_closed():
+    """Seed 4 at 100 cells has a cell whose erosion leaves a face of ~1e-5 h: the core must
+    still be a closed, consistently oriented polyhedron (every edge shared by two faces)."""
+    from collections import Counter
+
+    from driver.bcm.shapes import truncated_pentakis_dodecahedron
+    from driver.bcm.tessellation import erode, tessellate
+
+    tess = tessellate(truncated_pentakis_dodecahedron(), n_cells=100, seed=4)
+    r_m = 0.02 * tess.mean_cell_size
+    for i in range(tess.n_cells):
+        core = erode(tess.cell(i), r_m)
+        edges = Counter()
+        for f in core.faces:
+            for a, b in zip(f, np.roll(f, -1)):
+                edges[(min(a, b), max(a, b))] += 1
+        assert set(edges.values()) == {2}, i

@@ -716,12 +716,27 @@ def erode(cell: Cell, r_m: float) -> Cell:
         interior, radius = chebyshev_center(cell.normals, offsets)
         if radius <= 0.0:
             raise ValueError(f"r_m = {r_m} is not below the cell's inradius")
-    verts, faces, planes = halfspace_polyhedron(cell.normals, offsets, interior)
+    # A face that nearly vanishes in the erosion can leave vertices closer than the merge
+    # tolerance allows the faces to agree on; merge more coarsely (at most 1e-4 of the cell's
+    # size, far below r_m's effect) until every edge is shared by exactly two faces.
+    for rel_tol in (1e-9, 1e-7, 1e-5, 1e-4):
+        verts, faces, planes = halfspace_polyhedron(cell.normals, offsets, interior, rel_tol=rel_tol)
+        if _is_closed(faces):
+            break
+    else:
+        raise ValueError(f"eroding a cell by r_m = {r_m} gives an inconsistent polyhedron")
     vol, cen, inertia = polyhedron_mass_properties(verts, faces)
     moments, axes = principal_axes(inertia)
     return Cell(vertices=verts, faces=faces, normals=cell.normals[planes], offsets=offsets[planes],
                 neighbors=cell.neighbors[planes], volume=vol, centroid=cen, inertia=inertia,
                 principal_moments=moments, principal_axes=axes, quaternion=rotation_to_quaternion(axes))
+
+
+def _is_closed(faces: list[np.ndarray]) -> bool:
+    """Every directed edge appears once and its reverse once: a closed, consistently oriented surface."""
+    edges = np.concatenate([np.c_[f, np.roll(f, -1)] for f in faces])
+    fwd = {(int(a), int(b)) for a, b in edges}
+    return len(fwd) == len(edges) and all((b, a) in fwd for a, b in fwd)
 
 
 # -------------------------------------------------------------------------------- caching
