@@ -12,10 +12,11 @@
    -F at p2 on cell 1 is the arm p1 - x1 plus the turn of n: (k_p - k_tp) dn (delta x n) for the
    intact spring), and forces that share their point of action conserve angular momentum.
 
-   Per-slot state (per atom and bond slot, in a hidden fix property/atom): header, then per
-   point the contact reference shift s, the slip offset sigma (cell 1's body frame), the
-   in-contact flag, the last damping force and power (damping-work quadrature) and the last
-   tangential contact force (friction work). */
+   Per-slot state (per atom and bond slot, in a hidden fix property/atom): header, then the
+   damping force of each point at the last evaluation (damping-work quadrature), then per point
+   the contact reference shift s, the slip offset sigma (cell 1's body frame), the in-contact
+   flag and the last tangential contact force (friction work). The force loop works on a copy
+   of the state in bondlist order (rebuilt at reneighboring, written back by sync_store()). */
 
 #include "bond_bcm_griffith.h"
 
@@ -60,19 +61,36 @@ enum {
   H_W_SWITCH,      // energy dissipated at the switch (see compute())
   H_LAST_KIND,     // kind of the last evaluation (EvalKind)
   H_LAST_DT,       // time step of the last evaluation
+  H_PD,            // power dissipated by damping at the last evaluation, -sum F_d . dv
   NHEAD
 };
 
-// per point, after the header
+// After the header, the damping forces of the last evaluation, 3 per point (F_d on cell 2:
+// the only per-point state an intact interface reads and writes, kept together), then the
+// contact state of the points of a broken interface, NCONTACT per point:
 enum {
-  P_SHIFT,        // s: contact overlap reference
-  P_SLIP,         // sigma (3): slip offset in cell 1's body frame, u_t = dt - R1 sigma
-  P_TOUCH = 4,    // 1 while the point is a closed contact
-  P_FD,           // damping force (3) on cell 2 at the last evaluation
-  P_PD = 8,       // its dissipated power -F_d . dv at the last evaluation
-  P_FT,           // magnitude of the tangential contact force at the last evaluation
-  NPOINT
+  C_SHIFT,        // s: contact overlap reference
+  C_SLIP,         // sigma (3): slip offset in cell 1's body frame, u_t = dt - R1 sigma
+  C_TOUCH = 4,    // 1 while the point is a closed contact
+  C_FT,           // magnitude of the tangential contact force at the last evaluation
+  NCONTACT
 };
+constexpr int NPOINT = 3 + NCONTACT;    // doubles per point in a slot
+
+// record of a bondlist entry in the working copy: these constants, the slot's header and
+// damping forces (NHEAD + 3 N_p), the geometry (normal in cell 1's frame, then b1, b2 per
+// point: 3 + 6 N_p)
+enum {
+  K_AREA,    // S
+  K_KP,      // k_n / N_p
+  K_KTP,     // k_t / N_p
+  K_CP,      // 2 alpha sqrt(k_n m) / N_p
+  K_KC,      // contact k_n / N_p
+  K_KTC,     // contact k_t / N_p
+  K_CC,      // contact 2 alpha_c sqrt(k_n,c m) / N_p
+  NCONST
+};
+inline long record_size(int npts) { return NCONST + NHEAD + 3 * npts + 3 + 6 * npts; }
 
 // what the last force evaluation was: it decides which half kicks used its damping force
 enum EvalKind { EVAL_NONE = 0, EVAL_SETUP = 1, EVAL_STEP = 2 };
@@ -99,7 +117,8 @@ bool parse_double(const std::string &s, double &out)
 BondBcmGriffith::BondBcmGriffith(LAMMPS *_lmp) :
     Bond(_lmp), kn(nullptr), kt(nullptr), en2(nullptr), gc(nullptr), kn_c(nullptr),
     kt_c(nullptr), en2_c(nullptr), mu(nullptr), alpha(nullptr), alpha_c(nullptr),
-    convention(STORED), maxpts(0), reference_taken(0), span_max(0.0), cache_valid(false),
+    convention(STORED), maxpts(0), reference_taken(0), span_max(0.0), cache_store(nullptr),
+    cache_valid(false), dirty(false),
     store_index(-1), slot_size(0), iquat(-1), nevaluations(0)
 {
   writedata = 1;
@@ -453,6 +472,7 @@ void BondBcmGriffith::init_style()
                "in the topology", interfaces.size(), total);
 
   if (!reference_taken) take_reference();
+  sync_store();
   cache_valid = false;
 }
 
@@ -557,14 +577,19 @@ void BondBcmGriffith::take_reference()
 }
 
 /* ----------------------------------------------------------------------
-   per bondlist entry: interface, cells in ID order, state slots. With
-   newton_bond off the neighbor code lists a bond from its owned atom
-   (first in the entry); the partner's copy is updated too when it is owned
-   here (the bond is then listed once).
+   the working copy of the bond list's interfaces, from the per-atom store:
+   per entry the cells in ID order, the state slots (with newton_bond off the
+   neighbor code lists a bond from an owned atom; the partner's copy is
+   written too when the partner is owned here, the bond then being listed
+   once), and a record with the constants, the state and the geometry
 ------------------------------------------------------------------------- */
 
 void BondBcmGriffith::rebuild_cache()
 {
+  // the previous working copy must be in the store before it is read back; when the atoms
+  // moved since, it was written at pre_exchange (fix bcm/griffith)
+  if (dirty) sync_store();
+
   double **store = atom->darray[store_index];
   const tagint *tag = atom->tag;
   const int nlocal = atom->nlocal;
@@ -572,6 +597,9 @@ void BondBcmGriffith::rebuild_cache()
   const int nbondlist = neighbor->nbondlist;
 
   cache.resize(nbondlist);
+  cache_tags.resize(2 * (size_t) nbondlist);
+  std::vector<int> iface_of(nbondlist);
+  long nrec = 0, ncontact = 0;
   for (int n = 0; n < nbondlist; n++) {
     int i1 = bondlist[n][0], i2 = bondlist[n][1];
     if (i1 >= nlocal) std::swap(i1, i2);
@@ -579,10 +607,11 @@ void BondBcmGriffith::rebuild_cache()
       error->one(FLERR, "bond_style bcm/griffith: bond {}-{} has no owned atom", tag[i1],
                  tag[i2]);
     Entry &e = cache[n];
-    e.iface = find_interface(tag[i1], tag[i2]);
-    if (e.iface < 0)
+    const int iface = find_interface(tag[i1], tag[i2]);
+    if (iface < 0)
       error->one(FLERR, "bond_style bcm/griffith: bond {}-{} has no interface (bonds created "
                  "during a run are not supported)", tag[i1], tag[i2]);
+    iface_of[n] = iface;
     const int m = BreakableUtil::bond_slot(atom, i1, tag[i2]);
     if (m < 0)
       error->one(FLERR, "bond_style bcm/griffith: bond {}-{} of the bond list is not in the "
@@ -600,8 +629,99 @@ void BondBcmGriffith::rebuild_cache()
       e.c1 = i2;
       e.c2 = i1;
     }
+    cache_tags[2 * n] = tag[e.c1];
+    cache_tags[2 * n + 1] = tag[e.c2];
+    e.npts = interfaces[iface].npts;
+    e.roff = nrec;
+    e.coff = ncontact;
+    nrec += record_size(e.npts);
+    ncontact += NCONTACT * e.npts;
   }
+
+  records.resize(nrec);
+  contact.resize(ncontact);
+  for (int n = 0; n < nbondlist; n++) {
+    const Entry &e = cache[n];
+    const int np = e.npts;
+    const Interface &itf = interfaces[iface_of[n]];
+    double *rec = &records[e.roff];
+    rec[K_AREA] = itf.area;
+    cache[n].type = bondlist[n][2];
+    set_constants(e, bondlist[n][2], rec);
+    // state: slot header and damping forces, then the contact state apart
+    std::copy(e.slot, e.slot + NHEAD + 3 * np, rec + NCONST);
+    std::copy(e.slot + NHEAD + 3 * np, e.slot + NHEAD + NPOINT * np, &contact[e.coff]);
+    // geometry: normal in cell 1's frame, then per point b1 and b2
+    const double *g = &body[itf.boff];
+    double *out = rec + NCONST + NHEAD + 3 * np;
+    for (int c = 0; c < 3; c++) out[c] = g[c];
+    for (int k = 0; k < np; k++)
+      for (int c = 0; c < 3; c++) {
+        out[3 + 6 * k + c] = g[3 + 3 * k + c];
+        out[6 + 6 * k + c] = g[3 + 3 * (np + k) + c];
+      }
+  }
+  cache_store = atom->nmax > 0 ? store[0] : nullptr;
   cache_valid = true;
+  dirty = false;
+}
+
+/* ----------------------------------------------------------------------
+   per-point constants of an entry's interface for bond type `type`
+   (SPEC 1.2: the whole-interface stiffness and damping shared by N_p points)
+------------------------------------------------------------------------- */
+
+void BondBcmGriffith::set_constants(const Entry &e, int type, double *rec) const
+{
+  if (type <= 0) return;
+  const int np = e.npts;
+  const double m1 = atom->rmass[e.c1], m2 = atom->rmass[e.c2];
+  const double mred = m1 * m2 / (m1 + m2);
+  rec[K_KP] = kn[type] / np;
+  rec[K_KTP] = kt[type] / np;
+  rec[K_CP] = 2.0 * alpha[type] * std::sqrt(kn[type] * mred) / np;
+  rec[K_KC] = kn_c[type] / np;
+  rec[K_KTC] = kt_c[type] / np;
+  rec[K_CC] = 2.0 * alpha_c[type] * std::sqrt(kn_c[type] * mred) / np;
+}
+
+/* ----------------------------------------------------------------------
+   the working copy back into the per-atom store, both copies of each
+   interface. Its slots are those of the atoms when the cache was built:
+   atoms must not have moved or been reordered since (fix bcm/griffith calls
+   this at pre_exchange, before they do).
+------------------------------------------------------------------------- */
+
+void BondBcmGriffith::sync_store()
+{
+  if (!dirty) return;
+  dirty = false;
+  if (!cache_valid || cache.empty()) return;
+  const tagint *tag = atom->tag;
+  const int nall = atom->nlocal + atom->nghost;
+  double **store = atom->darray[store_index];
+  bool moved = (atom->nmax > 0 ? store[0] : nullptr) != cache_store;
+  const int ncache = (int) cache.size();
+  for (int n = 0; n < ncache && !moved; n++) {
+    const Entry &e = cache[n];
+    moved = e.c1 >= nall || e.c2 >= nall || tag[e.c1] != cache_tags[2 * n] ||
+        tag[e.c2] != cache_tags[2 * n + 1];
+  }
+  if (moved)
+    error->one(FLERR, "bond_style bcm/griffith: the cells moved in memory before the interface "
+               "state was saved (a fix that exchanges atoms before fix {} does?)",
+               FixBcmGriffith::ID);
+  for (int n = 0; n < ncache; n++) {
+    const Entry &e = cache[n];
+    const int np = e.npts;
+    const double *state = &records[e.roff + NCONST];
+    const double *cstate = &contact[e.coff];
+    for (double *dest : {e.slot, e.twin}) {
+      if (!dest) continue;
+      std::copy(state, state + NHEAD + 3 * np, dest);
+      std::copy(cstate, cstate + NCONTACT * np, dest + NHEAD + 3 * np);
+    }
+  }
 }
 
 /* ---------------------------------------------------------------------- */
@@ -613,26 +733,33 @@ void BondBcmGriffith::compute(int eflag, int vflag)
   if (!cache_valid || neighbor->ago == 0 || (int) cache.size() != neighbor->nbondlist)
     rebuild_cache();
   nevaluations++;
+  dirty = true;
 
   double **x = atom->x;
   double **v = atom->v;
   double **f = atom->f;
   double **omega = atom->omega;
   double **torque = atom->torque;
-  const double *rmass = atom->rmass;
   double **quat = atom->darray[iquat];
   const int nlocal = atom->nlocal;
   const int nall = nlocal + atom->nghost;
   int **bondlist = neighbor->bondlist;
   const int nbondlist = neighbor->nbondlist;
 
-  // orientation of every cell once per evaluation
-  rot.resize(9 * (size_t) nall);
+  // centre, velocity, angular velocity and orientation of every cell, once per evaluation,
+  // packed per cell
+  cells.resize(CELL_STRIDE * (size_t) nall);
   for (int i = 0; i < nall; i++) {
+    double *cell = &cells[CELL_STRIDE * (size_t) i];
+    for (int c = 0; c < 3; c++) {
+      cell[c] = x[i][c];
+      cell[3 + c] = v[i][c];
+      cell[6 + c] = omega[i][c];
+    }
     double q[4] = {quat[i][0], quat[i][1], quat[i][2], quat[i][3]};
     const double qq = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
     if (qq > 0.0) BcmRigid::normalize_quat(q);
-    BcmRigid::quat_to_mat(q, reinterpret_cast<double(*)[3]>(&rot[9 * (size_t) i]));
+    BcmRigid::quat_to_mat(q, reinterpret_cast<double(*)[3]>(cell + 9));
   }
 
   const int kind = (update->whichflag == 1) ? (update->setupflag ? EVAL_SETUP : EVAL_STEP)
@@ -641,76 +768,96 @@ void BondBcmGriffith::compute(int eflag, int vflag)
   const bigint step = update->ntimestep;
   const double time = update->atime + (double) (step - update->atimestep) * dt;
 
-  double r2[MAX_POINTS][3], arm1[MAX_POINTS][3], dn[MAX_POINTS], dtan[MAX_POINTS][3],
-      dv[MAX_POINTS][3];
+  double r2[MAX_POINTS][3], dn[MAX_POINTS], dtan[MAX_POINTS][3], dv[MAX_POINTS][3];
 
   for (int nb = 0; nb < nbondlist; nb++) {
     const int type = bondlist[nb][2];
     if (type <= 0) continue;
-    const Entry &e = cache[nb];
-    const Interface &itf = interfaces[e.iface];
-    const int np = itf.npts;
+    Entry &e = cache[nb];
+    const int np = e.npts;
     const int c1 = e.c1, c2 = e.c2;
-    double *slot = e.slot;
+    double *rec = &records[e.roff];
+    if (type != e.type) {
+      set_constants(e, type, rec);
+      e.type = type;
+    }
+    double *slot = rec + NCONST;    // working copy of the slot: header, damping forces
+    double *fdamp = slot + NHEAD;
+    const double *g = fdamp + 3 * np;
 
     // ---- kinematics of the points (SPEC 1.2: contact point kinematics)
-    const double(*R1)[3] = reinterpret_cast<const double(*)[3]>(&rot[9 * (size_t) c1]);
-    const double(*R2)[3] = reinterpret_cast<const double(*)[3]>(&rot[9 * (size_t) c2]);
-    const double *g = &body[itf.boff];
-    double n[3], d12[3];
+    const double *cell1 = &cells[CELL_STRIDE * (size_t) c1];
+    const double *cell2 = &cells[CELL_STRIDE * (size_t) c2];
+    const double(*R1)[3] = reinterpret_cast<const double(*)[3]>(cell1 + 9);
+    const double(*R2)[3] = reinterpret_cast<const double(*)[3]>(cell2 + 9);
+    const double *w1 = cell1 + 6, *w2 = cell2 + 6;
+    double n[3], d12[3], v12[3];
     BcmRigid::rotate(R1, g, n);
-    for (int c = 0; c < 3; c++) d12[c] = x[c2][c] - x[c1][c];
-    for (int k = 0; k < np; k++) {
-      double r1[3], w[3];
-      BcmRigid::rotate(R1, g + 3 + 3 * k, r1);
-      BcmRigid::rotate(R2, g + 3 + 3 * (np + k), r2[k]);
-      double delta[3];
-      for (int c = 0; c < 3; c++) {
-        arm1[k][c] = d12[c] + r2[k][c];
-        delta[c] = arm1[k][c] - r1[c];
-      }
-      dn[k] = dot(delta, n);
-      for (int c = 0; c < 3; c++) dtan[k][c] = delta[c] - dn[k] * n[c];
-      double w1[3];
-      cross(omega[c2], r2[k], w);
-      cross(omega[c1], arm1[k], w1);
-      for (int c = 0; c < 3; c++) dv[k][c] = v[c2][c] + w[c] - v[c1][c] - w1[c];
+    for (int c = 0; c < 3; c++) {
+      d12[c] = cell2[c] - cell1[c];
+      v12[c] = cell2[3 + c] - cell1[3 + c];
     }
 
-    // ---- damping work of the previous evaluation, now that the velocity after its kicks
-    // is known: nkicks (h/4) F_d . (dv_then + dv_now), the exact work of a force held over
-    // half kicks in velocity Verlet (translation; second order with rotation)
     const int last = (int) slot[H_LAST_KIND];
-    if (last != EVAL_NONE && kind != EVAL_NONE) {
-      const int nkicks = (last == EVAL_STEP) + (kind == EVAL_STEP);
-      if (nkicks) {
-        double w = 0.0;
-        for (int k = 0; k < np; k++) {
-          const double *pt = slot + NHEAD + NPOINT * k;
-          w += pt[P_PD] - dot(pt + P_FD, dv[k]);
-        }
-        slot[H_W_DAMP] += 0.25 * nkicks * slot[H_LAST_DT] * w;
-      }
-    }
-
-    const double m1 = rmass[c1], m2 = rmass[c2];
-    const double mred = m1 * m2 / (m1 + m2);
-    const double kp = kn[type] / np, ktp = kt[type] / np;
-    const double kc = kn_c[type] / np, ktc = kt_c[type] / np;
+    const int nkicks =
+        (last != EVAL_NONE && kind != EVAL_NONE) ? (last == EVAL_STEP) + (kind == EVAL_STEP) : 0;
     bool broken = slot[H_BROKEN] != 0.0;
     bool just_broke = false;
     double e_before = 0.0;
-    const double wf = 2.0 * itf.area * gc[type];
+    const double area = rec[K_AREA];
+    const double kp = rec[K_KP], ktp = rec[K_KTP], cp = rec[K_CP];
 
-    // ---- Griffith criterion (SPEC 1.2 Eq. 4-6) on the elastic parts, before any force
+    // the damping forces of the last evaluation times the relative velocities now, for the
+    // damping work settled below
+    double fd_dv = 0.0;
+
+    double ftot[3] = {0.0, 0.0, 0.0}, t2[3] = {0.0, 0.0, 0.0};
+    double e_total = 0.0, pd = 0.0;
+
     if (!broken) {
-      double e_el = 0.0, e_tension = 0.0;
+      // ---- intact interface, one pass: kinematics, energies and the forces of the intact
+      // law (SPEC 1.2 Eq. 1, 3: per point k_n / N_p, k_t / N_p, 2 alpha sqrt(k_n m) / N_p).
+      // Should the Griffith criterion break the interface, the forces are recomputed below
+      // by the contact law from the kinematics kept here.
+      double e_tension = 0.0;
       for (int k = 0; k < np; k++) {
-        const double en = 0.5 * kp * dn[k] * dn[k];
+        const double *b = g + 3 + 6 * k;
+        double r1[3], delta[3], arm1[3], wa[3], wb[3];
+        BcmRigid::rotate(R1, b, r1);
+        BcmRigid::rotate(R2, b + 3, r2[k]);
+        for (int c = 0; c < 3; c++) {
+          arm1[c] = d12[c] + r2[k][c];
+          delta[c] = arm1[c] - r1[c];
+        }
+        const double dnk = dot(delta, n);
+        dn[k] = dnk;
+        for (int c = 0; c < 3; c++) dtan[k][c] = delta[c] - dnk * n[c];
+        cross(w2, r2[k], wa);
+        cross(w1, arm1, wb);
+        for (int c = 0; c < 3; c++) dv[k][c] = v12[c] + wa[c] - wb[c];
+
+        const double en = 0.5 * kp * dnk * dnk;
         const double et = 0.5 * ktp * dot(dtan[k], dtan[k]);
-        e_el += en + et;
-        e_tension += (dn[k] > 0.0 ? en : 0.0) + et;
+        e_total += en + et;
+        e_tension += (dnk > 0.0 ? en : 0.0) + et;
+
+        double *fd = fdamp + 3 * k;
+        fd_dv += dot(fd, dv[k]);
+        double F[3];
+        for (int c = 0; c < 3; c++) {
+          fd[c] = -cp * dv[k][c];
+          F[c] = -(kp * dnk * n[c] + ktp * dtan[k][c]) + fd[c];
+        }
+        pd -= dot(fd, dv[k]);
+        double tq[3];
+        cross(r2[k], F, tq);
+        for (int c = 0; c < 3; c++) {
+          ftot[c] += F[c];
+          t2[c] += tq[c];
+        }
       }
+
+      // ---- Griffith criterion (SPEC 1.2 Eq. 4-6) on the elastic parts, before any force.
       // Delta W_p per convention: stored energy; whole-interface k at every point (N_p
       // times); per-point forces over the whole-interface k (1/N_p times)
       double dwp = e_tension;
@@ -718,60 +865,77 @@ void BondBcmGriffith::compute(int eflag, int vflag)
         dwp *= np;
       else if (convention == LITERAL)
         dwp /= np;
-      if (dwp / (2.0 * itf.area) >= gc[type]) {
+      if (dwp / (2.0 * area) >= gc[type]) {
         broken = just_broke = true;
-        e_before = e_el;
+        e_before = e_total;
         slot[H_BROKEN] = 1.0;
         slot[H_BREAK_STEP] = (double) step;
         slot[H_BREAK_TIME] = time;
-        slot[H_E_BREAK] = e_el;
+        slot[H_E_BREAK] = e_total;
         // the switch (SPEC 1.2): a point in compression keeps its normal force,
         // k_c (dn - s) = k_p dn, and its tangential force, u_t = (k_tp / k_tc) dt
+        double *cb = &contact[e.coff];
         for (int k = 0; k < np; k++) {
-          double *pt = slot + NHEAD + NPOINT * k;
+          double *pt = cb + NCONTACT * k;
           const bool closed = dn[k] < 0.0;
-          pt[P_SHIFT] = closed ? dn[k] * (1.0 - kp / kc) : 0.0;
-          pt[P_TOUCH] = closed ? 1.0 : 0.0;
+          pt[C_SHIFT] = closed ? dn[k] * (1.0 - kp / rec[K_KC]) : 0.0;
+          pt[C_TOUCH] = closed ? 1.0 : 0.0;
           double slip[3];
-          const double keep = closed ? 1.0 - ktp / ktc : 1.0;
+          const double keep = closed ? 1.0 - ktp / rec[K_KTC] : 1.0;
           for (int c = 0; c < 3; c++) slip[c] = keep * dtan[k][c];
-          BcmRigid::rotate_back(R1, slip, pt + P_SLIP);
+          BcmRigid::rotate_back(R1, slip, pt + C_SLIP);
+          pt[C_FT] = 0.0;
         }
+      }
+    } else {
+      for (int k = 0; k < np; k++) {
+        const double *b = g + 3 + 6 * k;
+        double r1[3], delta[3], arm1[3], wa[3], wb[3];
+        BcmRigid::rotate(R1, b, r1);
+        BcmRigid::rotate(R2, b + 3, r2[k]);
+        for (int c = 0; c < 3; c++) {
+          arm1[c] = d12[c] + r2[k][c];
+          delta[c] = arm1[c] - r1[c];
+        }
+        dn[k] = dot(delta, n);
+        for (int c = 0; c < 3; c++) dtan[k][c] = delta[c] - dn[k] * n[c];
+        cross(w2, r2[k], wa);
+        cross(w1, arm1, wb);
+        for (int c = 0; c < 3; c++) dv[k][c] = v12[c] + wa[c] - wb[c];
+        fd_dv += dot(fdamp + 3 * k, dv[k]);
       }
     }
 
-    // ---- forces per point
-    double ftot[3] = {0.0, 0.0, 0.0}, t1[3] = {0.0, 0.0, 0.0}, t2[3] = {0.0, 0.0, 0.0};
-    double e_total = 0.0, fric = 0.0, unpaid = 0.0;
-    const double cp = 2.0 * alpha[type] * std::sqrt(kn[type] * mred) / np;
-    const double cc = 2.0 * alpha_c[type] * std::sqrt(kn_c[type] * mred) / np;
-    for (int k = 0; k < np; k++) {
-      double *pt = slot + NHEAD + NPOINT * k;
-      double F[3], Fd[3];
-      if (!broken) {
-        // SPEC 1.2 Eq. 1, 3: intact spring-dashpot, per point k_n / N_p, k_t / N_p and
-        // 2 alpha sqrt(k_n m) / N_p
-        for (int c = 0; c < 3; c++) {
-          Fd[c] = -cp * dv[k][c];
-          F[c] = -(kp * dn[k] * n[c] + ktp * dtan[k][c]) + Fd[c];
-        }
-        e_total += 0.5 * kp * dn[k] * dn[k] + 0.5 * ktp * dot(dtan[k], dtan[k]);
-      } else {
-        // SPEC 1.2 Eq. 1, 7: cohesionless frictional contact
-        const double gap = dn[k] - pt[P_SHIFT];
+    // ---- damping work of the previous evaluation, now that the velocity after its kicks
+    // is known: nkicks (h/4) F_d . (dv_then + dv_now), the exact work of a force held over
+    // half kicks in velocity Verlet (translation; second order with rotation)
+    if (nkicks) slot[H_W_DAMP] += 0.25 * nkicks * slot[H_LAST_DT] * (slot[H_PD] - fd_dv);
+
+    // ---- broken interface: cohesionless frictional contacts (SPEC 1.2 Eq. 1, 7)
+    if (broken) {
+      for (int c = 0; c < 3; c++) ftot[c] = t2[c] = 0.0;
+      e_total = pd = 0.0;
+      double fric = 0.0, unpaid = 0.0;
+      const double kc = rec[K_KC], ktc = rec[K_KTC], cc = rec[K_CC], muf = mu[type];
+      double *cb = &contact[e.coff];
+      for (int k = 0; k < np; k++) {
+        double *pt = cb + NCONTACT * k;
+        double *fd = fdamp + 3 * k;
+        double F[3];
+        const double gap = dn[k] - pt[C_SHIFT];
         if (gap < 0.0) {
           double slip[3], u[3];
-          if (pt[P_TOUCH] == 0.0) {    // contact onset: the tangential spring starts unloaded
-            BcmRigid::rotate_back(R1, dtan[k], pt + P_SLIP);
-            pt[P_TOUCH] = 1.0;
+          if (pt[C_TOUCH] == 0.0) {    // contact onset: the tangential spring starts unloaded
+            BcmRigid::rotate_back(R1, dtan[k], pt + C_SLIP);
+            pt[C_TOUCH] = 1.0;
           }
           const double fn_el = -kc * gap;
           double fn = fn_el - cc * dot(dv[k], n);
           if (fn < 0.0) fn = 0.0;    // damping may not pull
-          BcmRigid::rotate(R1, pt + P_SLIP, slip);
+          BcmRigid::rotate(R1, pt + C_SLIP, slip);
           for (int c = 0; c < 3; c++) u[c] = dtan[k][c] - slip[c];
           const double uu = dot(u, u);
-          const double limit = mu[type] * fn;
+          const double limit = muf * fn;
           if (ktc * ktc * uu > limit * limit) {
             // Coulomb limit: the spring is brought back to |k_tc u| = mu f_n along u, the
             // rest of the tangential displacement becomes slip. Dissipated: the mean of the
@@ -779,64 +943,66 @@ void BondBcmGriffith::compute(int eflag, int vflag)
             // work of the force less the change of the spring energy over the step
             const double len = std::sqrt(uu);
             const double scale = limit / (ktc * len);
-            fric += 0.5 * (pt[P_FT] + limit) * len * (1.0 - scale);
+            fric += 0.5 * (pt[C_FT] + limit) * len * (1.0 - scale);
             for (int c = 0; c < 3; c++) {
               u[c] *= scale;
               slip[c] = dtan[k][c] - u[c];
             }
-            BcmRigid::rotate_back(R1, slip, pt + P_SLIP);
+            BcmRigid::rotate_back(R1, slip, pt + C_SLIP);
           }
           for (int c = 0; c < 3; c++) {
-            Fd[c] = (fn - fn_el) * n[c];
+            fd[c] = (fn - fn_el) * n[c];
             F[c] = fn * n[c] - ktc * u[c];
           }
-          pt[P_FT] = ktc * std::sqrt(dot(u, u));
+          pt[C_FT] = ktc * std::sqrt(dot(u, u));
           e_total += 0.5 * kc * gap * gap + 0.5 * ktc * dot(u, u);
         } else {
-          if (pt[P_TOUCH] != 0.0) {    // opening: the tangential spring slips free (f_n = 0)
+          if (pt[C_TOUCH] != 0.0) {    // opening: the tangential spring slips free (f_n = 0)
             double slip[3], u[3];
-            BcmRigid::rotate(R1, pt + P_SLIP, slip);
+            BcmRigid::rotate(R1, pt + C_SLIP, slip);
             for (int c = 0; c < 3; c++) u[c] = dtan[k][c] - slip[c];
-            fric += 0.5 * pt[P_FT] * std::sqrt(dot(u, u));
-            pt[P_TOUCH] = 0.0;
+            fric += 0.5 * pt[C_FT] * std::sqrt(dot(u, u));
+            pt[C_TOUCH] = 0.0;
           }
-          pt[P_FT] = 0.0;
-          for (int c = 0; c < 3; c++) F[c] = Fd[c] = 0.0;
+          pt[C_FT] = 0.0;
+          for (int c = 0; c < 3; c++) F[c] = fd[c] = 0.0;
         }
         if (just_broke) {
           // the intact springs' force at this step was replaced before its half kick:
           // (F_contact - F_intact) . dv, elastic parts
           for (int c = 0; c < 3; c++)
-            unpaid += (F[c] - Fd[c] + kp * dn[k] * n[c] + ktp * dtan[k][c]) * dv[k][c];
+            unpaid += (F[c] - fd[c] + kp * dn[k] * n[c] + ktp * dtan[k][c]) * dv[k][c];
+        }
+        pd -= dot(fd, dv[k]);
+        double tq[3];
+        cross(r2[k], F, tq);
+        for (int c = 0; c < 3; c++) {
+          ftot[c] += F[c];
+          t2[c] += tq[c];
         }
       }
 
-      pt[P_FD] = Fd[0];
-      pt[P_FD + 1] = Fd[1];
-      pt[P_FD + 2] = Fd[2];
-      pt[P_PD] = -dot(Fd, dv[k]);
-
-      double tq[3];
-      for (int c = 0; c < 3; c++) ftot[c] += F[c];
-      cross(r2[k], F, tq);
-      for (int c = 0; c < 3; c++) t2[c] += tq[c];
-      cross(arm1[k], F, tq);
-      for (int c = 0; c < 3; c++) t1[c] -= tq[c];
+      // SPEC 1.2 switch: stored before - stored after - 2 S G_c (a Coulomb cap at the switch
+      // included). The break falls between two steps: the bodies paid the intact springs'
+      // last increment only for the half kick before the break, (h/2) (F_contact -
+      // F_intact) . dv short, which is taken off so that the energy balance closes to O(h^2)
+      if (just_broke)
+        slot[H_W_SWITCH] += e_before - e_total - 2.0 * area * gc[type] -
+            (kind == EVAL_STEP ? 0.5 * dt * unpaid : 0.0);
+      else
+        slot[H_W_FRIC] += fric;
     }
 
-    // SPEC 1.2 switch: stored before - stored after - 2 S G_c (a Coulomb cap at the switch
-    // included). The break falls between two steps: the bodies paid the intact springs' last
-    // increment only for the half kick before the break, (h/2) (F_contact - F_intact) . dv
-    // short, which is taken off so that the energy balance closes to O(h^2)
-    if (just_broke)
-      slot[H_W_SWITCH] +=
-          e_before - e_total - wf - (kind == EVAL_STEP ? 0.5 * dt * unpaid : 0.0);
-    else
-      slot[H_W_FRIC] += fric;
+    slot[H_PD] = pd;
     slot[H_E_EL] = e_total;
     slot[H_LAST_KIND] = kind;
     slot[H_LAST_DT] = dt;
-    if (e.twin) std::copy(slot, slot + slot_size, e.twin);
+
+    // every force acts on cell 2 at p2 and, reversed, on cell 1 at the same point:
+    // torque on cell 1 = -sum (d12 + r2) x F = -(d12 x ftot + t2)
+    double t1[3];
+    cross(d12, ftot, t1);
+    for (int c = 0; c < 3; c++) t1[c] = -(t1[c] + t2[c]);
 
     // newton_bond is off: each rank adds forces and torques to its owned cells only
     if (c1 < nlocal)
@@ -890,6 +1056,7 @@ double BondBcmGriffith::single(int type, double /*rsq*/, int i, int j, double &f
   fforce = 0.0;
   for (int k = 0; k < single_extra; k++) svector[k] = 0.0;
   if (type <= 0) return 0.0;
+  sync_store();
   const double *slot = slot_of(i, j);
   const int ii = find_interface(atom->tag[i], atom->tag[j]);
   const bool broken = slot[H_BROKEN] != 0.0;
@@ -912,6 +1079,7 @@ void BondBcmGriffith::tally(double *sums)
 {
   for (int k = 0; k < NVECTOR; k++) sums[k] = 0.0;
   if (store_index < 0) return;
+  sync_store();
   double **store = atom->darray[store_index];
   const tagint *tag = atom->tag;
   const int nlocal = atom->nlocal;
@@ -932,9 +1100,7 @@ void BondBcmGriffith::tally(double *sums)
         sums[0] += 1.0;
       }
       sums[4] += slot[H_E_EL];
-      double pending = 0.0;
-      if ((int) slot[H_LAST_KIND] == EVAL_STEP)
-        for (int k = 0; k < itf.npts; k++) pending += slot[NHEAD + NPOINT * k + P_PD];
+      const double pending = (int) slot[H_LAST_KIND] == EVAL_STEP ? slot[H_PD] : 0.0;
       sums[5] += slot[H_W_DAMP] + 0.5 * slot[H_LAST_DT] * pending;
       sums[6] += slot[H_W_FRIC];
       sums[7] += slot[H_W_SWITCH];
@@ -1065,7 +1231,8 @@ double BondBcmGriffith::memory_usage()
 {
   double bytes = Bond::memory_usage();
   bytes += (double) cache.capacity() * sizeof(Entry);
-  bytes += (double) rot.capacity() * sizeof(double);
+  bytes += (double) (cells.capacity() + records.capacity() + contact.capacity()) * sizeof(double);
+  bytes += (double) cache_tags.capacity() * sizeof(tagint);
   bytes += (double) (space.capacity() + body.capacity()) * sizeof(double);
   bytes += (double) interfaces.capacity() * sizeof(Interface);
   return bytes;

@@ -41,6 +41,10 @@ class BondBcmGriffith : public Bond {
   void tally(double *sums);
   // force evaluations so far: changes whenever the per-interface state may have
   bigint evaluations() const { return nevaluations; }
+  // write the working copy of the interface state back to the per-atom store (both copies
+  // of each interface); called by fix bcm/griffith before atoms move (pre_exchange), before
+  // output and after a run, and before this style reads the store itself
+  void sync_store();
 
  private:
   enum Convention { STORED, ROCKABLE, LITERAL };
@@ -67,16 +71,32 @@ class BondBcmGriffith : public Bond {
   int reference_taken;    // body-frame geometry computed (first init after the file was read)
   double span_max;        // largest distance between bonded centres, reference state
 
-  // per bondlist entry, rebuilt whenever the bondlist is
+  // Working copy of the interfaces of the bond list, rebuilt with it (at each
+  // reneighbouring): per entry one contiguous record in bondlist order holding the per-point
+  // constants, the state read and written at every evaluation (slot header and damping
+  // forces) and the body-frame geometry, so that the force loop streams through memory and
+  // does no look-up; the contact state of broken interfaces apart. The per-atom store is
+  // written back from it (both copies of an interface) only when something may read the
+  // store or move atoms: sync_store().
   struct Entry {
-    int iface;
     int c1, c2;        // local indices of the cells with the smaller and the larger ID
+    int type;          // bond type the constants of the record were taken for
+    int npts;
+    long roff;         // into records
+    long coff;         // into contact: NCONTACT doubles per point
     double *slot;      // state of the interface in the bondlist atom's bond slot
     double *twin;      // the partner's copy when the partner is owned here too, or nullptr
   };
   std::vector<Entry> cache;
+  std::vector<double> records;
+  std::vector<double> contact;
+  std::vector<tagint> cache_tags;    // (tag1, tag2) per entry: checks that the cells stayed
+  double *cache_store;               // store row 0 when the cache was built
   bool cache_valid;
-  std::vector<double> rot;    // rotation matrix of every owned and ghost cell, this evaluation
+  bool dirty;                        // the working copy is ahead of the store
+  // per owned and ghost cell, this evaluation: centre, velocity, angular velocity, rotation
+  static constexpr int CELL_STRIDE = 18;
+  std::vector<double> cells;
 
   int store_index;     // atom->darray index of the per-slot state
   int slot_size;       // doubles per bond slot
@@ -89,6 +109,7 @@ class BondBcmGriffith : public Bond {
   void index_geometry();
   void take_reference();
   void rebuild_cache();
+  void set_constants(const Entry &e, int type, double *rec) const;
   int find_interface(tagint t1, tagint t2) const;
   const double *slot_of(int i, int j) const;
   static long long key(tagint t1, tagint t2);

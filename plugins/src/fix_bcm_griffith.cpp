@@ -4,6 +4,7 @@
 #include "error.h"
 #include "force.h"
 #include "modify.h"
+#include "output.h"
 #include "update.h"
 
 #include <mpi.h>
@@ -33,6 +34,50 @@ FixBcmGriffith *FixBcmGriffith::get_or_create(LAMMPS *lmp)
     lmp->error->all(FLERR, "Fix id {} is taken by a fix of style {}, not bcm/griffith", ID,
                     ifix->style);
   return fix;
+}
+
+/* ---------------------------------------------------------------------- */
+
+int FixBcmGriffith::setmask()
+{
+  return FixConst::PRE_EXCHANGE | FixConst::MIN_PRE_EXCHANGE | FixConst::END_OF_STEP;
+}
+
+/* ----------------------------------------------------------------------
+   the bond style's working copy of the interface state back into the
+   per-atom store: before atoms migrate or are sorted, before output on this
+   step (restart files and dumps read the store), after a run
+------------------------------------------------------------------------- */
+
+void FixBcmGriffith::sync()
+{
+  auto bond = dynamic_cast<BondBcmGriffith *>(force->bond_match("bcm/griffith"));
+  if (bond) bond->sync_store();
+}
+
+void FixBcmGriffith::setup_pre_exchange()
+{
+  sync();
+}
+
+void FixBcmGriffith::pre_exchange()
+{
+  sync();
+}
+
+void FixBcmGriffith::min_pre_exchange()
+{
+  sync();
+}
+
+void FixBcmGriffith::end_of_step()
+{
+  if (update->ntimestep == output->next) sync();
+}
+
+void FixBcmGriffith::post_run()
+{
+  sync();
 }
 
 /* ----------------------------------------------------------------------

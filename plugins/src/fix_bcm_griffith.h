@@ -8,7 +8,10 @@
      [4] fracture energy W_f = 2 A G_c [7] energy dissipated by friction (sliding)
                                       [8] energy dissipated at the switch to contacts
    The per-interface values live in the bond style's per-atom store, so they migrate with
-   their cells and carry on through restart files. */
+   their cells and carry on through restart files. The bond style works on a copy of them
+   laid out in bondlist order; this fix has it written back to the store before atoms move
+   (pre_exchange), before output (a restart file or a dump may read the store) and after a
+   run. */
 
 #ifndef BRITTLE_FIX_BCM_GRIFFITH_H
 #define BRITTLE_FIX_BCM_GRIFFITH_H
@@ -23,7 +26,12 @@ class FixBcmGriffith : public Fix {
 
   FixBcmGriffith(class LAMMPS *, int, char **);
 
-  int setmask() override { return 0; }
+  int setmask() override;
+  void setup_pre_exchange() override;
+  void pre_exchange() override;
+  void min_pre_exchange() override;
+  void end_of_step() override;
+  void post_run() override;
   double compute_vector(int) override;
 
   // the fix with id BCM_GRIFFITH, created first if absent (needs a simulation box)
@@ -31,6 +39,7 @@ class FixBcmGriffith : public Fix {
 
  private:
   double totals[8];
+  void sync();
   bigint cached_step, cached_evaluations;
   bool cached;
 };
