@@ -129,7 +129,8 @@ def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
         "n_fragments": int(len(frags)), "n_fragments_multi_cell": int((~frags.single_cell).sum()),
         "largest_fragment_mass_fraction": float(frags.mass.max() / system["mass"]),
         "broken_interfaces": int(last.broken), "end_time": float(last.time), "end_step": int(last.step),
-        "timestep": system["timestep"], "settled": bool(last.wall_contacts == 0),
+        "timestep": system["timestep"], "settled": bool(last.step < system["max_steps"]),
+        "cells_on_plane_end": int(last.wall_contacts),
         **{f"shape_{k}": v for k, v in shape_averages(frags).items()},
     })
 

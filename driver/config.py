@@ -116,7 +116,7 @@ class ImpactScenario(_Strict):
     settle_window: float = Field(5e-6, gt=0.0, description="window over which the outcome must not change, s")
     ke_tolerance: float = Field(1e-3, gt=0.0, lt=1.0,
                                 description="settled when kinetic energy changes by less than this fraction "
-                                            "over a window with no break and no cell on the plane")
+                                            "over a window with no break and the plane unloaded")
     thermo_every: int = Field(100, ge=1, description="steps between energy records")
     dump_every: int = Field(0, ge=0, description="steps between cell dumps; 0 = start and end only")
 
