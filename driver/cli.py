@@ -106,7 +106,7 @@ def sweep(input_yaml: Path = typer.Argument(..., help="base configuration (YAML)
     rt = Table(*shown)
     for _, row in table.iterrows():
         rt.add_row(*(f"{row[c]:.4g}" if isinstance(row[c], float) else str(row[c]) for c in shown))
-    Console().print(rt)
+    Console(width=max(120, Console().width)).print(rt)
 
 
 @app.command()
