@@ -42,16 +42,15 @@ def deform_args(dimension: int, rate: float) -> str:
 
 
 def pair_coeff_lines(type_diameters: dict[int, float], gamma: float) -> tuple[str, float]:
-    """WCA repulsion and dpd/tstat damping per type pair, both cut at abar = sum of radii."""
+    """pair_style cr/repulsion coefficients per type pair (u = 1, abar = sum of radii, the
+    damping gamma), every pair written out; and the largest abar (the pair cutoff)."""
     lines, max_abar = [], 0.0
     types = sorted(type_diameters)
     for a, ti in enumerate(types):
         for tj in types[a:]:
             abar = 0.5 * (type_diameters[ti] + type_diameters[tj])
             max_abar = max(max_abar, abar)
-            sigma = abar / 2 ** (1 / 6)  # SPEC Eq. 1 is lj/cut with r_min = abar, cut at r_min
-            lines.append(f"pair_coeff      {ti} {tj} lj/cut 1.0 {sigma:.12g} {abar:.12g}")
-            lines.append(f"pair_coeff      {ti} {tj} dpd/tstat {gamma:.12g} {abar:.12g}")
+            lines.append(f"pair_coeff      {ti} {tj} 1.0 {abar:.12g} {gamma:.12g}")
     return "\n".join(lines), max_abar
 
 
@@ -90,8 +89,8 @@ def plan_and_input(cfg: RunConfig, plugin_path: Path, type_diameters: dict[int, 
     text = render(
         "bpm_shear.in",
         package_version=driver.__version__, config_name=cfg.name, plugin_path=plugin_path,
-        dimension=m.dimension, comm_cutoff=f"{comm_cutoff:.6g}", max_abar=f"{max_abar:.12g}",
-        seed=cfg.seed, pair_coeffs=pair_lines, lambda_c=m.lambda_c, gamma=m.gamma, k_A=m.k_A,
+        dimension=m.dimension, comm_cutoff=f"{comm_cutoff:.6g}",
+        pair_coeffs=pair_lines, lambda_c=m.lambda_c, gamma=m.gamma, k_A=m.k_A,
         theta_c_deg=m.theta_c_deg, skin=m.skin, timestep=m.timestep,
         enforce2d="fix             planar all enforce2d" if m.dimension == 2 else "",
         deform_args=deform_args(m.dimension, sc.strain_rate), strain_rate=sc.strain_rate,

@@ -11,15 +11,24 @@
    more stretched arm, equal and opposite on its two atoms. Both parts conserve linear and
    angular momentum, and the total energy is conserved by the dynamics.
 
+   dth without an arc cosine: with c = cos(theta) = d1.d2 / (r1 r2) and s = sin(theta) =
+   |d1 x d2| / (r1 r2) (the cross product keeps s accurate near 0 and pi) and the cached
+   cos(theta0), sin(theta0),
+     sin(dth) = s cos0 - c sin0,   cos(dth) = c cos0 + s sin0,
+   and dth = asin(sin dth) by an odd polynomial while |sin dth| < ASIN_XMAX and cos dth > 0
+   (every intact angle of a type with theta_c below 17 degrees), atan2(sin dth, cos dth)
+   otherwise. Both are exact to rounding, and theta - theta0 lies in [-pi, pi].
+
    The angle breaks (type set to 0 for good) when |dth| >= theta_c, or when an arm's stretch
    r * (1/r0) exceeds lambda_c: the test bond_style breakable/cr makes on the same pair, with
    the same arithmetic, so an angle goes in the step its bond does (when both use the same
-   lambda_c; across periodic images the two references may differ by rounding).
+   lambda_c; across periodic images the two references may differ by rounding). Every rank
+   holding a copy decides with the same arithmetic on the same coordinates.
 
    Storage: theta0, r1_0, r2_0 per atom and angle slot in a hidden fix property/atom (every
-   atom of an angle holds a copy of it, newton_bond being off); compute() reads a copy indexed
-   like neighbor->anglelist. A stored r1_0 of 0 is the value of a fresh slot: it marks an
-   angle whose references have not been taken yet. */
+   atom of an angle holds a copy of it, newton_bond being off); compute() reads a copy of the
+   intact entries of neighbor->anglelist. A stored r1_0 of 0 is the value of a fresh slot: it
+   marks an angle whose references have not been taken yet. */
 
 #include "angle_breakable_cr.h"
 
@@ -44,11 +53,138 @@ static constexpr double SMALL = 0.001;    // floor of sin(theta), as in angle_st
 static const char *const STORE_FIX_ID = "BREAKABLE_CR_ANGLE_REF";
 static const char *const STORE_NAME = "breakable_cr_angle_ref";
 
+namespace {
+
+using BreakableUtil::Lanes2;
+using BreakableUtil::Mask2;
+using BreakableUtil::select_lt;
+using BreakableUtil::vabs;
+using BreakableUtil::vmax;
+using BreakableUtil::vsqrt;
+
+// asin(x) for |x| < ASIN_XMAX = 0.3 (|dth| < 17.46 degrees): x + x z P(z), z = x^2, P of
+// degree 7 interpolating (asin(x) - x) / (x z) at the Chebyshev nodes of [0, 0.09]; relative
+// error below 4e-16 (rounding included). Estrin's scheme keeps the dependency chain short.
+constexpr double ASIN_XMAX = 0.3;
+
+template <class T> inline T asin_small(T x)
+{
+  const T z = x * x;
+  const T z2 = z * z;
+  const T z4 = z2 * z2;
+  const T p01 = 0.1666666666666649 + 0.07500000000250932 * z;
+  const T p23 = 0.04464285655916009 + 0.03038199601727747 * z;
+  const T p45 = 0.02236993042003646 + 0.01740472381582807 * z;
+  const T p67 = 0.01330212710356684 + 0.015818111679304542 * z;
+  const T p = (p01 + p23 * z2) + (p45 + p67 * z2) * z4;
+  return x + x * z * p;
+}
+
+// The arithmetic of one angle, on one value or on two lanes. Every path that decides on an
+// angle (fast and exact passes, single()) goes through it, so all take the same decisions.
+template <class T> struct Angle3 {
+  // in: arm vectors d1 = x1 - x2, d2 = x3 - x2, references
+  T d1x, d1y, d1z, d2x, d2y, d2z;
+  T cos0, sin0, inv_r1_0, inv_r2_0;
+  // geometry
+  T r1, r2, inv_r12, c, s, l1, l2, sd, cd;
+
+  void geometry()
+  {
+    // r as bond_style breakable/cr computes it: the stretch tests must agree bit for bit
+    r1 = vsqrt(d1x * d1x + d1y * d1y + d1z * d1z);
+    r2 = vsqrt(d2x * d2x + d2y * d2y + d2z * d2z);
+    const T dot = d1x * d2x + d1y * d2y + d1z * d2z;
+    const T cx = d1y * d2z - d1z * d2y;
+    const T cy = d1z * d2x - d1x * d2z;
+    const T cz = d1x * d2y - d1y * d2x;
+    const T b = vsqrt(cx * cx + cy * cy + cz * cz);    // r1 r2 sin(theta)
+    inv_r12 = 1.0 / (r1 * r2);
+    c = dot * inv_r12;
+    s = b * inv_r12;
+    l1 = r1 * inv_r1_0;
+    l2 = r2 * inv_r2_0;
+    sd = s * cos0 - c * sin0;    // sin(theta - theta0)
+    cd = c * cos0 + s * sin0;    // cos(theta - theta0)
+  }
+
+  // energy and force coefficients at bend dth (SPEC Eq. 3-4): f1 = a11 d1 + a12 d2,
+  // f3 = a22 d2 + a12 d1, f2 = -f1 - f3
+  T a11, a12, a22, energy;
+
+  void forces(T dth, T k, T inv_thc2, T inv_ec2)
+  {
+    const T inv_s = 1.0 / vmax(s, T{} + SMALL);
+    const T inv_r1 = r2 * inv_r12;
+    const T inv_r2 = r1 * inv_r12;
+
+    // S of the more stretched arm, and dS/dl. eps is clamped at 0 (S = 1, dS = 0); q at 0
+    // only matters by rounding, the arms being within lambda_c r0 here.
+    const T eps = vmax(vmax(l1, l2) - 1.0, T{});
+    const T q = vmax(1.0 - eps * eps * inv_ec2, T{});
+    const T s_fac = q * q;
+
+    // dE/dtheta = k_A S (dth - dth^3 / theta_c^2); E = k_A S g, g = dth^2/2 - dth^4/(4 thc^2)
+    const T dth2 = dth * dth;
+    const T ks = k * s_fac;
+    const T tau = ks * dth * (1.0 - dth2 * inv_thc2);
+    const T g = dth2 * (0.5 - 0.25 * dth2 * inv_thc2);
+    energy = ks * g;
+
+    // radial term -dE/dr = -k_A g (dS/dl) / r0 along the more stretched arm (arm 1 on a
+    // tie), folded into the coefficient of that arm's vector (divided by its length)
+    const T fr = 4.0 * k * g * eps * q * inv_ec2;
+    const T fr1 = select_lt(l1, l2, T{}, fr * inv_r1_0 * inv_r1);
+    const T fr2 = select_lt(l1, l2, fr * inv_r2_0 * inv_r2, T{});
+
+    // angular part as in angle_style harmonic
+    const T aa = -tau * inv_s;
+    a11 = aa * c * inv_r1 * inv_r1 + fr1;
+    a12 = -aa * inv_r12;
+    a22 = aa * c * inv_r2 * inv_r2 + fr2;
+  }
+};
+
+// sin and cos of theta0 (one range reduction for both where the C library offers it)
+inline void sin_cos(double theta, double &s, double &c)
+{
+#if defined(__GLIBC__)
+  sincos(theta, &s, &c);
+#else
+  s = sin(theta);
+  c = cos(theta);
+#endif
+}
+
+// whether dth = asin(sin dth) by the polynomial applies
+inline bool polynomial_range(double sd, double cd)
+{
+  return (fabs(sd) < ASIN_XMAX) & (cd > 0.0);
+}
+
+// dth = theta - theta0 from sin(dth), cos(dth)
+inline double delta_theta(double sd, double cd)
+{
+  return polynomial_range(sd, cd) ? asin_small(sd) : atan2(sd, cd);
+}
+
+inline void arms(const double *x1, const double *x2, const double *x3, Angle3<double> &A)
+{
+  A.d1x = x1[0] - x2[0];
+  A.d1y = x1[1] - x2[1];
+  A.d1z = x1[2] - x2[2];
+  A.d2x = x3[0] - x2[0];
+  A.d2y = x3[1] - x2[1];
+  A.d2z = x3[2] - x2[2];
+}
+
+}    // namespace
+
 /* ---------------------------------------------------------------------- */
 
 AngleBreakableCR::AngleBreakableCR(LAMMPS *_lmp) :
-    Angle(_lmp), k(nullptr), theta_c(nullptr), lambda_c(nullptr), inv_thc2(nullptr),
-    inv_ec2(nullptr), cache_valid(false), store_index(-1), special(nullptr)
+    Angle(_lmp), k(nullptr), theta_c(nullptr), lambda_c(nullptr), cached_nanglelist(-1),
+    store_index(-1), special(nullptr)
 {
   writedata = 1;
   born_matrix_enable = 0;
@@ -66,8 +202,6 @@ AngleBreakableCR::~AngleBreakableCR()
     memory->destroy(k);
     memory->destroy(theta_c);
     memory->destroy(lambda_c);
-    memory->destroy(inv_thc2);
-    memory->destroy(inv_ec2);
   }
 }
 
@@ -80,9 +214,8 @@ void AngleBreakableCR::allocate()
   memory->create(k, n, "angle:k");
   memory->create(theta_c, n, "angle:theta_c");
   memory->create(lambda_c, n, "angle:lambda_c");
-  memory->create(inv_thc2, n, "angle:inv_thc2");
-  memory->create(inv_ec2, n, "angle:inv_ec2");
   memory->create(setflag, n, "angle:setflag");
+  params.assign(n, TypeParams{0.0, 0.0, 0.0, 0.0, 0.0});
   for (int i = 1; i < n; i++) setflag[i] = 0;
 }
 
@@ -90,9 +223,9 @@ void AngleBreakableCR::allocate()
 
 void AngleBreakableCR::derive(int type)
 {
-  inv_thc2[type] = 1.0 / (theta_c[type] * theta_c[type]);
   const double ec = lambda_c[type] - 1.0;
-  inv_ec2[type] = 1.0 / (ec * ec);
+  params[type] = TypeParams{k[type], theta_c[type], lambda_c[type],
+                            1.0 / (theta_c[type] * theta_c[type]), 1.0 / (ec * ec)};
 }
 
 /* ----------------------------------------------------------------------
@@ -142,7 +275,149 @@ void AngleBreakableCR::init_style()
   store_index =
       BreakableUtil::peratom_array(lmp, STORE_FIX_ID, STORE_NAME, 3 * atom->angle_per_atom);
   special = FixBreakableSpecial::get_or_create(lmp);
-  cache_valid = false;
+  cached_nanglelist = -1;
+}
+
+/* ----------------------------------------------------------------------
+   forces of one intact angle on its owned atoms, energy and virial
+------------------------------------------------------------------------- */
+
+template <bool EVFLAG>
+inline void AngleBreakableCR::apply(const Ref &R, double a11, double a12, double a22,
+                                    const double *d, double eangle, double *const *f,
+                                    int nlocal)
+{
+  double f1[3], f3[3];
+  f1[0] = a11 * d[0] + a12 * d[3];
+  f1[1] = a11 * d[1] + a12 * d[4];
+  f1[2] = a11 * d[2] + a12 * d[5];
+  f3[0] = a22 * d[3] + a12 * d[0];
+  f3[1] = a22 * d[4] + a12 * d[1];
+  f3[2] = a22 * d[5] + a12 * d[2];
+
+  // newton_bond is off: each rank adds forces to its owned atoms only
+  const int i1 = R.i1, i2 = R.i2, i3 = R.i3;
+  if (i1 < nlocal) {
+    f[i1][0] += f1[0];
+    f[i1][1] += f1[1];
+    f[i1][2] += f1[2];
+  }
+  if (i2 < nlocal) {
+    f[i2][0] -= f1[0] + f3[0];
+    f[i2][1] -= f1[1] + f3[1];
+    f[i2][2] -= f1[2] + f3[2];
+  }
+  if (i3 < nlocal) {
+    f[i3][0] += f3[0];
+    f[i3][1] += f3[1];
+    f[i3][2] += f3[2];
+  }
+
+  if (EVFLAG) ev_tally(i1, i2, i3, nlocal, 0, eangle, f1, f3, d[0], d[1], d[2], d[3], d[4], d[5]);
+}
+
+/* ----------------------------------------------------------------------
+   one angle, every case: its break (stretched arm, or bend past theta_c), or
+   its forces with dth by the polynomial or by atan2
+------------------------------------------------------------------------- */
+
+template <bool EVFLAG>
+void AngleBreakableCR::exact(Ref &R, const double *const *x, double *const *f, int nlocal)
+{
+  const TypeParams &P = params[R.type];
+  Angle3<double> A;
+  arms(x[R.i1], x[R.i2], x[R.i3], A);
+  A.cos0 = R.cos0;
+  A.sin0 = R.sin0;
+  A.inv_r1_0 = R.inv_r1_0;
+  A.inv_r2_0 = R.inv_r2_0;
+  A.geometry();
+
+  // breaking with an arm's bond (SPEC 2.2: "or when either of its bonds breaks"): the
+  // stretch l = r / r0 is computed as the bond style does (r times the same 1/r0)
+  if ((A.l1 > P.lambda_c) | (A.l2 > P.lambda_c)) {
+    break_angle(R);
+    return;
+  }
+  // breaking by bending (SPEC 2.2 Eq. 3: |dtheta| >= theta_c)
+  const double dth = delta_theta(A.sd, A.cd);
+  if (fabs(dth) >= P.theta_c) {
+    break_angle(R);
+    return;
+  }
+  A.forces(dth, P.k, P.inv_thc2, P.inv_ec2);
+  const double d[6] = {A.d1x, A.d1y, A.d1z, A.d2x, A.d2y, A.d2z};
+  apply<EVFLAG>(R, A.a11, A.a12, A.a22, d, A.energy, f, nlocal);
+}
+
+/* ----------------------------------------------------------------------
+   the force loop: two cache entries at a time in the two lanes of the common
+   case (intact, dth by the polynomial, no break), with no call and no branch
+   on the data until the forces are added; an entry outside the common case
+   is left untouched in its lane and done by exact() after the loop. A lane
+   gives the bits of the scalar arithmetic, so the decisions do not depend on
+   which lane or pass an angle is in.
+------------------------------------------------------------------------- */
+
+template <bool EVFLAG> void AngleBreakableCR::loop()
+{
+  const double *const *x = atom->x;
+  double *const *f = atom->f;
+  const int nlocal = atom->nlocal;
+  Ref *ref = cache.data();
+  const int nref = (int) cache.size();
+  const TypeParams *tp = params.data();
+  int *left = deferred.data();
+  int nleft = 0;
+  const Lanes2 xmax = {ASIN_XMAX, ASIN_XMAX};
+  const Lanes2 zero = {0.0, 0.0};
+
+  for (int m = 0; m < nref; m += 2) {
+    const int mb = (m + 1 < nref) ? m + 1 : m;    // the last entry alone: both lanes
+    const Ref &Ra = ref[m], &Rb = ref[mb];
+    const TypeParams &Pa = tp[Ra.type], &Pb = tp[Rb.type];    // type 0: broken, skipped below
+    const double *x1a = x[Ra.i1], *x2a = x[Ra.i2], *x3a = x[Ra.i3];
+    const double *x1b = x[Rb.i1], *x2b = x[Rb.i2], *x3b = x[Rb.i3];
+
+    Angle3<Lanes2> A;
+    A.d1x = Lanes2{x1a[0], x1b[0]} - Lanes2{x2a[0], x2b[0]};
+    A.d1y = Lanes2{x1a[1], x1b[1]} - Lanes2{x2a[1], x2b[1]};
+    A.d1z = Lanes2{x1a[2], x1b[2]} - Lanes2{x2a[2], x2b[2]};
+    A.d2x = Lanes2{x3a[0], x3b[0]} - Lanes2{x2a[0], x2b[0]};
+    A.d2y = Lanes2{x3a[1], x3b[1]} - Lanes2{x2a[1], x2b[1]};
+    A.d2z = Lanes2{x3a[2], x3b[2]} - Lanes2{x2a[2], x2b[2]};
+    A.cos0 = Lanes2{Ra.cos0, Rb.cos0};
+    A.sin0 = Lanes2{Ra.sin0, Rb.sin0};
+    A.inv_r1_0 = Lanes2{Ra.inv_r1_0, Rb.inv_r1_0};
+    A.inv_r2_0 = Lanes2{Ra.inv_r2_0, Rb.inv_r2_0};
+    A.geometry();
+
+    // the decisions of exact(), for the common case only
+    const Lanes2 lambda_c = {Pa.lambda_c, Pb.lambda_c};
+    const Lanes2 theta_c = {Pa.theta_c, Pb.theta_c};
+    const Lanes2 dth = asin_small(A.sd);
+    const Mask2 ok = ~((A.l1 > lambda_c) | (A.l2 > lambda_c)) & (vabs(A.sd) < xmax) &
+        (A.cd > zero) & ~(vabs(dth) >= theta_c);
+
+    A.forces(dth, Lanes2{Pa.k, Pb.k}, Lanes2{Pa.inv_thc2, Pb.inv_thc2},
+             Lanes2{Pa.inv_ec2, Pb.inv_ec2});
+
+    if (Ra.type > 0) {
+      if (ok[0]) {
+        const double d[6] = {A.d1x[0], A.d1y[0], A.d1z[0], A.d2x[0], A.d2y[0], A.d2z[0]};
+        apply<EVFLAG>(Ra, A.a11[0], A.a12[0], A.a22[0], d, A.energy[0], f, nlocal);
+      } else
+        left[nleft++] = m;
+    }
+    if (mb != m && Rb.type > 0) {
+      if (ok[1]) {
+        const double d[6] = {A.d1x[1], A.d1y[1], A.d1z[1], A.d2x[1], A.d2y[1], A.d2z[1]};
+        apply<EVFLAG>(Rb, A.a11[1], A.a12[1], A.a22[1], d, A.energy[1], f, nlocal);
+      } else
+        left[nleft++] = mb;
+    }
+  }
+  for (int j = 0; j < nleft; j++) exact<EVFLAG>(ref[left[j]], x, f, nlocal);
 }
 
 /* ---------------------------------------------------------------------- */
@@ -151,161 +426,28 @@ void AngleBreakableCR::compute(int eflag, int vflag)
 {
   ev_init(eflag, vflag);
 
-  if (!cache_valid || neighbor->ago == 0 || (int) cache.size() != neighbor->nanglelist)
+  if (cached_nanglelist < 0 || neighbor->ago == 0 || cached_nanglelist != neighbor->nanglelist)
     rebuild_cache();
 
-  double **x = atom->x;
-  double **f = atom->f;
-  int **anglelist = neighbor->anglelist;
-  const int nanglelist = neighbor->nanglelist;
-  const int nlocal = atom->nlocal;
-  const Ref *ref = cache.data();
-  double eangle = 0.0, f1[3], f3[3];
-
-  // Angles go in blocks of three passes: geometry, then the arc cosines in a loop of their
-  // own, then forces. acos() is a library call, after which no floating-point register
-  // survives: in a single pass every value live across it goes to the stack and back,
-  // while the tight loop of calls keeps nothing live and lets consecutive calls overlap.
-  constexpr int BLOCK = 64;
-  double del[BLOCK][6], len[BLOCK][3], cosine[BLOCK], theta[BLOCK];
-
-  for (int nb = 0; nb < nanglelist; nb += BLOCK) {
-    const int nblock = std::min(BLOCK, nanglelist - nb);
-
-    for (int b = 0; b < nblock; b++) {
-      const int *al = anglelist[nb + b];
-      if (al[3] <= 0) {
-        cosine[b] = 1.0;
-        continue;
-      }
-      const double *x1 = x[al[0]], *x2 = x[al[1]], *x3 = x[al[2]];
-      double *d = del[b];
-      d[0] = x1[0] - x2[0];
-      d[1] = x1[1] - x2[1];
-      d[2] = x1[2] - x2[2];
-      d[3] = x3[0] - x2[0];
-      d[4] = x3[1] - x2[1];
-      d[5] = x3[2] - x2[2];
-      const double r1 = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-      const double r2 = sqrt(d[3] * d[3] + d[4] * d[4] + d[5] * d[5]);
-      const double inv_r12 = 1.0 / (r1 * r2);
-      double c = (d[0] * d[3] + d[1] * d[4] + d[2] * d[5]) * inv_r12;
-      c = std::min(std::max(c, -1.0), 1.0);
-      len[b][0] = r1;
-      len[b][1] = r2;
-      len[b][2] = inv_r12;
-      cosine[b] = c;
-    }
-
-    for (int b = 0; b < nblock; b++) theta[b] = acos(cosine[b]);
-
-    for (int b = 0; b < nblock; b++) {
-      const int n = nb + b;
-      const int type = anglelist[n][3];
-      if (type <= 0) continue;
-      const int i1 = anglelist[n][0];
-      const int i2 = anglelist[n][1];
-      const int i3 = anglelist[n][2];
-      const Ref &R = ref[n];
-      const double delx1 = del[b][0], dely1 = del[b][1], delz1 = del[b][2];
-      const double delx2 = del[b][3], dely2 = del[b][4], delz2 = del[b][5];
-      const double r1 = len[b][0], r2 = len[b][1], inv_r12 = len[b][2];
-      const double c = cosine[b];
-
-      // breaking with an arm's bond (SPEC 2.2: "or when either of its bonds breaks"): the
-      // stretch l = r / r0 is computed as the bond style does (r times the same 1/r0), so
-      // both make the same decision on the same pair
-      const double l1 = r1 * R.inv_r1_0;
-      const double l2 = r2 * R.inv_r2_0;
-      if (l1 > lambda_c[type] || l2 > lambda_c[type]) {
-        break_angle(n, i1, i2, i3);
-        continue;
-      }
-
-      const double dth = theta[b] - R.theta0;
-
-      // breaking by bending (SPEC 2.2 Eq. 3: |dtheta| >= theta_c)
-      if (fabs(dth) >= theta_c[type]) {
-        break_angle(n, i1, i2, i3);
-        continue;
-      }
-
-      const double inv_s = 1.0 / std::max(sqrt(1.0 - c * c), SMALL);
-      const double inv_r1 = r2 * inv_r12;
-      const double inv_r2 = r1 * inv_r12;
-      const double c11 = c * inv_r1 * inv_r1;
-      const double c22 = c * inv_r2 * inv_r2;
-
-      // SPEC Eq. 4: S of the more stretched arm, and dS/dl. Without branches: which arm is
-      // longer, and whether it is stretched at all, change at random from angle to angle.
-      // eps is clamped at 0 (S = 1, dS = 0); q at 0 only matters by rounding, the arms being
-      // within lambda_c r0 here.
-      const bool arm1 = (l1 >= l2);
-      const double eps = std::max((arm1 ? l1 : l2) - 1.0, 0.0);
-      const double q = std::max(1.0 - eps * eps * inv_ec2[type], 0.0);
-      const double s_fac = q * q;
-      // dS/dr of the stretched arm, over its length: dS/dl / (r0 r)
-      const double ds_r = -4.0 * eps * q * inv_ec2[type] *
-          (arm1 ? R.inv_r1_0 * inv_r1 : R.inv_r2_0 * inv_r2);
-      const double sel1 = arm1 ? 1.0 : 0.0;
-
-      // SPEC Eq. 3: dE/dtheta = k_A S (dth - dth^3 / theta_c^2); E = k_A S g with
-      // g = dth^2/2 - dth^4/(4 theta_c^2)
-      const double dth2 = dth * dth;
-      const double ks = k[type] * s_fac;
-      const double tau = ks * dth * (1.0 - dth2 * inv_thc2[type]);
-      const double g = dth2 * (0.5 - 0.25 * dth2 * inv_thc2[type]);
-
-      // angular part as in angle_style harmonic; the radial term -dE/dr = -k_A g dS/dr along
-      // the more stretched arm is folded into the coefficient of that arm's vector
-      const double aa = -tau * inv_s;
-      const double fr = -k[type] * g * ds_r;
-      const double a11 = aa * c11 + sel1 * fr;
-      const double a12 = -aa * inv_r12;
-      const double a22 = aa * c22 + (1.0 - sel1) * fr;
-
-      f1[0] = a11 * delx1 + a12 * delx2;
-      f1[1] = a11 * dely1 + a12 * dely2;
-      f1[2] = a11 * delz1 + a12 * delz2;
-      f3[0] = a22 * delx2 + a12 * delx1;
-      f3[1] = a22 * dely2 + a12 * dely1;
-      f3[2] = a22 * delz2 + a12 * delz1;
-      if (eflag) eangle = ks * g;
-
-      // newton_bond is off: each rank adds forces to its owned atoms only
-      if (i1 < nlocal) {
-        f[i1][0] += f1[0];
-        f[i1][1] += f1[1];
-        f[i1][2] += f1[2];
-      }
-      if (i2 < nlocal) {
-        f[i2][0] -= f1[0] + f3[0];
-        f[i2][1] -= f1[1] + f3[1];
-        f[i2][2] -= f1[2] + f3[2];
-      }
-      if (i3 < nlocal) {
-        f[i3][0] += f3[0];
-        f[i3][1] += f3[1];
-        f[i3][2] += f3[2];
-      }
-
-      if (evflag)
-        ev_tally(i1, i2, i3, nlocal, 0, eangle, f1, f3, delx1, dely1, delz1, delx2, dely2, delz2);
-    }
-  }
+  if (evflag)
+    loop<true>();
+  else
+    loop<false>();
 }
 
 /* ----------------------------------------------------------------------
-   the single break path: type 0 in the list and in every owned copy; the
-   rank owning the atom with the smallest tag counts it, so it counts once
+   the single break path: type 0 in the cache, the list and every owned copy;
+   the rank owning the atom with the smallest tag counts it, so it counts once
 ------------------------------------------------------------------------- */
 
-void AngleBreakableCR::break_angle(int n, int i1, int i2, int i3)
+void AngleBreakableCR::break_angle(Ref &R)
 {
   const int nlocal = atom->nlocal;
   const tagint *tag = atom->tag;
+  const int i1 = R.i1, i2 = R.i2, i3 = R.i3;
   const tagint t1 = tag[i1], t2 = tag[i2], t3 = tag[i3];
-  neighbor->anglelist[n][3] = 0;
+  R.type = 0;
+  neighbor->anglelist[R.n][3] = 0;
   for (int idx : {i1, i2, i3}) {
     if (idx >= nlocal) continue;
     const int m = BreakableUtil::angle_slot(atom, idx, t1, t2, t3);
@@ -325,28 +467,26 @@ void AngleBreakableCR::break_angle(int n, int i1, int i2, int i3)
 void AngleBreakableCR::capture(int a1, int a2, int a3, double *dest)
 {
   double **x = atom->x;
-  const double d1[3] = {x[a1][0] - x[a2][0], x[a1][1] - x[a2][1], x[a1][2] - x[a2][2]};
-  const double d2[3] = {x[a3][0] - x[a2][0], x[a3][1] - x[a2][1], x[a3][2] - x[a2][2]};
-  const double r1 = sqrt(d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2]);
-  const double r2 = sqrt(d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2]);
-  if (!(r1 > 0.0 && r2 > 0.0))
+  Angle3<double> A = {};
+  arms(x[a1], x[a2], x[a3], A);
+  A.geometry();
+  if (!(A.r1 > 0.0 && A.r2 > 0.0))
     error->one(FLERR, "angle_style breakable/cr: angle {}-{}-{} has an arm of zero length",
                atom->tag[a1], atom->tag[a2], atom->tag[a3]);
-  const double c = (d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2]) * (1.0 / (r1 * r2));
-  dest[0] = acos(std::min(std::max(c, -1.0), 1.0));
-  dest[1] = r1;
-  dest[2] = r2;
+  dest[0] = atan2(A.s, A.c);
+  dest[1] = A.r1;
+  dest[2] = A.r2;
 }
 
 /* ----------------------------------------------------------------------
-   copy the references of every anglelist entry into the cache. With
-   newton_bond off the neighbor code lists an angle from its owned atom with
-   the smallest local index (the smallest of the entry's three indices),
+   copy the intact anglelist entries and their references into the cache.
+   With newton_bond off the neighbor code lists an angle from its owned atom
+   with the smallest local index (the smallest of the entry's three indices),
    walking that atom's angle slots in order: a cursor over its slots finds each
    entry's slot with tag compares only, falling back to a full search when the
    order differs. An angle whose references are not yet taken gets them here
    from the current geometry (in the setup of its first run), in every copy
-   owned on this rank.
+   owned on this rank. Broken entries (type 0) are left out of the cache.
 ------------------------------------------------------------------------- */
 
 void AngleBreakableCR::rebuild_cache()
@@ -362,7 +502,7 @@ void AngleBreakableCR::rebuild_cache()
   const int nanglelist = neighbor->nanglelist;
 
   cache.resize(nanglelist);
-  int owner = -1, m = 0;
+  int nref = 0, owner = -1, m = 0;
   for (int n = 0; n < nanglelist; n++) {
     const int a1 = anglelist[n][0], a2 = anglelist[n][1], a3 = anglelist[n][2];
     const int type = anglelist[n][3];
@@ -380,9 +520,11 @@ void AngleBreakableCR::rebuild_cache()
     if (m == num_angle[i] && (m = BreakableUtil::angle_slot(atom, i, t1, t2, t3)) < 0)
       error->one(FLERR, "angle_style breakable/cr: angle {}-{}-{} of the angle list is not in "
                  "the atom's angle arrays", t1, t2, t3);
-
     double *src = &refs[i][3 * m];
-    if (src[1] == 0.0 && type > 0) {
+    m++;
+    if (type <= 0) continue;
+
+    if (src[1] == 0.0) {
       capture(a1, a2, a3, src);
       for (int other : {a1, a2, a3}) {
         int slot;
@@ -395,13 +537,19 @@ void AngleBreakableCR::rebuild_cache()
       }
     }
 
-    Ref &R = cache[n];
-    R.theta0 = src[0];
-    R.inv_r1_0 = (src[1] > 0.0) ? 1.0 / src[1] : 0.0;
-    R.inv_r2_0 = (src[2] > 0.0) ? 1.0 / src[2] : 0.0;
-    m++;
+    Ref &R = cache[nref++];
+    R.i1 = a1;
+    R.i2 = a2;
+    R.i3 = a3;
+    R.type = type;
+    R.n = n;
+    sin_cos(src[0], R.sin0, R.cos0);
+    R.inv_r1_0 = 1.0 / src[1];
+    R.inv_r2_0 = 1.0 / src[2];
   }
-  cache_valid = true;
+  cache.resize(nref);
+  deferred.resize(nref);
+  cached_nanglelist = nanglelist;
 }
 
 /* ----------------------------------------------------------------------
@@ -475,32 +623,26 @@ double AngleBreakableCR::single(int type, int i1, int i2, int i3)
     error->one(FLERR, "angle_style breakable/cr: no reference geometry for angle {}-{}-{}",
                tag[i1], tag[i2], tag[i3]);
 
+  // the arithmetic of compute(), so that the two agree to the last bit
+  const TypeParams &P = params[type];
   double **x = atom->x;
-  const double d1[3] = {x[i1][0] - x[i2][0], x[i1][1] - x[i2][1], x[i1][2] - x[i2][2]};
-  const double d2[3] = {x[i3][0] - x[i2][0], x[i3][1] - x[i2][1], x[i3][2] - x[i2][2]};
-  const double r1 = sqrt(d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2]);
-  const double r2 = sqrt(d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2]);
-  const double l1 = r1 * (1.0 / ref[1]), l2 = r2 * (1.0 / ref[2]);
-  if (l1 > lambda_c[type] || l2 > lambda_c[type]) return 0.0;
-  double c = (d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2]) / (r1 * r2);
-  if (c > 1.0) c = 1.0;
-  if (c < -1.0) c = -1.0;
-  const double dth = acos(c) - ref[0];
-  if (fabs(dth) >= theta_c[type]) return 0.0;
-
-  const double eps = std::max(l1, l2) - 1.0;
-  double s_fac = 1.0;
-  if (eps > 0.0) {
-    const double q = std::fmax(0.0, 1.0 - eps * eps * inv_ec2[type]);
-    s_fac = q * q;
-  }
-  const double dth2 = dth * dth;
-  return k[type] * s_fac * dth2 * (0.5 - 0.25 * dth2 * inv_thc2[type]);
+  Angle3<double> A;
+  arms(x[i1], x[i2], x[i3], A);
+  sin_cos(ref[0], A.sin0, A.cos0);
+  A.inv_r1_0 = 1.0 / ref[1];
+  A.inv_r2_0 = 1.0 / ref[2];
+  A.geometry();
+  if ((A.l1 > P.lambda_c) | (A.l2 > P.lambda_c)) return 0.0;
+  const double dth = delta_theta(A.sd, A.cd);
+  if (fabs(dth) >= P.theta_c) return 0.0;
+  A.forces(dth, P.k, P.inv_thc2, P.inv_ec2);
+  return A.energy;
 }
 
 /* ---------------------------------------------------------------------- */
 
 double AngleBreakableCR::memory_usage()
 {
-  return Angle::memory_usage() + (double) cache.capacity() * sizeof(Ref);
+  return Angle::memory_usage() + (double) cache.capacity() * sizeof(Ref) +
+      (double) deferred.capacity() * sizeof(int) + (double) params.capacity() * sizeof(TypeParams);
 }

@@ -29,18 +29,28 @@ class AngleBreakableCR : public Angle {
   double memory_usage() override;
 
  private:
-  // per type: coefficients (theta_c in radians), then constants derived from them
+  // per type: coefficients (theta_c in radians)
   double *k, *theta_c, *lambda_c;
-  double *inv_thc2;    // 1 / theta_c^2
-  double *inv_ec2;     // 1 / (lambda_c - 1)^2
 
-  // per anglelist entry, rebuilt whenever the anglelist is
+  // per type, packed for the force loop (derive())
+  struct TypeParams {
+    double k, theta_c, lambda_c;
+    double inv_thc2;    // 1 / theta_c^2
+    double inv_ec2;     // 1 / (lambda_c - 1)^2
+  };
+  std::vector<TypeParams> params;
+
+  // one record per intact anglelist entry, rebuilt whenever the anglelist is: the entry
+  // (type set to 0 when the angle breaks), its row n in the anglelist and its references,
+  // read front to back by the force loop
   struct Ref {
-    double theta0;
+    int i1, i2, i3, type, n;
+    double cos0, sin0;            // cos and sin of theta0
     double inv_r1_0, inv_r2_0;    // 1 / reference arm lengths (atom1-atom2, atom3-atom2)
   };
   std::vector<Ref> cache;
-  bool cache_valid;
+  std::vector<int> deferred;    // cache entries the fast pass leaves to the exact one
+  int cached_nanglelist;        // size of the anglelist the cache was built from, -1 = none
 
   int store_index;    // atom->darray index: theta0, r1_0, r2_0 per atom and angle slot
   class FixBreakableSpecial *special;
@@ -49,7 +59,12 @@ class AngleBreakableCR : public Angle {
   void derive(int type);
   void rebuild_cache();
   void capture(int a1, int a2, int a3, double *dest);
-  void break_angle(int n, int i1, int i2, int i3);
+  void break_angle(Ref &R);
+  template <bool EVFLAG>
+  void apply(const Ref &R, double a11, double a12, double a22, const double *d, double eangle,
+             double *const *f, int nlocal);
+  template <bool EVFLAG> void exact(Ref &R, const double *const *x, double *const *f, int nlocal);
+  template <bool EVFLAG> void loop();
 };
 
 }    // namespace LAMMPS_NS

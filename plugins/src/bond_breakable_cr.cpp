@@ -9,9 +9,10 @@
    Damping (not in the energy): F_D = -gamma (1 - r / (lambda_c r0))^2 (rhat . (v_i - v_j)) rhat.
 
    Storage: r0 per atom and bond slot in a hidden fix property/atom, so it migrates with atoms
-   and goes to restart files; compute() reads a copy indexed like neighbor->bondlist. A stored
-   r0 of 0 is the value fix property/atom gives a fresh slot: no bond has zero length, so it
-   marks a bond whose reference length has not been taken yet. */
+   and goes to restart files; compute() reads a copy of the intact entries of
+   neighbor->bondlist with their r0, two bonds at a time. A stored r0 of 0 is the value
+   fix property/atom gives a fresh slot: no bond has zero length, so it marks a bond whose
+   reference length has not been taken yet. */
 
 #include "bond_breakable_cr.h"
 
@@ -36,12 +37,48 @@ static constexpr double TWO_TWO_THIRDS = 1.5874010519681994;    // 2^(2/3)
 static const char *const STORE_FIX_ID = "BREAKABLE_CR_BOND_R0";
 static const char *const STORE_NAME = "breakable_cr_bond_r0";
 
+namespace {
+
+using BreakableUtil::Lanes2;
+using BreakableUtil::Mask2;
+using BreakableUtil::select_lt;
+
+/* ----------------------------------------------------------------------
+   force / r of one intact bond (SPEC 2.2 Eq. 2 and the bonded damping of
+   Eq. 5), F > 0 repulsive, and its energy, on one value or on two lanes:
+   every path (the two-lane loop, the exact pass, single()) computes a bond
+   with this arithmetic. Both branches of Eq. 2 are evaluated and one is
+   selected: r < r0 holds for about half of the bonds of a solid, at random.
+   l = r / r0 (as r * (1/r0)), dot = (x_i - x_j) . (v_i - v_j).
+------------------------------------------------------------------------- */
+
+template <class T>
+inline T bond_force(T r, T inv_rsq, T l, T dot, T r0, T inv_r0, T c1, T c3r2, T krep,
+                    T gamma, T inv_lc, T &ebond)
+{
+  const T r0sq = r0 * r0;
+  const T k = krep * r0sq;
+  const T x2 = r0sq * inv_rsq;    // (r0/r)^2
+  const T x6 = x2 * x2 * x2;
+  const T x12 = x6 * x6;
+  const T d = r - r0;
+  const T d2 = d * d;
+  const T c3 = c3r2 * inv_r0 * inv_r0;
+  ebond = select_lt(r, r0, (k / 12.0) * (x12 - 2.0 * x6 + 1.0), d2 * (0.5 * c1 + 0.25 * c3 * d2));
+  const T fr_rep = k * (x12 - x6) * inv_rsq;
+  const T fr_att = -d * (c1 + c3 * d2) * r * inv_rsq;
+  // SPEC 2.2 Eq. 5, bonded: r_max = lambda_c r0; not part of the energy
+  const T w = 1.0 - l * inv_lc;
+  return select_lt(r, r0, fr_rep, fr_att) - gamma * w * w * dot * inv_rsq;
+}
+
+}    // namespace
+
 /* ---------------------------------------------------------------------- */
 
 BondBreakableCR::BondBreakableCR(LAMMPS *_lmp) :
-    Bond(_lmp), lambda_c(nullptr), gamma(nullptr), a(nullptr), u(nullptr), c1(nullptr),
-    c3r2(nullptr), krep(nullptr), inv_lc(nullptr), cache_valid(false), store_index(-1),
-    r0_max(0.0), special(nullptr)
+    Bond(_lmp), lambda_c(nullptr), gamma(nullptr), a(nullptr), u(nullptr), cached_nbondlist(-1),
+    store_index(-1), r0_max(0.0), special(nullptr)
 {
   partial_flag = 1;    // broken bonds get type 0: the neighbor code must skip them
   writedata = 1;
@@ -63,10 +100,6 @@ BondBreakableCR::~BondBreakableCR()
     memory->destroy(gamma);
     memory->destroy(a);
     memory->destroy(u);
-    memory->destroy(c1);
-    memory->destroy(c3r2);
-    memory->destroy(krep);
-    memory->destroy(inv_lc);
   }
 }
 
@@ -80,11 +113,8 @@ void BondBreakableCR::allocate()
   memory->create(gamma, n, "bond:gamma");
   memory->create(a, n, "bond:a");
   memory->create(u, n, "bond:u");
-  memory->create(c1, n, "bond:c1");
-  memory->create(c3r2, n, "bond:c3r2");
-  memory->create(krep, n, "bond:krep");
-  memory->create(inv_lc, n, "bond:inv_lc");
   memory->create(setflag, n, "bond:setflag");
+  params.assign(n, TypeParams{0.0, 0.0, 0.0, 0.0, 0.0, 0.0});
   for (int i = 1; i < n; i++) setflag[i] = 0;
 }
 
@@ -93,11 +123,14 @@ void BondBreakableCR::allocate()
 void BondBreakableCR::derive(int type)
 {
   // SPEC 2.2 Eq. 2: C1 = 36 2^(2/3) u / a^2, C3 = -36 2^(2/3) (lambda_c - 1)^-2 u r0^-2 a^-2
-  c1[type] = 36.0 * TWO_TWO_THIRDS * u[type] / (a[type] * a[type]);
+  TypeParams &P = params[type];
+  P.lambda_c = lambda_c[type];
+  P.gamma = gamma[type];
+  P.c1 = 36.0 * TWO_TWO_THIRDS * u[type] / (a[type] * a[type]);
   const double ec = lambda_c[type] - 1.0;
-  c3r2[type] = -c1[type] / (ec * ec);
-  krep[type] = 6.0 * TWO_TWO_THIRDS * u[type] / (a[type] * a[type]);
-  inv_lc[type] = 1.0 / lambda_c[type];
+  P.c3r2 = -P.c1 / (ec * ec);
+  P.krep = 6.0 * TWO_TWO_THIRDS * u[type] / (a[type] * a[type]);
+  P.inv_lc = 1.0 / lambda_c[type];
 }
 
 /* ----------------------------------------------------------------------
@@ -166,36 +199,122 @@ void BondBreakableCR::init_style()
 
   store_index = BreakableUtil::peratom_array(lmp, STORE_FIX_ID, STORE_NAME, atom->bond_per_atom);
   special = FixBreakableSpecial::get_or_create(lmp);
-  cache_valid = false;
+  cached_nbondlist = -1;
   r0_max = 0.0;
 }
 
 /* ----------------------------------------------------------------------
-   energy and F / r of one intact bond (SPEC 2.2 Eq. 2), F > 0 repulsive.
-   Takes 1/r^2 rather than 1/r: its division then runs beside the square
-   root instead of after it, which shortens the latency chain of a bond.
-   Both branches are evaluated and one is selected: r < r0 holds for about
-   half of the bonds of a solid, at random, so a branch would be
-   mispredicted half of the time.
+   force of one intact bond on its owned atoms, energy and virial
 ------------------------------------------------------------------------- */
 
-inline double BondBreakableCR::bond_fbond(int type, double r, double inv_rsq, double r0,
-                                          double inv_r0, double &ebond, int eflag) const
+template <bool EVFLAG>
+inline void BondBreakableCR::apply(const Ref &R, double fbond, double ebond, double delx,
+                                   double dely, double delz, double *const *f, int nlocal)
 {
-  const bool compressed = r < r0;
-  const double k = krep[type] * r0 * r0;
-  const double x2 = r0 * r0 * inv_rsq;    // (r0/r)^2
-  const double x6 = x2 * x2 * x2;
-  const double x12 = x6 * x6;
-  const double d = r - r0;
-  const double d2 = d * d;
-  const double c3 = c3r2[type] * inv_r0 * inv_r0;
-  if (eflag)
-    ebond = compressed ? (k / 12.0) * (x12 - 2.0 * x6 + 1.0)
-                       : d2 * (0.5 * c1[type] + 0.25 * c3 * d2);
-  const double fr_rep = k * (x12 - x6) * inv_rsq;
-  const double fr_att = -d * (c1[type] + c3 * d2) * r * inv_rsq;
-  return compressed ? fr_rep : fr_att;
+  // newton_bond is off: each rank adds forces to its owned atoms only
+  const int i1 = R.i1, i2 = R.i2;
+  if (i1 < nlocal) {
+    f[i1][0] += delx * fbond;
+    f[i1][1] += dely * fbond;
+    f[i1][2] += delz * fbond;
+  }
+  if (i2 < nlocal) {
+    f[i2][0] -= delx * fbond;
+    f[i2][1] -= dely * fbond;
+    f[i2][2] -= delz * fbond;
+  }
+  if (EVFLAG) ev_tally(i1, i2, nlocal, 0, ebond, fbond, delx, dely, delz);
+}
+
+/* ----------------------------------------------------------------------
+   one bond, every case: its break or its force
+------------------------------------------------------------------------- */
+
+template <bool EVFLAG>
+void BondBreakableCR::exact(Ref &R, const double *const *x, const double *const *v,
+                            double *const *f, int nlocal)
+{
+  const TypeParams &P = params[R.type];
+  const int i1 = R.i1, i2 = R.i2;
+  const double delx = x[i1][0] - x[i2][0];
+  const double dely = x[i1][1] - x[i2][1];
+  const double delz = x[i1][2] - x[i2][2];
+  const double rsq = delx * delx + dely * dely + delz * delz;
+  const double r = sqrt(rsq);
+  const double l = r * R.inv_r0;
+
+  // SPEC 2.2 Eq. 2: broken for r > lambda_c r0, tested as r * (1/r0) > lambda_c: the
+  // angle style tests its arms with the same arithmetic, so both decide alike (up to the
+  // rounding of periodic images when the two took r0 from different images)
+  if (l > P.lambda_c) {
+    break_bond(R);
+    return;
+  }
+  const double dot = delx * (v[i1][0] - v[i2][0]) + dely * (v[i1][1] - v[i2][1]) +
+      delz * (v[i1][2] - v[i2][2]);
+  double ebond;
+  const double fbond = bond_force(r, 1.0 / rsq, l, dot, R.r0, R.inv_r0, P.c1, P.c3r2, P.krep,
+                                  P.gamma, P.inv_lc, ebond);
+  apply<EVFLAG>(R, fbond, ebond, delx, dely, delz, f, nlocal);
+}
+
+/* ----------------------------------------------------------------------
+   the force loop: two cache entries at a time in two lanes, with no call and
+   no branch on the data until the forces are added; an entry that breaks is
+   left untouched and done by exact() after the loop. A lane gives the bits
+   of the scalar arithmetic, so the decisions do not depend on the lane.
+------------------------------------------------------------------------- */
+
+template <bool EVFLAG> void BondBreakableCR::loop()
+{
+  const double *const *x = atom->x;
+  const double *const *v = atom->v;
+  double *const *f = atom->f;
+  const int nlocal = atom->nlocal;
+  Ref *ref = cache.data();
+  const int nref = (int) cache.size();
+  const TypeParams *tp = params.data();
+  int *left = deferred.data();
+  int nleft = 0;
+
+  for (int m = 0; m < nref; m += 2) {
+    const int mb = (m + 1 < nref) ? m + 1 : m;    // the last entry alone: both lanes
+    const Ref &Ra = ref[m], &Rb = ref[mb];
+    const TypeParams &Pa = tp[Ra.type], &Pb = tp[Rb.type];    // type 0: broken, skipped below
+    const double *x1a = x[Ra.i1], *x2a = x[Ra.i2], *x1b = x[Rb.i1], *x2b = x[Rb.i2];
+    const double *v1a = v[Ra.i1], *v2a = v[Ra.i2], *v1b = v[Rb.i1], *v2b = v[Rb.i2];
+
+    const Lanes2 delx = Lanes2{x1a[0], x1b[0]} - Lanes2{x2a[0], x2b[0]};
+    const Lanes2 dely = Lanes2{x1a[1], x1b[1]} - Lanes2{x2a[1], x2b[1]};
+    const Lanes2 delz = Lanes2{x1a[2], x1b[2]} - Lanes2{x2a[2], x2b[2]};
+    const Lanes2 rsq = delx * delx + dely * dely + delz * delz;
+    const Lanes2 r = BreakableUtil::vsqrt(rsq);
+    const Lanes2 inv_r0 = {Ra.inv_r0, Rb.inv_r0};
+    const Lanes2 l = r * inv_r0;
+    const Mask2 intact = ~(l > Lanes2{Pa.lambda_c, Pb.lambda_c});
+    const Lanes2 dot = delx * (Lanes2{v1a[0], v1b[0]} - Lanes2{v2a[0], v2b[0]}) +
+        dely * (Lanes2{v1a[1], v1b[1]} - Lanes2{v2a[1], v2b[1]}) +
+        delz * (Lanes2{v1a[2], v1b[2]} - Lanes2{v2a[2], v2b[2]});
+    Lanes2 ebond;
+    const Lanes2 fbond = bond_force(r, 1.0 / rsq, l, dot, Lanes2{Ra.r0, Rb.r0}, inv_r0,
+                                    Lanes2{Pa.c1, Pb.c1}, Lanes2{Pa.c3r2, Pb.c3r2},
+                                    Lanes2{Pa.krep, Pb.krep}, Lanes2{Pa.gamma, Pb.gamma},
+                                    Lanes2{Pa.inv_lc, Pb.inv_lc}, ebond);
+
+    if (Ra.type > 0) {
+      if (intact[0])
+        apply<EVFLAG>(Ra, fbond[0], ebond[0], delx[0], dely[0], delz[0], f, nlocal);
+      else
+        left[nleft++] = m;
+    }
+    if (mb != m && Rb.type > 0) {
+      if (intact[1])
+        apply<EVFLAG>(Rb, fbond[1], ebond[1], delx[1], dely[1], delz[1], f, nlocal);
+      else
+        left[nleft++] = mb;
+    }
+  }
+  for (int j = 0; j < nleft; j++) exact<EVFLAG>(ref[left[j]], x, v, f, nlocal);
 }
 
 /* ---------------------------------------------------------------------- */
@@ -204,64 +323,13 @@ void BondBreakableCR::compute(int eflag, int vflag)
 {
   ev_init(eflag, vflag);
 
-  if (!cache_valid || neighbor->ago == 0 || (int) cache.size() != neighbor->nbondlist)
+  if (cached_nbondlist < 0 || neighbor->ago == 0 || cached_nbondlist != neighbor->nbondlist)
     rebuild_cache();
 
-  double **x = atom->x;
-  double **v = atom->v;
-  double **f = atom->f;
-  int **bondlist = neighbor->bondlist;
-  const int nbondlist = neighbor->nbondlist;
-  const int nlocal = atom->nlocal;
-  const Ref *ref = cache.data();
-  double ebond = 0.0;
-
-  for (int n = 0; n < nbondlist; n++) {
-    const int type = bondlist[n][2];
-    if (type <= 0) continue;
-    const int i1 = bondlist[n][0];
-    const int i2 = bondlist[n][1];
-    const double r0 = ref[n].r0;
-
-    const double delx = x[i1][0] - x[i2][0];
-    const double dely = x[i1][1] - x[i2][1];
-    const double delz = x[i1][2] - x[i2][2];
-    const double rsq = delx * delx + dely * dely + delz * delz;
-    const double r = sqrt(rsq);
-    const double inv_rsq = 1.0 / rsq;
-
-    // SPEC 2.2 Eq. 2: broken for r > lambda_c r0, tested as r * (1/r0) > lambda_c: the
-    // angle style tests its arms with the same arithmetic, so both decide alike (up to the
-    // rounding of periodic images when the two took r0 from different images)
-    if (r * ref[n].inv_r0 > lambda_c[type]) {
-      break_bond(n, i1, i2);
-      continue;
-    }
-
-    double fbond = bond_fbond(type, r, inv_rsq, r0, ref[n].inv_r0, ebond, eflag);
-
-    // SPEC 2.2 Eq. 5, bonded: r_max = lambda_c r0
-    if (gamma[type] > 0.0) {
-      const double w = 1.0 - r * ref[n].inv_r0 * inv_lc[type];
-      const double dot = delx * (v[i1][0] - v[i2][0]) + dely * (v[i1][1] - v[i2][1]) +
-          delz * (v[i1][2] - v[i2][2]);
-      fbond -= gamma[type] * w * w * dot * inv_rsq;
-    }
-
-    // newton_bond is off: each rank adds forces to its owned atoms only
-    if (i1 < nlocal) {
-      f[i1][0] += delx * fbond;
-      f[i1][1] += dely * fbond;
-      f[i1][2] += delz * fbond;
-    }
-    if (i2 < nlocal) {
-      f[i2][0] -= delx * fbond;
-      f[i2][1] -= dely * fbond;
-      f[i2][2] -= delz * fbond;
-    }
-
-    if (evflag) ev_tally(i1, i2, nlocal, 0, ebond, fbond, delx, dely, delz);
-  }
+  if (evflag)
+    loop<true>();
+  else
+    loop<false>();
 }
 
 /* ----------------------------------------------------------------------
@@ -269,11 +337,13 @@ void BondBreakableCR::compute(int eflag, int vflag)
    owning the atom with the smaller tag counts it, so each break counts once
 ------------------------------------------------------------------------- */
 
-void BondBreakableCR::break_bond(int n, int i1, int i2)
+void BondBreakableCR::break_bond(Ref &R)
 {
   const int nlocal = atom->nlocal;
+  const int i1 = R.i1, i2 = R.i2;
   const tagint t1 = atom->tag[i1], t2 = atom->tag[i2];
-  neighbor->bondlist[n][2] = 0;
+  R.type = 0;
+  neighbor->bondlist[R.n][2] = 0;
   if (i1 < nlocal) {
     const int m = BreakableUtil::bond_slot(atom, i1, t2);
     if (m >= 0) atom->bond_type[i1][m] = 0;
@@ -287,12 +357,13 @@ void BondBreakableCR::break_bond(int n, int i1, int i2)
 }
 
 /* ----------------------------------------------------------------------
-   copy r0 of every bondlist entry into the cache. With newton_bond off the
-   neighbor code lists a bond from its owned atom i (first in the entry),
-   walking i's bond slots in order: a cursor over i's slots finds each entry's
-   slot with tag compares only, falling back to a full search when the order
-   differs. A bond whose r0 is not yet taken gets it here from the current
-   geometry (in the setup of its first run), in every copy owned on this rank.
+   copy the intact bondlist entries and their r0 into the cache. With
+   newton_bond off the neighbor code lists a bond from its owned atom i
+   (first in the entry), walking i's bond slots in order: a cursor over i's
+   slots finds each entry's slot with tag compares only, falling back to a
+   full search when the order differs. A bond whose r0 is not yet taken gets
+   it here from the current geometry (in the setup of its first run), in every
+   copy owned on this rank. Broken entries (type 0) are left out of the cache.
 ------------------------------------------------------------------------- */
 
 void BondBreakableCR::rebuild_cache()
@@ -307,9 +378,10 @@ void BondBreakableCR::rebuild_cache()
   const int nbondlist = neighbor->nbondlist;
 
   cache.resize(nbondlist);
-  int owner = -1, m = 0;
+  int nref = 0, owner = -1, m = 0;
   for (int n = 0; n < nbondlist; n++) {
     int i1 = bondlist[n][0], i2 = bondlist[n][1];
+    const int type = bondlist[n][2];
     if (i1 >= nlocal) std::swap(i1, i2);
     if (i1 >= nlocal)
       error->one(FLERR, "bond_style breakable/cr: bond {}-{} has no owned atom", tag[i1], tag[i2]);
@@ -322,9 +394,11 @@ void BondBreakableCR::rebuild_cache()
     if (m == num_bond[i1] && (m = BreakableUtil::bond_slot(atom, i1, partner)) < 0)
       error->one(FLERR, "bond_style breakable/cr: bond {}-{} of the bond list is not in the "
                  "atom's bond arrays", tag[i1], partner);
-
     double &r0 = r0s[i1][m];
-    if (r0 == 0.0 && bondlist[n][2] > 0) {
+    m++;
+    if (type <= 0) continue;
+
+    if (r0 == 0.0) {
       const double dx = x[i1][0] - x[i2][0], dy = x[i1][1] - x[i2][1], dz = x[i1][2] - x[i2][2];
       r0 = sqrt(dx * dx + dy * dy + dz * dz);
       int k;
@@ -332,11 +406,17 @@ void BondBreakableCR::rebuild_cache()
           r0s[i2][k] == 0.0)
         r0s[i2][k] = r0;
     }
-    cache[n].r0 = r0;
-    cache[n].inv_r0 = (r0 > 0.0) ? 1.0 / r0 : 0.0;
-    m++;
+    Ref &R = cache[nref++];
+    R.i1 = bondlist[n][0];    // the list's order: the sign convention of the virial
+    R.i2 = bondlist[n][1];
+    R.type = type;
+    R.n = n;
+    R.r0 = r0;
+    R.inv_r0 = 1.0 / r0;
   }
-  cache_valid = true;
+  cache.resize(nref);
+  deferred.resize(nref);
+  cached_nbondlist = nbondlist;
 }
 
 /* ----------------------------------------------------------------------
@@ -446,22 +526,23 @@ double BondBreakableCR::single(int type, double rsq, int i, int j, double &fforc
 {
   fforce = 0.0;
   if (type <= 0) return 0.0;
+  const TypeParams &P = params[type];
   const double r0 = reference_length(i, j);
   const double r = sqrt(rsq);
   const double inv_r0 = 1.0 / r0;
-  if (r * inv_r0 > lambda_c[type]) return 0.0;
+  const double l = r * inv_r0;
+  if (l > P.lambda_c) return 0.0;
 
-  double ebond = 0.0;
-  fforce = bond_fbond(type, r, 1.0 / rsq, r0, inv_r0, ebond, 1);
-
-  if (gamma[type] > 0.0 && atom->v) {
+  double dot = 0.0;
+  if (atom->v) {
     double **x = atom->x;
     double **v = atom->v;
-    const double w = 1.0 - r * inv_r0 * inv_lc[type];
-    const double dot = (x[i][0] - x[j][0]) * (v[i][0] - v[j][0]) +
-        (x[i][1] - x[j][1]) * (v[i][1] - v[j][1]) + (x[i][2] - x[j][2]) * (v[i][2] - v[j][2]);
-    fforce -= gamma[type] * w * w * dot / rsq;
+    dot = (x[i][0] - x[j][0]) * (v[i][0] - v[j][0]) + (x[i][1] - x[j][1]) * (v[i][1] - v[j][1]) +
+        (x[i][2] - x[j][2]) * (v[i][2] - v[j][2]);
   }
+  double ebond;
+  fforce = bond_force(r, 1.0 / rsq, l, dot, r0, inv_r0, P.c1, P.c3r2, P.krep, P.gamma, P.inv_lc,
+                      ebond);
   return ebond;
 }
 
@@ -469,5 +550,6 @@ double BondBreakableCR::single(int type, double rsq, int i, int j, double &fforc
 
 double BondBreakableCR::memory_usage()
 {
-  return Bond::memory_usage() + (double) cache.capacity() * sizeof(Ref);
+  return Bond::memory_usage() + (double) cache.capacity() * sizeof(Ref) +
+      (double) deferred.capacity() * sizeof(int) + (double) params.capacity() * sizeof(TypeParams);
 }

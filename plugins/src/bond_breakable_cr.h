@@ -30,17 +30,25 @@ class BondBreakableCR : public Bond {
  private:
   // per type: coefficients, then constants derived from them (derive())
   double *lambda_c, *gamma, *a, *u;
-  double *c1;        // C1 = 36 2^(2/3) u / a^2
-  double *c3r2;      // C3 r0^2 = -C1 / (lambda_c - 1)^2
-  double *krep;      // K / r0^2 with K = 6 2^(2/3) u r0^2 / a^2, prefactor of the r < r0 branch
-  double *inv_lc;    // 1 / lambda_c
 
-  // per bondlist entry, rebuilt whenever the bondlist is
+  struct TypeParams {
+    double lambda_c, gamma;
+    double c1;        // C1 = 36 2^(2/3) u / a^2
+    double c3r2;      // C3 r0^2 = -C1 / (lambda_c - 1)^2
+    double krep;      // K / r0^2 with K = 6 2^(2/3) u r0^2 / a^2, prefactor of the r < r0 branch
+    double inv_lc;    // 1 / lambda_c
+  };
+  std::vector<TypeParams> params;
+
+  // one record per intact bondlist entry, rebuilt whenever the bondlist is: the entry (type
+  // set to 0 when the bond breaks), its row n in the bondlist and its reference length
   struct Ref {
+    int i1, i2, type, n;
     double r0, inv_r0;
   };
   std::vector<Ref> cache;
-  bool cache_valid;
+  std::vector<int> deferred;    // cache entries the two-lane pass leaves to the exact one
+  int cached_nbondlist;         // size of the bondlist the cache was built from, -1 = none
 
   int store_index;                // atom->darray index of r0 per atom and bond slot
   double r0_max;                  // largest r0 (estimate) over all ranks, for the comm cutoff
@@ -50,9 +58,13 @@ class BondBreakableCR : public Bond {
   void derive(int type);
   void rebuild_cache();
   double reference_length(int i, int j);
-  void break_bond(int n, int i1, int i2);
-  double bond_fbond(int type, double r, double inv_rsq, double r0, double inv_r0,
-                    double &ebond, int eflag) const;
+  void break_bond(Ref &R);
+  template <bool EVFLAG>
+  void apply(const Ref &R, double fbond, double ebond, double delx, double dely, double delz,
+             double *const *f, int nlocal);
+  template <bool EVFLAG> void exact(Ref &R, const double *const *x, const double *const *v,
+                                    double *const *f, int nlocal);
+  template <bool EVFLAG> void loop();
 };
 
 }    // namespace LAMMPS_NS

@@ -10,7 +10,12 @@
 #include "lammps.h"
 #include "modify.h"
 
+#include <cmath>
 #include <string>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace LAMMPS_NS {
 namespace BreakableUtil {
@@ -34,6 +39,52 @@ namespace BreakableUtil {
                       "atom changed after the reference geometry was stored",
                       name, fix_id, cols, ncols);
     return index;
+  }
+
+  // Arithmetic on one value (double) or on two lanes at once (Lanes2), written once as
+  // templates: add, multiply, divide and sqrt round each lane exactly as the scalar
+  // instruction does, so a lane and the scalar path give the same bits and take the same
+  // decisions. No fused multiply-add is involved (the plugin is built for baseline x86-64).
+  using Lanes2 = double __attribute__((vector_size(16)));
+  using Mask2 = long long __attribute__((vector_size(16)));
+
+  // x < y ? a : b, without a branch: in the force loops the outcome (which arm of an angle
+  // is longer, whether a bond is compressed) is random from one entry to the next, so a
+  // branch would be mispredicted about half of the time. Exact: one of a, b bit for bit.
+  inline double select_lt(double x, double y, double a, double b)
+  {
+#if defined(__SSE2__)
+    const __m128d m = _mm_cmplt_sd(_mm_set_sd(x), _mm_set_sd(y));
+    return _mm_cvtsd_f64(_mm_or_pd(_mm_and_pd(m, _mm_set_sd(a)), _mm_andnot_pd(m, _mm_set_sd(b))));
+#else
+    return x < y ? a : b;
+#endif
+  }
+
+  inline Lanes2 select_lt(Lanes2 x, Lanes2 y, Lanes2 a, Lanes2 b)
+  {
+    const Mask2 m = x < y;
+    return (Lanes2) (((Mask2) a & m) | ((Mask2) b & ~m));
+  }
+
+  // std::max(a, b) = (a < b) ? b : a
+  inline double vmax(double a, double b) { return (a < b) ? b : a; }
+  inline Lanes2 vmax(Lanes2 a, Lanes2 b) { return select_lt(a, b, b, a); }
+
+  inline double vsqrt(double a) { return sqrt(a); }
+  inline Lanes2 vsqrt(Lanes2 a)
+  {
+#if defined(__SSE2__)
+    return (Lanes2) _mm_sqrt_pd((__m128d) a);
+#else
+    return Lanes2{sqrt(a[0]), sqrt(a[1])};
+#endif
+  }
+
+  inline double vabs(double a) { return fabs(a); }
+  inline Lanes2 vabs(Lanes2 a)
+  {
+    return (Lanes2) ((Mask2) a & Mask2{0x7fffffffffffffffLL, 0x7fffffffffffffffLL});
   }
 
   // Slot m of the bond of owned atom i with atom tag partner, or -1.

@@ -5,6 +5,12 @@
 #include "angle_breakable_cr.h"
 #include "bond_breakable_cr.h"
 #include "fix_breakable_special.h"
+#include "pair_cr_repulsion.h"
+#include "bond_bcm_griffith.h"
+#include "fix_bcm_griffith.h"
+#include "fix_bcm_rigid.h"
+#include "fix_bcm_wall.h"
+#include "pair_bcm_contact.h"
 
 using namespace LAMMPS_NS;
 
@@ -21,6 +27,36 @@ static Angle *angle_breakable_cr_creator(LAMMPS *lmp)
 static Fix *fix_breakable_special_creator(LAMMPS *lmp, int argc, char **argv)
 {
   return new FixBreakableSpecial(lmp, argc, argv);
+}
+
+static Pair *pair_cr_repulsion_creator(LAMMPS *lmp)
+{
+  return new PairCRRepulsion(lmp);
+}
+
+static Fix *fix_bcm_rigid_creator(LAMMPS *lmp, int argc, char **argv)
+{
+  return new FixBcmRigid(lmp, argc, argv);
+}
+
+static Bond *bond_bcm_griffith_creator(LAMMPS *lmp)
+{
+  return new BondBcmGriffith(lmp);
+}
+
+static Fix *fix_bcm_griffith_creator(LAMMPS *lmp, int argc, char **argv)
+{
+  return new FixBcmGriffith(lmp, argc, argv);
+}
+
+static Pair *pair_bcm_contact_creator(LAMMPS *lmp)
+{
+  return new PairBcmContact(lmp);
+}
+
+static Fix *fix_bcm_wall_creator(LAMMPS *lmp, int argc, char **argv)
+{
+  return new FixBcmWall(lmp, argc, argv);
 }
 
 extern "C" void lammpsplugin_init(void *lmp, void *handle, void *vregfunc)
@@ -47,5 +83,41 @@ extern "C" void lammpsplugin_init(void *lmp, void *handle, void *vregfunc)
   plugin.name = "breakable/special";
   plugin.info = "special-list and neighbor-list updates for broken bonds, break counters";
   plugin.creator.v2 = (lammpsplugin_factory2 *) &fix_breakable_special_creator;
+  (*regfunc)(&plugin, lmp);
+
+  plugin.style = "fix";
+  plugin.name = "bcm/rigid";
+  plugin.info = "BCM cells: velocity Verlet + NO_SQUISH rigid rotation, full inertia";
+  plugin.creator.v2 = (lammpsplugin_factory2 *) &fix_bcm_rigid_creator;
+  (*regfunc)(&plugin, lmp);
+
+  plugin.style = "bond";
+  plugin.name = "bcm/griffith";
+  plugin.info = "BCM cohesive interface with Griffith breaking, then contacts (SPEC 1.2)";
+  plugin.creator.v1 = (lammpsplugin_factory1 *) &bond_bcm_griffith_creator;
+  (*regfunc)(&plugin, lmp);
+
+  plugin.style = "fix";
+  plugin.name = "bcm/griffith";
+  plugin.info = "interface counters of bond_style bcm/griffith (created by it)";
+  plugin.creator.v2 = (lammpsplugin_factory2 *) &fix_bcm_griffith_creator;
+  (*regfunc)(&plugin, lmp);
+
+  plugin.style = "pair";
+  plugin.name = "bcm/contact";
+  plugin.info = "BCM frictional contacts between rounded convex cells (SPEC 1.2)";
+  plugin.creator.v1 = (lammpsplugin_factory1 *) &pair_bcm_contact_creator;
+  (*regfunc)(&plugin, lmp);
+
+  plugin.style = "fix";
+  plugin.name = "bcm/wall";
+  plugin.info = "BCM rigid plane against rounded cells, frictional contact (SPEC 1.2)";
+  plugin.creator.v2 = (lammpsplugin_factory2 *) &fix_bcm_wall_creator;
+  (*regfunc)(&plugin, lmp);
+
+  plugin.style = "pair";
+  plugin.name = "cr/repulsion";
+  plugin.info = "Clemmer-Robbins non-bonded repulsion and damping, one loop (SPEC 2.2 Eq. 1, 5)";
+  plugin.creator.v1 = (lammpsplugin_factory1 *) &pair_cr_repulsion_creator;
   (*regfunc)(&plugin, lmp);
 }
