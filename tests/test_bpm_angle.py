@@ -177,6 +177,31 @@ def test_torque_follows_eq3(lmp, dth, l1, l2):
     assert (f[2] @ t3) * r2 == pytest.approx(expected, rel=1e-9)
 
 
+@pytest.mark.parametrize("dth_deg", [25.0, -40.0, 50.0])
+def test_large_bends_take_the_exact_path(lmp, dth_deg):
+    """Bends beyond the kernel's polynomial range (|sin dth| >= 0.3) are evaluated exactly:
+    energy per Eq. 3 and torque per Eq. 3, with theta_c = 60 degrees so they stay intact."""
+    thc_deg = 60.0
+    thc = np.radians(thc_deg)
+    make_angle(lmp, thc=thc_deg)
+    dth = np.radians(dth_deg)
+    x = configuration(dth, 0.99, 0.98)
+    e, f = evaluate(lmp, x)
+    assert e == pytest.approx(energy(dth, 1.0, thc=thc), rel=1e-9)
+    d1, d2, r1, r2, theta = geometry(x)
+    u1, u2 = d1 / r1, d2 / r2
+    t1 = -(u2 - np.cos(theta) * u1) / np.sin(theta)
+    assert (f[0] @ t1) * r1 == pytest.approx(-torque(dth, 1.0, thc=thc), rel=1e-9)
+    h = 1e-6
+    for atom in range(3):
+        u = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+        xp, xm = x.copy(), x.copy()
+        xp[atom] += h * u
+        xm[atom] -= h * u
+        fd = -(evaluate(lmp, xp)[0] - evaluate(lmp, xm)[0]) / (2 * h)
+        assert f[atom] @ u == pytest.approx(fd, abs=1e-6 * np.abs(f).max() + 1e-9)
+
+
 def test_momentum_conservation_random_configuration(lmp):
     make_angle(lmp)
     rng = np.random.default_rng(3)
