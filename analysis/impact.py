@@ -131,6 +131,9 @@ def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
         "broken_interfaces": int(last.broken), "end_time": float(last.time), "end_step": int(last.step),
         "timestep": system["timestep"], "settled": bool(last.step < system["max_steps"]),
         "cells_on_plane_end": int(last.wall_contacts),
+        "stop_rule": (f"stopped after a window of {system['window_steps']} steps with no break, kinetic energy "
+                      f"within {scen['ke_tolerance']:g} and the plane unloaded, or at max_time "
+                      f"{scen['max_time']:g} s"),
         **{f"shape_{k}": v for k, v in shape_averages(frags).items()},
     })
 
