@@ -531,10 +531,6 @@ def test_wall_coulomb_sliding_and_dissipation(lmp, tmp_path):
     assert stored == pytest.approx(0.5 * fn * d + 0.5 * KT * u_sat**2, rel=1e-9)
 
 
-def bcm_rigid_available(lmp):
-    return "bcm/rigid" in lmp.lmp.available_styles("fix")
-
-
 def rigid_props(lmp, cells):
     """Principal moments of the cubes (side 2(A + RM) of mass MASS) and angular momenta."""
     inertia = lmp.numpy.extract_atom("d2_bcm_inertia")
@@ -549,8 +545,6 @@ def rigid_props(lmp, cells):
 
 
 def test_wall_drop_restitution(lmp, tmp_path):
-    if not bcm_rigid_available(lmp):
-        pytest.skip("fix bcm/rigid is not in the plugin")
     v0 = 1.0
     period = math.pi * math.sqrt(MASS / KN)
     dt = period / 1000
@@ -586,8 +580,6 @@ def test_wall_drop_restitution(lmp, tmp_path):
 
 
 def test_two_cell_collision_conserves_momenta(lmp, tmp_path):
-    if not bcm_rigid_available(lmp):
-        pytest.skip("fix bcm/rigid is not in the plugin")
     qb = quat_axis_angle([1, 1, 0], 0.6)
     # B's lowest vertex 2 r_m + 1e-7 above A's top face, off centre
     xb = np.array([0.4 * A, -0.3 * A, 0.0])
@@ -621,8 +613,6 @@ def test_two_cell_collision_energy_accounting(lmp, tmp_path):
     the kinetic energy lost equals what the pair reports as dissipated (damping, Coulomb slip,
     changes of the number of points), and the work it reports its forces did equals the
     change of kinetic energy."""
-    if not bcm_rigid_available(lmp):
-        pytest.skip("fix bcm/rigid is not in the plugin")
     qb = quat_axis_angle([1, 1, 0], 0.6)
     xb = np.array([0.4 * A, -0.3 * A, 0.0])
     xb[2] = A + 2 * RM + 1e-7 - space_vertices(xb, qb)[:, 2].min()
