@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 import driver
+from analysis.tables import save_table
 from driver.bcm.cellstats import cell_statistics, plot_cell_stats
 from driver.bcm.lammps_files import write_cell_data, write_cells, write_interfaces
 from driver.bcm.particle import build_particle, contact_timestep, particle_tessellation
@@ -35,7 +36,7 @@ def build_system(cfg: RunConfig, rd: RunDir) -> dict:
     tess = particle_tessellation(m, cfg.seed, cache_base() / "tessellations")
     t_tess = time.perf_counter() - t0
     stats = cell_statistics(tess)
-    stats.to_parquet(rd.results / "cells.parquet", index=False)
+    save_table(stats, rd.results / "cells")
     plot_cell_stats(stats, rd.plots / "cells.png")
     rng = np.random.default_rng([cfg.seed, 1])  # orientation stream, apart from the tessellation's
     particle = build_particle(tess, m.density, m.rounding, rng, plane_z=0.0, gap=sc.gap * m.diameter)
