@@ -22,6 +22,7 @@
 #include "fix_bcm_wall.h"
 
 #include "atom.h"
+#include "bcm_friction.h"
 #include "bcm_rigid.h"
 #include "comm.h"
 #include "error.h"
@@ -271,17 +272,8 @@ void FixBcmWall::wall_forces(bool advance)
         if (advance)
           for (int d = 0; d < 3; d++)
             if (d != axis) u[d] += vp[d] * dt;
-        for (int d = 0; d < 3; d++) ft[d] = -ktp * u[d];
-        const double ftm = std::sqrt(dot(ft, ft)), fmax = mu * fn;
-        if (ftm > fmax) {
-          // Coulomb limit (friction work as pair_style bcm/contact)
-          if (advance) fric += 0.5 * (ft_before + fmax) * (ftm - fmax) / ktp;
-          const double scale = fmax / ftm;
-          for (int d = 0; d < 3; d++) {
-            ft[d] *= scale;
-            u[d] = -ft[d] / ktp;
-          }
-        }
+        const double slipped = BcmFriction::coulomb(u, ft, ktp, mu * fn, ft_before);
+        if (advance) fric += slipped;
         e_whole += 0.5 * kt * dot(u, u);
         if (advance) {
           if (slot < 0) slot = freeslot;

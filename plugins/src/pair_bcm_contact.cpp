@@ -29,6 +29,7 @@
 #include "pair_bcm_contact.h"
 
 #include "atom.h"
+#include "bcm_friction.h"
 #include "bcm_rigid.h"
 #include "comm.h"
 #include "error.h"
@@ -409,20 +410,8 @@ void PairBcmContact::compute(int eflag, int vflag)
           }
           if (advance)
             for (int d = 0; d < 3; d++) u[d] += (vrel[d] - vn * n[d]) * dt;
-          for (int d = 0; d < 3; d++) ft[d] = -ktp * u[d];
-          const double ftm = std::sqrt(dot(ft, ft)), fmax = mu_ * fn;
-          if (ftm > fmax) {
-            // Coulomb limit: the spring goes back along itself to |f_t| = mu f_n, the rest
-            // is slip. Dissipated: the mean of the force magnitudes at the last and this
-            // evaluation times the slip (the trapezoidal work of the force over the step less
-            // the change of the spring energy), as bond_style bcm/griffith
-            if (advance) fric += 0.5 * (ft_before + fmax) * (ftm - fmax) / ktp;
-            const double scale = fmax / ftm;
-            for (int d = 0; d < 3; d++) {
-              ft[d] *= scale;
-              u[d] = -ft[d] / ktp;
-            }
-          }
+          const double slipped = BcmFriction::coulomb(u, ft, ktp, mu_ * fn, ft_before);
+          if (advance) fric += slipped;
           e_whole += 0.5 * kt_ * dot(u, u);
           if (advance) {
             // one copy, in an owned cell of the pair (i always is); when both are owned,
