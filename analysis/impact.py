@@ -16,11 +16,16 @@ import numpy as np
 import pandas as pd
 
 from analysis.dumps import read_atom_dump, read_local_dump
+from analysis.grain_table import grain_table
 from analysis.grains import grain_labels
 from analysis.pictures import render_cells
-from analysis.plots import plot_energies
+from analysis.plots import plot_energies, plot_mass_pdf, plot_shapes
+from analysis.powerlaw import fit_power_law
+from analysis.report import Report, provenance_line, write_report
 from analysis.shapes import fragment_table, shape_averages, vertices_in_space
+from analysis.statistics import normalised_mass_distribution
 from analysis.tables import save_table
+from analysis.tracking import lineage_table
 from driver.bcm.lammps_files import read_cells
 
 
@@ -94,7 +99,8 @@ def fragments_of(n_cells: int, interfaces: pd.DataFrame) -> np.ndarray:
 
 
 def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
-    """Measures, fragment table, energy series, plots and picture of a finished impact run."""
+    """Measures, fragment table, mass and shape distributions, energy series, fragment history
+    (when periodic dumps exist), plots, picture and report of a finished impact run."""
     run_dir = Path(run_dir)
     model, scen = cfg["model"], cfg["scenario"]
     system = json.loads((run_dir / "system.json").read_text())
@@ -109,13 +115,14 @@ def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
     offsets = np.concatenate([[0], np.cumsum([len(v) for v in body])])
     space = vertices_in_space(np.concatenate(body), offsets, cells.positions, cells.quaternions())
     frags = fragment_table(labels, masses, volumes, (space, offsets))
-
-    # fragments' centre-of-mass kinetic energy (SPEC 1.5: part of W_k^+)
-    mom = np.zeros((len(frags), 3))
-    np.add.at(mom, labels, masses[:, None] * cells.velocities)
-    frag_mass = np.bincount(labels, weights=masses)
-    frags["v_cm"] = np.linalg.norm(mom / frag_mass[:, None], axis=1)
-    wk_cm = float(0.5 * np.sum(np.sum(mom ** 2, axis=1) / frag_mass))
+    # centre of mass, velocity, kinetic energy and gyration of each fragment (cell centres; open box)
+    intact = ifaces[ifaces["state"] > 0.5][["atom1", "atom2"]].to_numpy(dtype=np.int64) - 1
+    motion = grain_table(labels, cells.positions, cells.velocities, masses, intact, cells.box,
+                         periodic=(False, False, False))
+    frags = frags.join(motion.drop(columns=["grain", "size", "mass", "percolating"]).rename(
+        columns={"ke": "ke_trans"}))
+    frags["v_cm"] = np.sqrt(sum(frags[c] ** 2 for c in ("vx", "vy", "vz")))
+    wk_cm = float(frags.ke_cm.sum())
 
     last = thermo.iloc[-1]
     wk_minus = 0.5 * system["mass"] * scen["velocity"] ** 2
@@ -123,6 +130,8 @@ def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
         wk_minus=wk_minus, wk_plus=float(last.kinetic), wk_plus_cm=wk_cm, broken_area=float(last.broken_area),
         total_area=system["A0"], g_c=model["interface"]["G_c"], elastic_end=float(last.elastic),
         dissipated_measured=float(last.dissipated))
+    mass_pdf = normalised_mass_distribution(frags.mass.to_numpy())
+    tau = fragment_mass_fit(frags.mass.to_numpy())
     measures.update({
         "W_c_damping": float(last.dissipated_damping), "W_c_friction": float(last.dissipated_friction),
         "W_c_switch": float(last.W_switch), "W_c_npoints": float(last.dissipated_npoints),
@@ -135,17 +144,91 @@ def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
                       f"within {scen['ke_tolerance']:g} and the plane unloaded, or at max_time "
                       f"{scen['max_time']:g} s"),
         **{f"shape_{k}": v for k, v in shape_averages(frags).items()},
+        **{f"mass_{k}": v for k, v in tau.items()},
     })
+    history, tracking = fragment_history(run_dir, n)
 
     res = run_dir / "results"
     save_table(thermo, res / "energies")
     save_table(frags, res / "fragments")
     save_table(ifaces, res / "interfaces")
+    save_table(mass_pdf, res / "fragment_masses")
+    if history is not None:
+        save_table(history, res / "frames")
+        save_table(tracking, res / "tracking")
+    title = (f"BCM impact, N_c = {system['n_cells']}, v0 = {scen['velocity']:g} m/s, "
+             f"G_c = {model['interface']['G_c']:g} J/m²")
     if plots:
-        title = (f"BCM impact, N_c = {system['n_cells']}, v0 = {scen['velocity']:g} m/s, "
-                 f"G_c = {model['interface']['G_c']:g} J/m²")
         plot_energies(thermo, wk_minus, run_dir / "plots" / "energies.png", title)
+        plot_mass_pdf({f"v0 = {scen['velocity']:g} m/s": mass_pdf}, run_dir / "plots" / "fragment_masses.png", title,
+                      fits={f"v0 = {scen['velocity']:g} m/s": tau})
+        plot_shapes(frags, run_dir / "plots" / "shapes.png", title)
         cell_vertices = [space[offsets[i]:offsets[i + 1]] for i in range(n)]
         render_cells(cell_vertices, faces, labels, run_dir / "plots" / "fragments.png",
                      f"{title}\n{len(frags)} fragments, D_w = {measures['D_w']:.3f}")
+    write_report(impact_report(run_dir, cfg, system, measures, frags, title), run_dir)
     return measures
+
+
+def fragment_mass_fit(masses: np.ndarray, min_fragments: int = 20, n_bootstrap: int = 200) -> dict:
+    """Power law p(m/m_max) ~ (m/m_max)^-tau fitted by continuous maximum likelihood, the lower
+    end of the range chosen by the smallest KS distance, with a bootstrap uncertainty
+    (SPEC 1.5). None values when there are fewer than min_fragments fragments."""
+    x = np.asarray(masses, dtype=float)
+    out = {"tau": None, "sigma": None, "sigma_bootstrap": None, "xmin": None, "xmax": None, "n_fit": None}
+    if len(x) < min_fragments:
+        return out
+    fit = fit_power_law(x / x.max(), discrete=False, n_bootstrap=n_bootstrap, seed=0)
+    out.update(tau=float(fit.tau), sigma=float(fit.sigma), sigma_bootstrap=float(fit.sigma_bootstrap),
+               xmin=float(fit.xmin), xmax=1.0, n_fit=int(fit.n))
+    return out
+
+
+def fragment_history(run_dir: Path, n_cells: int) -> tuple[pd.DataFrame | None, pd.DataFrame | None]:
+    """With periodic dumps (scenario.dump_every > 0): one row per dumped frame (time, broken
+    interfaces, fragments, largest fragment) and the parent-child table between consecutive
+    frames (analysis.tracking), frames in time order, the start and end snapshots included.
+    (None, None) without periodic dumps."""
+    dumps = Path(run_dir) / "dumps"
+    steps = sorted(int(p.name.split(".")[1]) for p in dumps.glob("interfaces.*.lammpstrj")
+                   if p.name.split(".")[1].isdigit())
+    if not steps:
+        return None, None
+    names = ["start", *map(str, steps), "end"]
+    rows, labels, masses = [], [], None
+    for name in names:
+        cells = read_atom_dump(dumps / f"cells.{name}.lammpstrj")[-1]
+        ifc = read_interfaces(dumps / f"interfaces.{name}.lammpstrj")
+        lab = fragments_of(n_cells, ifc)
+        masses = cells.extra["mass"]
+        frag_mass = np.bincount(lab, weights=masses)
+        rows.append({"frame": len(rows), "step": cells.timestep, "broken_interfaces": int((ifc.state <= 0.5).sum()),
+                     "n_fragments": int(lab.max() + 1), "n_fragments_multi_cell": int(np.sum(np.bincount(lab) > 1)),
+                     "largest_fragment_mass_fraction": float(frag_mass.max() / masses.sum())})
+        labels.append(lab)
+    frames = pd.DataFrame(rows).drop_duplicates("step", keep="last")
+    labels = [labels[i] for i in frames.index]
+    frames = frames.reset_index(drop=True)
+    frames["frame"] = np.arange(len(frames))
+    return frames, lineage_table(labels, masses)
+
+
+def impact_report(run_dir: Path, cfg: dict, system: dict, measures: dict, frags: pd.DataFrame, title: str) -> Report:
+    """The one-page report of an impact run."""
+    prov = provenance_line(run_dir)
+    rep = Report(f"{cfg['name']}: {title}", prov)
+    rep.values({k: measures[k] for k in ("omega", "D_w", "eta", "e_k2", "chi", "W_c_over_W_s", "balance_residual",
+                                          "n_fragments", "n_fragments_multi_cell", "largest_fragment_mass_fraction",
+                                          "mass_tau", "mass_sigma", "mass_xmin", "shape_shape_factor_mean",
+                                          "shape_elongation_mean", "shape_flatness_mean", "end_time", "settled")},
+               "SPEC 1.5 measures (energies in J: see summary.json and the tables for all)")
+    rep.text(measures["stop_rule"] + f"; time step {system['timestep']:.4g} s.")
+    rep.figure(run_dir / "plots" / "energies.png", "energy budget against time, fractions of W_k^-")
+    rep.figure(run_dir / "plots" / "fragments.png", "cells coloured by fragment at the end")
+    rep.figure(run_dir / "plots" / "fragment_masses.png", "fragment mass distribution p(m/m_max)")
+    rep.figure(run_dir / "plots" / "shapes.png", "shapes of multi-cell fragments")
+    rep.figure(run_dir / "plots" / "cells.png", "cell statistics of the tessellation")
+    rep.table(frags[["fragment", "n_cells", "mass", "a", "b", "c", "elongation", "flatness", "shape_factor",
+                     "v_cm", "ke_trans", "rg"]], "largest fragments (results/fragments.csv has all)", max_rows=15)
+    return rep
+

@@ -20,17 +20,19 @@ _MARKERS = "osD^v<>ph*"
 _LINES = ["-", "--", "-.", ":"]
 
 
-def plot_nm(nm: pd.DataFrame, path: Path, title: str = "", mass_unit: str = "m", fit: dict | None = None) -> None:
-    """N(M) per strain, log-log, at each bin's mean grain mass. nm has columns strain, m_mean, N;
-    `fit` (strain, tau, sigma, xmin) draws the fitted slope through the last strain's data."""
+def plot_nm(nm: pd.DataFrame, path: Path, title: str = "", mass_unit: str = "m", fit: dict | None = None,
+            by: str = "strain", legend: str = r"$\varepsilon$ = {:g}") -> None:
+    """N(M) per strain (or per value of column `by`), log-log, at each bin's mean grain mass. nm
+    has columns `by`, m_mean, N; `fit` (strain, tau, sigma, xmin) draws the fitted slope through
+    the last strain's data."""
     fig, ax = plt.subplots(figsize=(5.0, 4.0), dpi=150)
-    for k, (eps, grp) in enumerate(nm.groupby("strain", sort=True)):
+    for k, (eps, grp) in enumerate(nm.groupby(by, sort=True)):
         grp = grp[grp["N"] > 0]
         if grp.empty:
             continue
         ax.loglog(grp["m_mean"], grp["N"], marker=_MARKERS[k % len(_MARKERS)],
-                  linestyle=_LINES[k % len(_LINES)], color=str(0.75 * k / max(1, nm.strain.nunique() - 1)),
-                  mfc="white", label=rf"$\varepsilon$ = {eps:g}")
+                  linestyle=_LINES[k % len(_LINES)], color=str(0.75 * k / max(1, nm[by].nunique() - 1)),
+                  mfc="white", label=legend.format(eps))
     if fit and fit.get("tau") is not None:
         last = nm[(nm.strain == fit["strain"]) & (nm.N > 0)]
         if not last.empty:
@@ -87,3 +89,132 @@ def plot_energies(energies: pd.DataFrame, wk_minus: float, path: Path, title: st
     fig.tight_layout()
     atomic_save(path, lambda p: fig.savefig(p, format="png"))
     plt.close(fig)
+
+
+def _finish(fig, ax, path: Path, title: str) -> None:
+    if title:
+        ax.set_title(title, fontsize=9)
+    fig.tight_layout()
+    atomic_save(path, lambda p: fig.savefig(p, format="png"))
+    plt.close(fig)
+
+
+def plot_mass_pdf(tables: dict[str, pd.DataFrame], path: Path, title: str = "", fits: dict[str, dict] | None = None
+                  ) -> None:
+    """p(m / m_max) log-log, one curve per label (e.g. per G_c or per run), each bin at its
+    fragments' mean x; fits[label] (tau, sigma, xmin, xmax) draws the fitted slope over its range."""
+    fig, ax = plt.subplots(figsize=(5.0, 4.0), dpi=150)
+    for k, (label, tab) in enumerate(tables.items()):
+        t = tab[tab["p"] > 0]
+        if t.empty:
+            continue
+        grey = str(0.7 * k / max(1, len(tables) - 1))
+        ax.loglog(t.x_mean, t.p, marker=_MARKERS[k % len(_MARKERS)], linestyle=_LINES[k % len(_LINES)], color=grey,
+                  mfc="white", label=label)
+        fit = (fits or {}).get(label)
+        if fit and fit.get("tau") is not None:
+            inside = t[(t.x_mean >= fit["xmin"]) & (t.x_mean <= (fit.get("xmax") or 1.0))]
+            if len(inside):
+                x = np.array([inside.x_mean.min(), inside.x_mean.max()])
+                y0 = np.exp(np.mean(np.log(inside.p) + fit["tau"] * np.log(inside.x_mean)))
+                ax.loglog(x, y0 * x ** -fit["tau"], ":", color=grey, lw=1.2,
+                          label=rf"fit $\tau$ = {fit['tau']:.2f} $\pm$ {fit['sigma']:.2f}")
+    ax.set_xlabel(r"fragment mass $m / m_{max}$ [-]")
+    ax.set_ylabel(r"$p(m/m_{max})$ [probability density, -]")
+    if ax.has_data():
+        ax.legend(fontsize=7, frameon=False)
+    else:
+        ax.text(0.5, 0.5, "no fragments", ha="center", transform=ax.transAxes)
+    _finish(fig, ax, path, title)
+
+
+def plot_shapes(fragments: pd.DataFrame, path: Path, title: str = "") -> None:
+    """Shape of the multi-cell fragments (SPEC 1.5): p(S_f) and flatness c/b against elongation b/a."""
+    t = fragments[~fragments["single_cell"]] if "single_cell" in fragments else fragments
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(8.0, 3.6), dpi=150)
+    if len(t):
+        ax1.hist(t.shape_factor, bins=min(30, max(5, len(t) // 3)), density=True, color="0.6", edgecolor="k")
+        ax2.plot(t.elongation, t.flatness, "o", color="k", mfc="white", ms=4)
+    else:
+        ax1.text(0.5, 0.5, "no multi-cell fragments", ha="center", transform=ax1.transAxes)
+    ax1.set_xlabel(r"shape factor $S_f$ [-]")
+    ax1.set_ylabel(r"$p(S_f)$ [-]")
+    ax2.set_xlabel("elongation $b/a$ [-]")
+    ax2.set_ylabel("flatness $c/b$ [-]")
+    ax2.set_xlim(0, 1.02)
+    ax2.set_ylim(0, 1.02)
+    fig.suptitle(f"{title}\n{len(t)} fragments of two or more cells" if title else "", fontsize=9)
+    fig.tight_layout()
+    atomic_save(path, lambda p: fig.savefig(p, format="png"))
+    plt.close(fig)
+
+
+def plot_curves(curves: list[tuple[str, np.ndarray, np.ndarray]], path: Path, xlabel: str, ylabel: str,
+                title: str = "", note: str = "") -> None:
+    """Several log-log curves (label, x, y), e.g. the raw N(M) of a set of runs or a collapse."""
+    fig, ax = plt.subplots(figsize=(5.0, 4.0), dpi=150)
+    for k, (label, x, y) in enumerate(curves):
+        x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+        ok = (x > 0) & (y > 0)
+        ax.loglog(x[ok], y[ok], marker=_MARKERS[k % len(_MARKERS)], linestyle=_LINES[k % len(_LINES)],
+                  color=str(0.7 * k / max(1, len(curves) - 1)), mfc="white", ms=4, label=label)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    if note:
+        ax.text(0.03, 0.03, note, transform=ax.transAxes, fontsize=8)
+    if ax.has_data():
+        ax.legend(fontsize=7, frameon=False)
+    _finish(fig, ax, path, title)
+
+
+def plot_measures_vs_omega(points: pd.DataFrame, path: Path, thresholds: dict | None = None,
+                           fits: dict | None = None, title: str = "") -> None:
+    """SPEC 1.5 sweep level: D_w, eta, e_k^2 and fragment count against omega (mean +- standard
+    deviation over tessellations), one marker per G_c; vertical lines at omega_0 (dashed) and
+    omega_1 (dotted); fits[(G_c, measure)] = (callable(omega), omega_lo, omega_hi) drawn as
+    thin lines over the fitted range."""
+    panels = [("D_w", "damage $D_w = A/A_0$ [-]"), ("eta", r"fracture efficiency $\eta$ [-]"),
+              ("e_k2", "restitution $e_k^2$ [-]"), ("n_fragments", "fragments [-]")]
+    fig, axes = plt.subplots(2, 2, figsize=(8.0, 6.5), dpi=150)
+    groups = list(points.groupby("G_c", sort=True))
+    for ax, (col, label) in zip(axes.flat, panels):
+        for k, (gc, grp) in enumerate(groups):
+            grey = str(0.6 * k / max(1, len(groups) - 1))
+            grp = grp.sort_values("omega_mean")
+            ax.errorbar(grp.omega_mean, grp[f"{col}_mean"], yerr=grp[f"{col}_std"].fillna(0), marker=_MARKERS[k],
+                        linestyle=_LINES[k % len(_LINES)], color=grey, mfc="white", ms=5, capsize=2,
+                        label=f"$G_c$ = {gc:g} J/m²")
+            f = (fits or {}).get((gc, col))
+            if f is not None:
+                fn, lo, hi = f
+                w = np.geomspace(max(lo, 1e-12), hi, 100)
+                ax.plot(w, fn(w), "-", color=grey, lw=0.8)
+            th = (thresholds or {}).get(gc, {})
+            for key, style in (("omega_0", "--"), ("omega_1", ":")):
+                v = th.get(key)
+                if v is not None and np.isfinite(v):
+                    ax.axvline(v, color=grey, ls=style, lw=0.8)
+        ax.set_xscale("log")
+        if col in ("n_fragments",):
+            ax.set_yscale("log")
+        ax.set_xlabel(r"damage potential $\omega = W_k^-/W_s$ [-]")
+        ax.set_ylabel(label)
+    axes.flat[0].legend(fontsize=7, frameon=False)
+    fig.suptitle((title + "\n" if title else "") + r"dashed: $\omega_0$ (first cracks), dotted: $\omega_1$ (first break-up)",
+                 fontsize=9)
+    fig.tight_layout()
+    atomic_save(path, lambda p: fig.savefig(p, format="png"))
+    plt.close(fig)
+
+
+def plot_histograms(tables: dict[str, pd.DataFrame], path: Path, xlabel: str, ylabel: str, title: str = "") -> None:
+    """Probability densities (tables with center, p) as step lines, one per label."""
+    fig, ax = plt.subplots(figsize=(5.0, 4.0), dpi=150)
+    for k, (label, t) in enumerate(tables.items()):
+        ax.step(t.center, t.p, where="mid", linestyle=_LINES[k % len(_LINES)],
+                color=str(0.6 * k / max(1, len(tables) - 1)), label=label)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    if ax.has_data():
+        ax.legend(fontsize=7, frameon=False)
+    _finish(fig, ax, path, title)

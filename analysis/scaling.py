@@ -310,20 +310,25 @@ class PowerFit:
     r2: float
 
 
-def fit_growth(eps, n, eps_min: float | None = None, eps_max: float | None = None) -> PowerFit:
-    """phi of N ~ eps^phi (SPEC 2.5) by a linear fit of ln N against ln eps, points with
-    N > 0 and eps in [eps_min, eps_max]; standard errors from the fit's residuals."""
-    eps, n = np.asarray(eps, dtype=float), np.asarray(n, dtype=float)
-    keep = (eps > 0) & (n > 0)
-    if eps_min is not None:
-        keep &= eps >= eps_min
-    if eps_max is not None:
-        keep &= eps <= eps_max
+def fit_loglog(x, y, x_min: float | None = None, x_max: float | None = None) -> PowerFit:
+    """y = prefactor x^exponent by a linear fit of ln y against ln x over the points with
+    x, y > 0 and x in [x_min, x_max]; standard errors from the fit's residuals."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    keep = (x > 0) & (y > 0)
+    if x_min is not None:
+        keep &= x >= x_min
+    if x_max is not None:
+        keep &= x <= x_max
     if keep.sum() < 3:
-        raise ValueError(f"{keep.sum()} usable points: a growth fit needs at least 3")
-    r = stats.linregress(np.log(eps[keep]), np.log(n[keep]))
+        raise ValueError(f"{keep.sum()} usable points: a power-law fit needs at least 3")
+    r = stats.linregress(np.log(x[keep]), np.log(y[keep]))
     return PowerFit(float(r.slope), float(r.stderr), float(np.exp(r.intercept)), float(r.intercept_stderr),
                     int(keep.sum()), float(r.rvalue ** 2))
+
+
+def fit_growth(eps, n, eps_min: float | None = None, eps_max: float | None = None) -> PowerFit:
+    """phi of N ~ eps^phi (SPEC 2.5): fit_loglog of N against eps over [eps_min, eps_max]."""
+    return fit_loglog(eps, n, eps_min, eps_max)
 
 
 # ---------------------------------------------------------------------------------------
@@ -376,7 +381,8 @@ def omega_0(omega, damage) -> Threshold:
 
 
 def omega_1(omega, n_fragments) -> Threshold:
-    """omega_1: first omega where a particle breaks into two or more fragments (SPEC 1.5)."""
+    """omega_1: first omega where a particle breaks into two or more fragments (SPEC 1.5).
+    Pass the count of fragments of two or more cells to leave single chipped cells out."""
     return locate_threshold(omega, n_fragments, level=1.0)
 
 

@@ -8,14 +8,17 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.dumps import bond_pairs, read_atom_dump, read_local_dump
-from analysis.grains import grain_sizes, grains_from_bond_dump
+from analysis.dumps import AtomFrame, LocalFrame, bond_pairs, read_atom_dump, read_local_dump
+from analysis.grain_table import grain_table
+from analysis.grains import grains_from_bond_dump
 from analysis.pictures import render_particles_2d, render_particles_3d
 from analysis.plots import plot_nm, plot_stress
 from analysis.powerlaw import fit_power_law
+from analysis.report import Report, provenance_line, write_report
 from analysis.statistics import SMALL_GRAIN_CUT, mass_distribution, moments
 from analysis.stress import inertial_number, stress_measures
 from analysis.tables import save_table
+from analysis.tracking import lineage_table
 
 THERMO_COLUMNS = ["step", "strain", "pxx", "pyy", "pzz", "pxy", "pxz", "pyz", "pe", "ke", "vol",
                   "bonds_broken", "angles_broken"]
@@ -46,28 +49,33 @@ def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
     stress["density"] = n_atoms / stress["vol"]  # all masses m = 1
     stress["I"] = inertial_number(scen["strain_rate"], system["mean_diameter"], stress["density"], stress["P"])
 
-    # Grains at each snapshot.
-    grain_rows, nm_rows, frame_rows, fit_rows = [], [], [], []
-    labels = None
+    # Grains at each snapshot: labels, one row per grain, N(M), one row per frame.
+    grain_rows, nm_rows, frame_rows, fit_rows, all_labels = [], [], [], [], []
     for snap in snaps:
-        frame = read_local_dump(run_dir / snap["bonds"])[-1]
-        pairs, types = bond_pairs(frame)
-        labels = grains_from_bond_dump(n_atoms, pairs, types)
-        masses = grain_sizes(labels)
-        grain_rows.append(pd.DataFrame({"strain": snap["strain"], "step": snap["step"],
-                                        "grain": np.arange(len(masses)), "mass": masses}))
+        atoms = read_atom_dump(run_dir / snap["atoms"])[-1]
+        bonds = read_local_dump(run_dir / snap["bonds"])[-1]
+        labels, table = grains_of_frame(atoms, bonds, n_atoms, dim)
+        masses = table["mass"].to_numpy()
+        table.insert(0, "step", snap["step"])
+        table.insert(0, "strain", snap["strain"])
+        grain_rows.append(table)
+        all_labels.append(labels)
         nm = mass_distribution(masses, m_min=cut)
         fit_rows.append(_fit_tau(masses, cut, snap))
         nm.insert(0, "strain", snap["strain"])
         nm_rows.append(nm)
         frame_rows.append({"strain": snap["strain"], "step": snap["step"], "n_grains": int(len(masses)),
                            f"n_grains_M>={cut}": int(np.sum(masses >= cut)),
-                           "largest_grain": float(masses.max()), "intact_bonds": int(np.sum(types > 0)),
-                           **moments(masses)})
+                           "largest_grain": float(masses.max()), "intact_bonds": int(bonds_intact(bonds).sum()),
+                           "percolating_grains": int(table["percolating"].sum()), **moments(masses)})
     grains = pd.concat(grain_rows, ignore_index=True)
     nm_all = pd.concat(nm_rows, ignore_index=True)
     frames = pd.DataFrame(frame_rows)
     fits = pd.DataFrame(fit_rows)
+    tracking = lineage_table(all_labels)
+    strain_of = dict(enumerate(s["strain"] for s in snaps))
+    tracking.insert(1, "strain_parent", tracking["frame"].map(lambda k: strain_of[k - 1]))
+    tracking.insert(2, "strain_child", tracking["frame"].map(strain_of))
 
     res = run_dir / "results"
     save_table(stress, res / "stress")
@@ -75,14 +83,15 @@ def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
     save_table(nm_all, res / "nm")
     save_table(frames, res / "frames")
     save_table(fits, res / "nm_fits")
+    save_table(tracking, res / "tracking")
+    title = f"BPM {dim}D, L = {model['L']:g}, edot = {scen['strain_rate']:g}, k_A = {model['k_A']:g}"
     if plots:
-        title = f"BPM {dim}D, L = {model['L']:g}, edot = {scen['strain_rate']:g}, k_A = {model['k_A']:g}"
         plot_nm(nm_all[nm_all.strain > 0], run_dir / "plots" / "nm.png", title, fit=fit_rows[-1])
         plot_stress(stress, run_dir / "plots" / "stress.png", title)
-        _picture(run_dir, snaps[-1], labels, dim, system, f"{title}, strain {snaps[-1]['strain']:g}")
+        _picture(run_dir, snaps[-1], all_labels[-1], dim, system, f"{title}, strain {snaps[-1]['strain']:g}")
 
     last = stress.iloc[-1]
-    return {
+    summary = {
         "n_particles": n_atoms,
         "bonds_per_particle": system["bonds_per_particle"],
         "angles_per_particle": system["angles_per_particle"],
@@ -94,6 +103,43 @@ def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
         "final_mu": float(last.mu) if np.isfinite(last.mu) else None,
         "tau_final": fit_rows[-1]["tau"], "tau_final_sigma": fit_rows[-1]["sigma"],
     }
+    write_report(shear_report(run_dir, cfg, summary, frames, fits, title), run_dir)
+    return summary
+
+
+def bonds_intact(bonds: LocalFrame) -> np.ndarray:
+    """Intact-bond mask of a bond snapshot (type > 0; broken bonds are written with type 0)."""
+    return bond_pairs(bonds)[1] > 0
+
+
+def grains_of_frame(atoms: AtomFrame, bonds: LocalFrame, n_atoms: int, dim: int,
+                    masses: np.ndarray | None = None) -> tuple[np.ndarray, pd.DataFrame]:
+    """Grain label per atom (ordered by atom id) and the grain table of one snapshot
+    (analysis.grain_table: size, mass, centre of mass unwrapped through the bonds, velocity,
+    kinetic energy, gyration tensor, percolating). Atom ids must be 1..n_atoms."""
+    if len(atoms.ids) != n_atoms or atoms.ids[0] != 1 or atoms.ids[-1] != n_atoms:
+        raise ValueError(f"atom dump at step {atoms.timestep} holds ids {atoms.ids[0]}..{atoms.ids[-1]} "
+                         f"({len(atoms.ids)} atoms), expected 1..{n_atoms}")
+    pairs, types = bond_pairs(bonds)
+    labels = grains_from_bond_dump(n_atoms, pairs, types)
+    periodic = [b.startswith("p") for b in atoms.boundary] if atoms.boundary else [True] * 3
+    vel = None if atoms.velocities is None else atoms.velocities[:, :dim]
+    table = grain_table(labels, atoms.positions[:, :dim], vel, masses, pairs[types > 0] - 1, atoms.box,
+                        atoms.tilt, periodic)
+    return labels, table
+
+
+def shear_report(run_dir: Path, cfg: dict, summary: dict, frames: pd.DataFrame, fits: pd.DataFrame,
+                 title: str) -> Report:
+    """The one-page report of a shear run."""
+    rep = Report(f"{cfg['name']}: {title}", provenance_line(run_dir))
+    rep.values({k: v for k, v in summary.items() if not isinstance(v, dict)}, "summary (LJ units: a, m, u)")
+    rep.figure(run_dir / "plots" / "nm.png", "N(M) at the measure strains with the discrete MLE slope")
+    rep.figure(run_dir / "plots" / "stress.png", "shear stress, pressure and stress ratio against strain")
+    rep.figure(run_dir / "plots" / "grains.png", "particles coloured by grain at the last strain")
+    rep.table(frames, "one row per snapshot (moments M_n = sum over grains of M^n)")
+    rep.table(fits, "power-law fits of N(M) (discrete maximum likelihood, M >= cut)")
+    return rep
 
 
 def _fit_tau(masses: np.ndarray, cut: int, snap: dict) -> dict:

@@ -55,3 +55,39 @@ def moments(masses: np.ndarray, orders=(1, 2, 3)) -> dict[str, float]:
 
 def count_above(masses: np.ndarray, threshold: float) -> int:
     return int(np.sum(np.asarray(masses) >= threshold))
+
+
+def normalised_mass_distribution(masses: np.ndarray, bins_per_decade: int = 5) -> pd.DataFrame:
+    """p(m / m_max) of fragments (SPEC 1.5): probability density of x = m / m_max (m_max = the
+    largest fragment's mass) in logarithmic bins over [min x, 1], all fragments counted.
+
+    Columns: x_lo, x_hi, x_center (geometric), x_mean (mean x of the bin's fragments), count, p
+    (count / (n_fragments * bin width), so that sum p * width = 1).
+    """
+    m = np.asarray(masses, dtype=float)
+    cols = ["x_lo", "x_hi", "x_center", "x_mean", "count", "p"]
+    if len(m) == 0 or m.max() <= 0:
+        return pd.DataFrame(columns=cols)
+    x = m / m.max()
+    edges = log_bin_edges(x.min(), 1.0, bins_per_decade)
+    edges[-1] = max(edges[-1], 1.0 + 1e-12)  # x = 1 falls inside the last bin
+    counts, _ = np.histogram(x, bins=edges)
+    sums, _ = np.histogram(x, bins=edges, weights=x)
+    lo, hi = edges[:-1], edges[1:]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
+    return pd.DataFrame({"x_lo": lo, "x_hi": hi, "x_center": np.sqrt(lo * hi), "x_mean": mean,
+                         "count": counts, "p": counts / (len(x) * (hi - lo))})
+
+
+def histogram_table(values: np.ndarray, bins: np.ndarray | int, value_range: tuple[float, float] | None = None
+                    ) -> pd.DataFrame:
+    """Probability density of values in linear bins: lo, hi, center, count, p."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    counts, edges = np.histogram(v, bins=bins, range=value_range)
+    width = np.diff(edges)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        p = counts / (max(len(v), 1) * width)
+    return pd.DataFrame({"lo": edges[:-1], "hi": edges[1:], "center": 0.5 * (edges[:-1] + edges[1:]),
+                         "count": counts, "p": p})

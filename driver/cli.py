@@ -1,4 +1,4 @@
-"""The `driver` command: run, validate, post, plugins."""
+"""The `driver` command: run, validate, post, scaling, sweep, plugins."""
 
 from __future__ import annotations
 
@@ -61,14 +61,69 @@ def validate(input_yaml: Path = typer.Argument(..., help="run configuration (YAM
 
 
 @app.command()
-def post(run_dir: Path = typer.Argument(..., help="run directory of an earlier `driver run`")) -> None:
-    """Recompute tables and plots of a run directory from its dumps (no LAMMPS)."""
+def post(paths: list[Path] = typer.Argument(..., help="a run directory of `driver run`, or dump files "
+                                                     "(atom dumps and bond `dump local` files, paired by timestep)"),
+         out: Optional[Path] = typer.Option(None, "--out", help="where results of dump files go "
+                                                               "(default: post/ beside the first file)"),
+         dimension: Optional[int] = typer.Option(None, "--dimension", min=2, max=3,
+                                                 help="dump files: 2 or 3 (default: 2 when every z is equal)"),
+         plots: bool = typer.Option(True, "--plots/--no-plots", help="write plots and pictures"),
+         animate: bool = typer.Option(False, "--animate", help="run directory: also write plots/fragmentation.gif "
+                                                               "from its periodic dumps")) -> None:
+    """Recompute tables, plots and report from dumps, without LAMMPS."""
+    from analysis.dumps import DumpError  # noqa: PLC0415
     from driver.pipeline import analyse_run, load_resolved  # noqa: PLC0415
 
-    if not (run_dir / "config.resolved.yaml").exists():
-        _fail(f"{run_dir}: not a run directory (no config.resolved.yaml)", 2)
-    summary = analyse_run(run_dir, load_resolved(run_dir))
-    typer.echo(json.dumps(summary, indent=2))
+    try:
+        if len(paths) == 1 and paths[0].is_dir():
+            run_dir = paths[0]
+            if not (run_dir / "config.resolved.yaml").exists():
+                _fail(f"{run_dir}: not a run directory (no config.resolved.yaml); name dump files instead", 2)
+            cfg = load_resolved(run_dir)
+            cfg["output"]["plots"] = plots
+            summary = analyse_run(run_dir, cfg)
+            if animate:
+                from analysis.animation import animate_run  # noqa: PLC0415
+
+                gif = animate_run(run_dir)
+                err.print(f"animation: {gif}" if gif else
+                          "[yellow]no animation: the run has no periodic dumps (set scenario.dump_every)")
+        else:
+            from analysis.dump_files import analyse_dump_files  # noqa: PLC0415
+
+            missing = [p for p in paths if not p.is_file()]
+            if missing:
+                _fail(f"not a file: {', '.join(map(str, missing))} (name one run directory, or dump files)", 2)
+            summary = analyse_dump_files(paths, out or paths[0].parent / "post", dimension=dimension, plots=plots)
+    except DumpError as exc:
+        _fail(str(exc), 2)
+    except (FileNotFoundError, ValueError) as exc:
+        _fail(f"{type(exc).__name__}: {exc}", 2)
+    typer.echo(json.dumps(summary, indent=2, default=str))
+
+
+@app.command()
+def scaling(paths: list[Path] = typer.Argument(..., help="run directories and/or directories of runs (a sweep)"),
+            out: Optional[Path] = typer.Option(None, "--out", help="where the set's tables, plots and report go "
+                                                                  "(default: the directory when one sweep is named)"),
+            strain: Optional[float] = typer.Option(None, "--strain", help="shear runs: the strain of N(M) "
+                                                                          "(default: the largest shared one)"),
+            bootstrap: int = typer.Option(100, "--bootstrap", min=0, help="bootstrap replicates for uncertainties"),
+            plots: bool = typer.Option(True, "--plots/--no-plots")) -> None:
+    """Scaling analysis of a set of finished runs: exponents, collapses, crossovers, report."""
+    from analysis.runset import RunSetError, analyse_set  # noqa: PLC0415
+
+    if out is None:
+        if len(paths) == 1 and not (paths[0] / "config.resolved.yaml").exists():
+            out = paths[0]
+        else:
+            _fail("--out is needed unless one directory of runs is named", 2)
+    try:
+        result = analyse_set(paths, out, plots=plots, strain=strain, n_bootstrap=bootstrap)
+    except RunSetError as exc:
+        _fail(str(exc), 2)
+    err.print(f"[green]set analysed:[/] {out}/report.html")
+    typer.echo(json.dumps(result, indent=2, default=str))
 
 
 @app.command()
@@ -102,6 +157,14 @@ def sweep(input_yaml: Path = typer.Argument(..., help="base configuration (YAML)
             err.print(f"[red]failed[/] {values}: {exc}")
     table = sweep_table(runs)
     save_table(table, sweep_dir / "sweep")
+    if len(table):
+        from analysis.runset import RunSetError, analyse_set  # noqa: PLC0415
+
+        try:
+            analyse_set([cfg.run_dir() for _, cfg in runs if cfg.run_dir().exists()], sweep_dir)
+            err.print(f"set report: {sweep_dir}/report.html")
+        except (RunSetError, ValueError) as exc:
+            err.print(f"[yellow]no set analysis: {exc}")
     shown = [c for c in columns.split(",") if c] or list(table.columns)
     rt = Table(*shown)
     for _, row in table.iterrows():

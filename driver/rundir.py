@@ -25,6 +25,8 @@ from typing import Any
 import driver
 
 STATUS = "status.json"
+_UMASK = os.umask(0)
+os.umask(_UMASK)
 
 
 class RunDirError(RuntimeError):
@@ -38,6 +40,7 @@ def atomic_write_text(path: Path, text: str) -> None:
     try:
         with os.fdopen(fd, "w") as fh:
             fh.write(text)
+        os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes 0600; results are meant to be shared
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

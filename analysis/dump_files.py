@@ -1,0 +1,136 @@
+"""`driver post FILE...`: grains from dump files named on the command line (no run directory,
+e.g. dumps of a run made elsewhere).
+
+Atom dumps (`dump custom` with id and x y z, optionally type, vx vy vz, mass, radius) and bond
+dumps (`dump local` whose first three columns are atom1, atom2 and a type or state: > 0 intact,
+<= 0 broken, as both models' dumps write them) are told apart by their headers and paired by
+timestep. Every paired frame gives a grain table, N(M), moments and a row of the frame table;
+consecutive frames give the parent-child tracking table.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis.dumps import AtomFrame, DumpError, LocalFrame, bond_pairs, read_atom_dump, read_local_dump
+from analysis.grain_table import grain_table
+from analysis.grains import grains_from_bond_dump
+from analysis.pictures import render_particles_2d, render_particles_3d
+from analysis.plots import plot_nm
+from analysis.powerlaw import fit_power_law
+from analysis.report import Report, write_report
+from analysis.statistics import SMALL_GRAIN_CUT, mass_distribution, moments
+from analysis.tables import save_table
+from analysis.tracking import lineage_table
+
+
+def dump_kind(path: Path) -> str:
+    """'atoms' or 'bonds' from the first frame's header (plain or gzip)."""
+    import gzip  # noqa: PLC0415
+
+    with open(path, "rb") as fh:
+        gz = fh.read(2) == b"\x1f\x8b"
+    opener = gzip.open if gz else open
+    with opener(path, "rb") as fh:
+        for _ in range(64):
+            line = fh.readline()
+            if not line:
+                break
+            if line.startswith(b"ITEM: ATOMS"):
+                return "atoms"
+            if line.startswith(b"ITEM: ENTRIES"):
+                return "bonds"
+    raise DumpError(f"{path}: not a LAMMPS text dump (no 'ITEM: ATOMS' or 'ITEM: ENTRIES' header)")
+
+
+def analyse_dump_files(files: list[Path], out: Path, dimension: int | None = None, plots: bool = True,
+                       m_min: float | None = None) -> dict:
+    """Grain tables, N(M), frame table, tracking, plots and report of the paired frames of
+    `files` into `out`. dimension: 2 or 3 (default: 2 when every z is equal); m_min: the
+    small-grain cut of N(M) (default SPEC 2.5's for the dimension)."""
+    files = [Path(f) for f in files]
+    kinds = {f: dump_kind(f) for f in files}
+    atoms = {fr.timestep: (fr, f) for f in files if kinds[f] == "atoms" for fr in read_atom_dump(f)}
+    bonds = {fr.timestep: (fr, f) for f in files if kinds[f] == "bonds" for fr in read_local_dump(f)}
+    if not atoms or not bonds:
+        raise DumpError(f"need atom and bond dumps; got {len(atoms)} atom and {len(bonds)} bond frames in "
+                        f"{', '.join(map(str, files))}")
+    steps = sorted(set(atoms) & set(bonds))
+    if not steps:
+        raise DumpError(f"no timestep is in both the atom dumps ({min(atoms)}..{max(atoms)}) and the bond dumps "
+                        f"({min(bonds)}..{max(bonds)})")
+    first = atoms[steps[0]][0]
+    dim = dimension or (2 if np.ptp(first.positions[:, 2]) == 0 else 3)
+    cut = m_min if m_min is not None else SMALL_GRAIN_CUT[dim]
+    out = Path(out)
+
+    grain_rows, nm_rows, frame_rows, labels_seq, ids0 = [], [], [], [], first.ids
+    for step in steps:
+        af, bf = atoms[step][0], bonds[step][0]
+        if not np.array_equal(af.ids, ids0):
+            raise DumpError(f"{atoms[step][1]}: timestep {step} holds other atoms than timestep {steps[0]}: "
+                            "tracking needs the same atoms in every frame")
+        labels, table = frame_grains(af, bf, dim)
+        masses = table["mass"].to_numpy()
+        integer = bool(np.all(masses == np.round(masses)))
+        table.insert(0, "step", step)
+        grain_rows.append(table)
+        labels_seq.append(labels)
+        nm = mass_distribution(masses, m_min=cut, integer_masses=integer)
+        nm.insert(0, "step", step)
+        nm_rows.append(nm)
+        kept = masses[masses >= cut]
+        fit = (fit_power_law(kept, xmin=cut, discrete=integer) if len(kept) >= 10 and kept.max() > cut else None)
+        frame_rows.append({"step": step, "atoms_file": str(atoms[step][1]), "bonds_file": str(bonds[step][1]),
+                           "n_atoms": len(af.ids), "n_grains": int(len(masses)), f"n_grains_M>={cut:g}": len(kept),
+                           "largest_grain": float(masses.max()), "percolating_grains": int(table.percolating.sum()),
+                           "tau": None if fit is None else fit.tau, "tau_sigma": None if fit is None else fit.sigma,
+                           **moments(masses)})
+    grains = pd.concat(grain_rows, ignore_index=True)
+    nm_all = pd.concat(nm_rows, ignore_index=True)
+    frames = pd.DataFrame(frame_rows)
+    tracking = lineage_table(labels_seq)
+    tracking.insert(1, "step_child", tracking["frame"].map(dict(enumerate(steps))))
+
+    save_table(grains, out / "grains")
+    save_table(nm_all, out / "nm")
+    save_table(frames, out / "frames")
+    save_table(tracking, out / "tracking")
+    title = f"{len(steps)} frame(s) of {len(ids0)} atoms, {dim}D"
+    if plots:
+        plot_nm(nm_all, out / "plots" / "nm.png", title, by="step", legend="step {:d}")
+        last = atoms[steps[-1]][0]
+        radii = last.extra.get("radius", np.full(len(last.ids), 0.5))
+        if dim == 2:
+            render_particles_2d(last.positions, radii, labels_seq[-1], last.box, out / "plots" / "grains.png",
+                                f"timestep {steps[-1]}")
+        else:
+            render_particles_3d(last.positions, labels_seq[-1], out / "plots" / "grains.png", f"timestep {steps[-1]}")
+    rep = Report(f"Grains of dump files: {title}", "files: " + ", ".join(map(str, files)))
+    rep.table(frames.drop(columns=["atoms_file", "bonds_file"]), "one row per frame")
+    rep.figure(out / "plots" / "nm.png", "N(M) per frame")
+    rep.figure(out / "plots" / "grains.png", "atoms coloured by grain, last frame")
+    write_report(rep, out)
+    return {"frames": len(steps), "steps": steps, "dimension": dim,
+            "n_grains_last": int(frames.n_grains.iloc[-1]), "out": str(out)}
+
+
+def frame_grains(atoms: AtomFrame, bonds: LocalFrame, dim: int) -> tuple[np.ndarray, pd.DataFrame]:
+    """Grain labels (in atom-id order) and grain table of one atom frame and its bond frame.
+    Atom ids need not be 1..n: bonds are mapped onto the frame's ids."""
+    pairs, types = bond_pairs(bonds)
+    index = np.searchsorted(atoms.ids, pairs)
+    bad = (index >= len(atoms.ids)) | (atoms.ids[np.minimum(index, len(atoms.ids) - 1)] != pairs)
+    if bad.any():
+        raise DumpError(f"bond dump at timestep {bonds.timestep}: atom id {int(pairs[bad][0])} is not in the atom "
+                        "dump of that timestep")
+    labels = grains_from_bond_dump(len(atoms.ids), index + 1, types)
+    periodic = [b.startswith("p") for b in atoms.boundary] if atoms.boundary else [True] * 3
+    masses = atoms.extra.get("mass")
+    vel = None if atoms.velocities is None else atoms.velocities[:, :dim]
+    table = grain_table(labels, atoms.positions[:, :dim], vel, masses, index[types > 0], atoms.box, atoms.tilt,
+                        periodic)
+    return labels, table
