@@ -20,9 +20,8 @@ from analysis.grain_table import grain_table
 from analysis.grains import grains_from_bond_dump
 from analysis.pictures import render_particles_2d, render_particles_3d
 from analysis.plots import plot_nm
-from analysis.powerlaw import fit_power_law
 from analysis.report import Report, write_report
-from analysis.statistics import SMALL_GRAIN_CUT, mass_distribution, moments
+from analysis.statistics import SMALL_GRAIN_CUT, fit_grain_tau, mass_distribution, moments
 from analysis.tables import save_table
 from analysis.tracking import lineage_table
 
@@ -83,7 +82,7 @@ def analyse_dump_files(files: list[Path], out: Path, dimension: int | None = Non
         nm.insert(0, "step", step)
         nm_rows.append(nm)
         kept = masses[masses >= cut]
-        fit = (fit_power_law(kept, xmin=cut, discrete=integer) if len(kept) >= 10 and kept.max() > cut else None)
+        fit = fit_grain_tau(masses, cut, discrete=integer)
         frame_rows.append({"step": step, "atoms_file": str(atoms[step][1]), "bonds_file": str(bonds[step][1]),
                            "n_atoms": len(af.ids), "n_grains": int(len(masses)), f"n_grains_M>={cut:g}": len(kept),
                            "largest_grain": float(masses.max()), "percolating_grains": int(table.percolating.sum()),

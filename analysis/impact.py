@@ -178,7 +178,8 @@ def fragment_mass_fit(masses: np.ndarray, min_fragments: int = 20, n_bootstrap: 
     out = {"tau": None, "sigma": None, "sigma_bootstrap": None, "xmin": None, "xmax": None, "n_fit": None}
     if len(x) < min_fragments:
         return out
-    fit = fit_power_law(x / x.max(), discrete=False, n_bootstrap=n_bootstrap, seed=0)
+    # m / m_max <= 1 by construction: the law is fitted truncated at 1
+    fit = fit_power_law(x / x.max(), xmax=1.0, discrete=False, n_bootstrap=n_bootstrap, seed=0)
     out.update(tau=float(fit.tau), sigma=float(fit.sigma), sigma_bootstrap=float(fit.sigma_bootstrap),
                xmin=float(fit.xmin), xmax=1.0, n_fit=int(fit.n))
     return out

@@ -21,7 +21,7 @@ from analysis.report import Report, write_report
 from analysis.scaling import (Curve, finite_rate_rescale, finite_size_rescale, fit_finite_rate, fit_finite_size,
                               fit_growth, fit_loglog, fit_moment_collapse, fit_threshold_power, moment_curves, moment_rescale,
                               omega_0, omega_1, power_law, threshold_power)
-from analysis.statistics import SMALL_GRAIN_CUT, histogram_table, normalised_mass_distribution
+from analysis.statistics import SMALL_GRAIN_CUT, fit_grain_tau, histogram_table, normalised_mass_distribution
 from analysis.tables import save_table
 
 
@@ -116,8 +116,9 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
             g = fit_growth(f.strain, f[f"n_grains_M>={cut}"])
             fits.append({"fit": "growth N ~ eps^phi", "runs": name, "parameter": "phi", "value": g.exponent,
                          "sigma": g.sigma_exponent, "quality": 1 - g.r2, "method": f"log-log least squares, {g.n} strains"})
-        except ValueError:
-            pass
+        except ValueError as exc:
+            fits.append({"fit": "growth N ~ eps^phi", "runs": name, "parameter": "-", "value": np.nan,
+                         "sigma": np.nan, "quality": np.nan, "method": f"not fitted: {exc}"})
 
     # N(M) at the strain, and tau from the largest (then slowest) run's grains
     nm, masses = [], {}
@@ -134,12 +135,12 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
     nm = pd.concat(nm, ignore_index=True)
     ref = table.sort_values(["L", "edot"], ascending=[False, True]).iloc[0]["run"]
     tau, sigma_tau = None, None
-    kept = masses[ref][masses[ref] >= cut]
-    if len(kept) >= 10 and kept.max() > cut:
-        pl = fit_power_law(kept, xmin=cut, discrete=True, n_bootstrap=n_bootstrap, seed=0)
+    pl = fit_grain_tau(masses[ref], cut, n_bootstrap=n_bootstrap)
+    if pl is not None:
         tau, sigma_tau = pl.tau, max(pl.sigma, pl.sigma_bootstrap or 0.0)
         fits.append({"fit": f"N(M) ~ M^-tau at strain {strain:g}", "runs": ref, "parameter": "tau", "value": tau,
-                     "sigma": sigma_tau, "quality": pl.ks, "method": pl.method})
+                     "sigma": sigma_tau, "quality": pl.ks,
+                     "method": f"{pl.method}; range [{cut}, {pl.xmax:g}] (largest grain)"})
     curves = [Curve(t.m_mean.to_numpy(), t.N.to_numpy(), {"L": float(t.L.iloc[0]), "edot": float(t.edot.iloc[0])},
                     1.0 / np.sqrt(np.maximum(t["count"].to_numpy(dtype=float), 1)))
               for _, t in nm.groupby("run", sort=False)]
@@ -153,19 +154,19 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
                 continue
             _try_collapse(fits, collapses, f"finite size at edot {rate:g}", sel,
                           lambda cs: fit_finite_size(cs, tau, sigma_tau=sigma_tau, bounds=FINITE_SIZE_BOUNDS,
-                                                     n_grid=9, **kw), FINITE_SIZE_BOUNDS,
+                                                     n_grid=25, **kw), FINITE_SIZE_BOUNDS,
                           lambda c, p: finite_size_rescale(c.x, c.y, c.params["L"], p[0], p[1], tau),
                           r"$M / L^\alpha$", r"$N\,L^{\alpha\tau-\gamma}$")
     if len(rates) >= 2:
         _try_collapse(fits, collapses, "finite rate", curves,
-                      lambda cs: fit_finite_rate(cs, d, bounds=FINITE_RATE_BOUNDS, n_grid=15, **kw),
+                      lambda cs: fit_finite_rate(cs, d, bounds=FINITE_RATE_BOUNDS, n_grid=60, **kw),
                       FINITE_RATE_BOUNDS,
                       lambda c, p: finite_rate_rescale(c.x, c.y, c.params["L"], c.params["edot"], p[0], d),
                       r"$M\,\dot\varepsilon^{\nu\alpha}$", r"$N / (L^d \dot\varepsilon^{2\nu\alpha})$")
     m2 = table.assign(M2=[frames[n].loc[np.isclose(frames[n].strain, strain), "M2"].iloc[0] for n in table.run])
     if len(Ls) >= 2 and m2.groupby("L").edot.nunique().min() >= 2:
         _try_collapse(fits, collapses, "second moment", moment_curves(m2.L, m2.edot, m2.M2),
-                      lambda cs: fit_moment_collapse(cs, d, bounds=MOMENT_BOUNDS, n_grid=9, **kw), MOMENT_BOUNDS,
+                      lambda cs: fit_moment_collapse(cs, d, bounds=MOMENT_BOUNDS, n_grid=25, **kw), MOMENT_BOUNDS,
                       lambda c, p: moment_rescale(c.x, c.y, c.params["L"], p[0], p[1], d),
                       r"$\dot\varepsilon L^{1/\nu}$", r"$\langle M^2\rangle / L^{d+\alpha}$")
 
@@ -188,8 +189,9 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
     rep = Report(f"Shear set: {title}", f"{len(runs)} runs: " + ", ".join(str(r["dir"]) for r in runs))
     rep.table(fits_df, "fitted exponents (SPEC 2.5) with standard errors; quality: collapse cost (near 1 for a "
                        "good collapse with Poisson errors), KS distance for tau, 1 - R^2 for growth")
-    rep.table(table[["run", "L", "edot", "k_A", "seed", "n_particles", "bonds_broken", "final_mu", "tau_final",
-                     "tau_final_sigma"]], "runs")
+    shown = ["run", "L", "edot", "k_A", "seed", "n_particles", "bonds_broken", "final_mu", "tau_final",
+             "tau_final_sigma"]
+    rep.table(table[[c for c in shown if c in table]], "runs")
     for png, cap in [("nm.png", "N(M) of every run"), ("growth.png", "grains above the cut against strain")]:
         rep.figure(out / "plots" / png, cap)
     for key in collapses:
@@ -216,7 +218,8 @@ def _try_collapse(fits: list, collapses: dict, key: str, curves: list[Curve], fi
         edge = "; AT THE EDGE of its range [{:g}, {:g}]: not constrained".format(lo, hi) if min(
             abs(v - lo), abs(v - hi)) < 1e-3 * (hi - lo) else ""
         fits.append({"fit": f"{key} collapse", "runs": f"{len(curves)} runs", "parameter": k, "value": v,
-                     "sigma": fit.sigma[k], "quality": fit.cost, "method": fit.method + edge})
+                     "sigma": fit.sigma[k], "quality": fit.cost,
+                     "method": f"{fit.method}; {fit.n_terms} point comparisons{edge}"})
     collapses[key] = (fit, curves, rescale, xlabel, ylabel)
 
 
@@ -289,7 +292,7 @@ def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True) -> dict:
         label = f"G_c = {gc:g} J/m²"
         mass_tables[label] = normalised_mass_distribution(grp.m_over_m_max.to_numpy())
         if len(grp) >= 20:
-            pl = fit_power_law(grp.m_over_m_max.to_numpy(), discrete=False, n_bootstrap=100, seed=0)
+            pl = fit_power_law(grp.m_over_m_max.to_numpy(), xmax=1.0, discrete=False, n_bootstrap=100, seed=0)
             mass_fits[label] = {"tau": pl.tau, "sigma": max(pl.sigma, pl.sigma_bootstrap or 0.0), "xmin": pl.xmin,
                                 "xmax": 1.0}
             fits.append({"G_c": gc, "fit": "p(m/m_max) ~ (m/m_max)^-tau, all runs", "parameter": "tau",

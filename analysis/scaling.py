@@ -144,13 +144,13 @@ def collapse_cost(curves: Sequence[Curve], rescale: Rescale, p: np.ndarray, min_
 def fit_collapse(curves: Sequence[Curve], rescale: Rescale, p0: Sequence[float], names: Sequence[str],
                  bounds: Sequence[tuple[float, float]] | None = None, uncertainty: str = "bootstrap",
                  n_bootstrap: int = 100, seed: int = 0, min_terms: int = 4, n_grid: int = 0,
-                 perturb: Callable[[np.random.Generator], Rescale] | None = None) -> CollapseFit:
+                 perturb: Callable[[np.random.Generator], Rescale] | None = None, n_starts: int = 5) -> CollapseFit:
     """Exponents minimising collapse_cost, with uncertainties (module doc).
 
     rescale(curve, p) -> (X, Y) with p in the order of names; p0 starting values;
     bounds optional (lo, hi) per parameter; n_grid > 0 (needs bounds) first evaluates the
-    cost on an n_grid^k grid over the bounds and starts from its best point, for landscapes
-    with several minima. perturb(rng) may return a rescale function with fixed inputs
+    cost on an n_grid^k grid over the bounds and minimises from its n_starts best points,
+    keeping the lowest, for landscapes with several minima. perturb(rng) may return a rescale function with fixed inputs
     redrawn (e.g. tau from its own error) for each bootstrap replicate.
     """
     if uncertainty not in ("bootstrap", "jackknife", "curvature"):
@@ -166,8 +166,13 @@ def fit_collapse(curves: Sequence[Curve], rescale: Rescale, p0: Sequence[float],
             raise ValueError("n_grid needs bounds")
         axes = [np.linspace(lo, hi, n_grid) for lo, hi in bounds]
         grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, len(names))
-        start = grid[int(np.argmin([collapse_cost(curves, rescale, g, min_terms) for g in grid]))]
-    best = _minimise(curves, rescale, start, bounds, min_terms)
+        costs = np.array([collapse_cost(curves, rescale, g, min_terms) for g in grid])
+        # a coarse grid can rank a flat side minimum first: descend from the best few points
+        starts = grid[np.argsort(costs, kind="stable")[:n_starts]]
+    else:
+        starts = [start]
+    best = min((_minimise(curves, rescale, s0, bounds, min_terms) for s0 in starts),
+               key=lambda q: collapse_cost(curves, rescale, q, min_terms))
     cost, terms = collapse_cost(curves, rescale, best, min_terms, return_terms=True)
     if cost >= _BAD_COST:
         raise ValueError("the curves do not overlap after rescaling: try other starting values")

@@ -13,9 +13,8 @@ from analysis.grain_table import grain_table
 from analysis.grains import grains_from_bond_dump
 from analysis.pictures import render_particles_2d, render_particles_3d
 from analysis.plots import plot_nm, plot_stress
-from analysis.powerlaw import fit_power_law
 from analysis.report import Report, provenance_line, write_report
-from analysis.statistics import SMALL_GRAIN_CUT, mass_distribution, moments
+from analysis.statistics import SMALL_GRAIN_CUT, fit_grain_tau, mass_distribution, moments
 from analysis.stress import inertial_number, stress_measures
 from analysis.tables import save_table
 from analysis.tracking import lineage_table
@@ -138,19 +137,16 @@ def shear_report(run_dir: Path, cfg: dict, summary: dict, frames: pd.DataFrame, 
     rep.figure(run_dir / "plots" / "stress.png", "shear stress, pressure and stress ratio against strain")
     rep.figure(run_dir / "plots" / "grains.png", "particles coloured by grain at the last strain")
     rep.table(frames, "one row per snapshot (moments M_n = sum over grains of M^n)")
-    rep.table(fits, "power-law fits of N(M) (discrete maximum likelihood, M >= cut)")
+    rep.table(fits, "power-law fits of N(M) (discrete maximum likelihood over cut <= M <= largest grain)")
     return rep
 
 
 def _fit_tau(masses: np.ndarray, cut: int, snap: dict) -> dict:
-    """Discrete maximum-likelihood exponent of N(M) ~ M^-tau over grains with M >= cut."""
-    kept = masses[masses >= cut]
-    row = {"strain": snap["strain"], "step": snap["step"], "xmin": cut, "n": int(len(kept)),
-           "tau": None, "sigma": None}
-    if len(kept) >= 10 and kept.max() > cut:
-        fit = fit_power_law(kept, xmin=cut, discrete=True)
-        row.update(tau=float(fit.tau), sigma=float(fit.sigma))
-    return row
+    """Discrete maximum-likelihood exponent of N(M) ~ M^-tau over grains with cut <= M <= largest."""
+    fit = fit_grain_tau(masses, cut)
+    return {"strain": snap["strain"], "step": snap["step"], "xmin": cut, "xmax": None if fit is None else fit.xmax,
+            "n": int(np.sum(masses >= cut)), "tau": None if fit is None else float(fit.tau),
+            "sigma": None if fit is None else float(fit.sigma)}
 
 
 def _picture(run_dir: Path, snap: dict, labels: np.ndarray, dim: int, system: dict, title: str) -> None:

@@ -5,6 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from analysis.powerlaw import PowerLawFit, fit_power_law
+
 # SPEC 2.5: grains lighter than this are left out of N(M) (in particle masses m).
 SMALL_GRAIN_CUT = {2: 3, 3: 4}
 
@@ -51,6 +53,20 @@ def moments(masses: np.ndarray, orders=(1, 2, 3)) -> dict[str, float]:
     """<M^n> = sum over grains of M^n (SPEC 2.5: not normalised)."""
     m = np.asarray(masses, dtype=float)
     return {f"M{n}": float(np.sum(m ** n)) for n in orders}
+
+
+def fit_grain_tau(masses: np.ndarray, m_min: float, discrete: bool = True, n_bootstrap: int = 0,
+                  min_grains: int = 10) -> PowerLawFit | None:
+    """tau of N(M) ~ M^-tau (SPEC 2.5) by maximum likelihood over the grains with
+    m_min <= M <= M_largest, the law truncated at the largest grain: a finite system cuts the
+    law off, and an unbounded fit then overestimates tau (1.88 instead of 1.80 for 3e4
+    grains of a discrete law cut at M = 256). None with fewer than min_grains grains in range."""
+    m = np.asarray(masses, dtype=float)
+    kept = m[m >= m_min]
+    if len(kept) < min_grains or kept.max() <= m_min:
+        return None
+    return fit_power_law(kept, xmin=m_min, xmax=float(kept.max()), discrete=discrete, n_bootstrap=n_bootstrap,
+                         seed=0)
 
 
 def count_above(masses: np.ndarray, threshold: float) -> int:

@@ -69,7 +69,7 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
                                                  help="dump files: 2 or 3 (default: 2 when every z is equal)"),
          plots: bool = typer.Option(True, "--plots/--no-plots", help="write plots and pictures"),
          animate: bool = typer.Option(False, "--animate", help="run directory: also write plots/fragmentation.gif "
-                                                               "from its periodic dumps")) -> None:
+                                                               "from its periodic dumps (as output.animation)")) -> None:
     """Recompute tables, plots and report from dumps, without LAMMPS."""
     from analysis.dumps import DumpError  # noqa: PLC0415
     from driver.pipeline import analyse_run, load_resolved  # noqa: PLC0415
@@ -81,6 +81,8 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
                 _fail(f"{run_dir}: not a run directory (no config.resolved.yaml); name dump files instead", 2)
             cfg = load_resolved(run_dir)
             cfg["output"]["plots"] = plots
+            animate = animate or cfg["output"].get("animation", False)
+            cfg["output"]["animation"] = False  # made below, with a message
             summary = analyse_run(run_dir, cfg)
             if animate:
                 from analysis.animation import animate_run  # noqa: PLC0415

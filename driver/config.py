@@ -124,6 +124,8 @@ class ImpactScenario(_Strict):
 class Output(_Strict):
     dir: Path | None = Field(None, description="run directory; default runs/<name>")
     plots: bool = True
+    animation: bool = Field(False, description="also write plots/fragmentation.gif from the periodic dumps "
+                                               "(needs scenario.dump_every > 0)")
 
 
 class Execution(_Strict):
@@ -162,6 +164,9 @@ class RunConfig(_Strict):
             raise ValueError("scenario 'shear' needs model kind 'bpm' (BCM shear is not available yet)")
         if self.scenario.kind == "impact" and self.model.kind != "bcm":
             raise ValueError("scenario 'impact' needs model kind 'bcm' (BPM particle impact is not available yet)")
+        if self.output.animation and self.scenario.dump_every == 0:
+            raise ValueError("output.animation needs periodic dumps: set scenario.dump_every > 0 (steps between "
+                             "dumps), or animation: false")
         if self.model.kind == "bpm" and self.scenario.kind == "shear":
             steps = self.scenario.max_strain / (self.scenario.strain_rate * self.model.timestep)
             if steps > 2e9:

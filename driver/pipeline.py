@@ -60,7 +60,13 @@ def analyse_run(run_dir: Path, cfg: dict) -> dict:
     if cfg["scenario"]["kind"] == "shear":
         from analysis.shear import analyse_shear  # noqa: PLC0415
 
-        return analyse_shear(run_dir, cfg, plots=cfg["output"]["plots"])
-    from analysis.impact import analyse_impact  # noqa: PLC0415
+        summary = analyse_shear(run_dir, cfg, plots=cfg["output"]["plots"])
+    else:
+        from analysis.impact import analyse_impact  # noqa: PLC0415
 
-    return analyse_impact(run_dir, cfg, plots=cfg["output"]["plots"])
+        summary = analyse_impact(run_dir, cfg, plots=cfg["output"]["plots"])
+    if cfg["output"].get("animation"):
+        from analysis.animation import animate_run  # noqa: PLC0415
+
+        animate_run(run_dir)
+    return summary

@@ -255,7 +255,7 @@ def test_run_directory_and_post_reproduce_tables(small_impact):
                  "plots/cells.png", "dumps/cells.end.lammpstrj", "dumps/interfaces.end.lammpstrj", "in.lammps",
                  "interfaces.txt", "cells.txt", "system.data", "provenance.json"]:
         assert (small_impact / name).exists(), name
-    tables = ["energies", "fragments", "interfaces"]
+    tables = ["energies", "fragments", "interfaces", "fragment_masses"]
     before = {n: pd.read_parquet(small_impact / f"results/{n}.parquet") for n in tables}
     summary = json.loads((small_impact / "results/summary.json").read_text())
     proc = subprocess.run([sys.executable, "-m", "driver.cli", "post", str(small_impact)], capture_output=True,
@@ -265,3 +265,11 @@ def test_run_directory_and_post_reproduce_tables(small_impact):
         pd.testing.assert_frame_equal(before[n], pd.read_parquet(small_impact / f"results/{n}.parquet"))
     assert json.loads(proc.stdout)["D_w"] == summary["D_w"]
     assert summary["n_fragments"] == len(before["fragments"])
+    assert "fragments" in (small_impact / "report.md").read_text()
+    # fragment rows: masses add up to the particle's, centre-of-mass energy below the cells' total
+    frags = before["fragments"]
+    system = json.loads((small_impact / "system.json").read_text())
+    assert frags.mass.sum() == pytest.approx(system["mass"], rel=1e-9)
+    assert frags.ke_cm.sum() == pytest.approx(summary["W_k_plus_cm"], rel=1e-12)
+    assert (frags.ke_trans - frags.ke_cm >= -1e-18).all()
+    assert summary["mass_tau"] is None or summary["mass_tau"] > 1.0

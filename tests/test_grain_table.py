@@ -225,7 +225,7 @@ def test_labels_from_grain_labels_and_mismatch_rejected():
 
 
 def _blob_system(rng, box, n_blobs=5, per_blob=30, cutoff=1.2):
-    """Random 3D blobs (intact bonds between close atoms of one blob), wrapped into the box."""
+    """Random 3D blobs (intact bonds between close atoms of one blob): (wrapped, pairs, unwrapped)."""
     lo, hi = box[:, 0], box[:, 1]
     centres = rng.uniform(lo, hi, (n_blobs, 3))
     pos = np.concatenate([c + rng.normal(0, 0.8, (per_blob, 3)) for c in centres])
@@ -234,14 +234,38 @@ def _blob_system(rng, box, n_blobs=5, per_blob=30, cutoff=1.2):
     keep = (blob[i] == blob[j]) & (np.linalg.norm(pos[i] - pos[j], axis=1) < cutoff)
     pairs = np.column_stack([i[keep], j[keep]])
     wrapped = lo + np.mod(pos - lo, hi - lo)
-    return wrapped, pairs
+    return wrapped, pairs, pos
+
+
+@pytest.mark.parametrize("tilt", [None, np.array([2.0, -1.5, 1.0])])
+def test_unwrap_recovers_blobs_up_to_one_lattice_vector(tilt):
+    rng = np.random.default_rng(11)
+    box = np.array([[0.0, 6.0], [0.0, 6.0], [0.0, 6.0]])  # small box: most blobs straddle it
+    lo, hi = box[:, 0], box[:, 1]
+    _, pairs, true = _blob_system(rng, box)
+    h = np.diag(hi - lo)
+    if tilt is not None:
+        h[0, 1], h[0, 2], h[1, 2] = tilt
+    s = np.linalg.solve(h, (true - lo).T).T
+    wrapped = lo + np.mod(s, 1.0) @ h.T
+    labels = grain_labels(len(true), pairs)
+    unwrapped, perc = unwrap_by_bonds(wrapped, pairs, labels, box, tilt)
+    assert not perc.any()
+    assert np.any(np.abs(unwrapped - wrapped).max(axis=1) > 1.0)  # grains were really cut
+    k = np.linalg.solve(h, (unwrapped - true).T).T  # integer lattice shifts, one per grain
+    np.testing.assert_allclose(k, np.round(k), atol=1e-9)
+    for g in range(labels.max() + 1):  # loop over a handful of grains (test only)
+        kg = np.round(k[labels == g])
+        assert (kg == kg[0]).all()
+        root = np.flatnonzero(labels == g)[0]
+        np.testing.assert_array_equal(unwrapped[root], wrapped[root])  # root keeps its position
 
 
 @pytest.mark.parametrize("tilt", [None, np.array([1.0, -0.5, 0.8])])
 def test_translation_invariance(tilt):
     rng = np.random.default_rng(7)
     box = np.array([[0.0, 8.0], [-2.0, 6.0], [1.0, 9.0]])
-    pos, pairs = _blob_system(rng, box)
+    pos, pairs, _ = _blob_system(rng, box)
     if tilt is not None:  # map into the triclinic cell
         h = np.array([[8.0, tilt[0], tilt[1]], [0.0, 8.0, tilt[2]], [0.0, 0.0, 8.0]])
         s = (pos - box[:, 0]) / 8.0

@@ -80,12 +80,41 @@ def test_generated_input_runs_standalone_with_lmp(finished_run, tmp_path, plugin
 
 
 def test_post_reproduces_tables(finished_run):
-    before = {n: pd.read_parquet(finished_run / f"results/{n}.parquet") for n in ["nm", "frames", "grains", "stress"]}
+    names = ["nm", "frames", "grains", "stress", "nm_fits", "tracking"]
+    before = {n: pd.read_parquet(finished_run / f"results/{n}.parquet") for n in names}
+    for name in ["report.md", "report.html", "plots/nm.png", "plots/grains.png"]:
+        (finished_run / name).unlink()
     proc = subprocess.run([sys.executable, "-m", "driver.cli", "post", str(finished_run)], capture_output=True,
                           text=True)
     assert proc.returncode == 0, proc.stderr
     for name, df in before.items():
         pd.testing.assert_frame_equal(df, pd.read_parquet(finished_run / f"results/{name}.parquet"))
+    for name in ["report.md", "report.html", "plots/nm.png", "plots/grains.png"]:
+        assert (finished_run / name).exists(), name
+    assert "data:image/png;base64," in (finished_run / "report.html").read_text()
+
+
+def test_grain_table_and_tracking_consistent(finished_run):
+    """Per-grain rows add up to the frame totals, and every grain at a strain has parents at the
+    strain before whose shared masses add up to its mass (bonds only break)."""
+    grains = pd.read_parquet(finished_run / "results/grains.parquet")
+    frames = pd.read_parquet(finished_run / "results/frames.parquet")
+    n = json.loads((finished_run / "system.json").read_text())["n_particles"]
+    for eps, g in grains.groupby("strain"):
+        row = frames[frames.strain == eps].iloc[0]
+        assert g["size"].sum() == n and len(g) == row["n_grains"]
+        assert g["mass"].max() == row["largest_grain"]
+        # kinetic energy of a grain's atoms >= that of its centre of mass
+        assert (g.ke - g.ke_cm >= -1e-12).all()
+        # a grain that does not wrap the box has a centre of mass inside the box
+        ok = g[~g.percolating]
+        assert ok[["x", "y"]].notna().all().all() and (ok.rg >= 0).all()
+    tracking = pd.read_parquet(finished_run / "results/tracking.parquet")
+    assert set(tracking.columns) >= {"strain_parent", "strain_child", "child", "parent", "shared_mass"}
+    for (eps, child), t in tracking.groupby(["strain_child", "child"]):
+        mass = grains[(grains.strain == eps) & (grains.grain == child)]["mass"].iloc[0]
+        assert t.shared_mass.sum() == mass
+        assert len(t) == 1  # breakage only: one parent
 
 
 def test_finished_run_not_overwritten(finished_run):
@@ -127,8 +156,12 @@ def test_3d_triaxial_run_with_periodic_dumps(tmp_path, plugin_path):
     """3D triaxial shear runs; dump_every writes atom and bond dumps at that interval."""
     out = tmp_path / "t3"
     cfg = small_config(out, model={"dimension": 3, "L": 6},
-                       scenario={"max_strain": 0.05, "measure_strains": [0.05], "dump_every": 250})
+                       scenario={"max_strain": 0.05, "measure_strains": [0.05], "dump_every": 250},
+                       output={"animation": True})
     execute(parse_config(cfg), show_progress=False)
+    from PIL import Image
+
+    assert Image.open(out / "plots" / "fragmentation.gif").n_frames == 5  # one frame per periodic dump
     summary = json.loads((out / "results/summary.json").read_text())
     assert 10.0 < summary["bonds_per_particle"] < 12.5
     steps = sorted(int(p.name.split(".")[1]) for p in (out / "dumps").glob("bonds.*.lammpstrj"))
@@ -137,3 +170,29 @@ def test_3d_triaxial_run_with_periodic_dumps(tmp_path, plugin_path):
     # constant volume: the triaxial deformation keeps the box volume
     assert thermo["vol"].max() / thermo["vol"].min() - 1 < 1e-9
     assert (out / "dumps" / "atoms.750.lammpstrj").exists()
+
+
+def test_post_on_dump_files(finished_run, tmp_path):
+    """`driver post FILE...` pairs atom and bond dumps by timestep and finds the run's grains."""
+    dumps = sorted((finished_run / "dumps").glob("*.lammpstrj"))
+    out = tmp_path / "post"
+    proc = subprocess.run([sys.executable, "-m", "driver.cli", "post", *map(str, dumps), "--out", str(out)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert json.loads(proc.stdout)["dimension"] == 2
+    mine = pd.read_parquet(out / "frames.parquet")
+    run = pd.read_parquet(finished_run / "results/frames.parquet")
+    assert list(mine.step) == list(run.step)
+    assert list(mine.n_grains) == list(run.n_grains) and list(mine.M2) == list(run.M2)
+    grains_run = pd.read_parquet(finished_run / "results/grains.parquet").drop(columns=["strain"])
+    pd.testing.assert_frame_equal(pd.read_parquet(out / "grains.parquet"), grains_run)
+    assert (out / "report.html").exists() and (out / "tracking.csv").exists()
+
+
+def test_post_on_dump_files_needs_both_kinds(finished_run, tmp_path):
+    bonds = sorted((finished_run / "dumps").glob("bonds.*.lammpstrj"))
+    proc = subprocess.run([sys.executable, "-m", "driver.cli", "post", *map(str, bonds), "--out", str(tmp_path / "p")],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert "need atom and bond dumps" in proc.stderr
+    assert not (tmp_path / "p").exists()

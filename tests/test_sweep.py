@@ -43,6 +43,10 @@ def test_cli_sweep_runs_and_resumes(tmp_path, plugin_path):
     assert first.returncode == 0, first.stderr[-3000:]
     table = pd.read_csv(out / "sweep.csv")
     assert sorted(table["model.k_A"]) == [0, 4] and len(table) == 2
+    # the set analysis runs at the end of a sweep: growth exponents of both runs, one report
+    fits = pd.read_csv(out / "fits.csv")
+    assert set(fits.parameter) >= {"phi"} or "not fitted" in " ".join(fits.method.astype(str))
+    assert (out / "report.html").exists() and (out / "runs.csv").exists()
     again = subprocess.run(cmd, capture_output=True, text=True)
     assert "2 already finished" in again.stderr
     pd.testing.assert_frame_equal(table, pd.read_csv(out / "sweep.csv"))

@@ -1,0 +1,162 @@
+"""`driver scaling` on sets of runs: the exponents of synthetic sets built with known scaling
+forms come back, crossovers are bracketed, bad sets are refused.
+
+The run directories here hold only what the set analysis reads (config, status, summary and
+result tables), written from known laws; the runs' own analysis is tested on real runs."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+from analysis.powerlaw import sample_power_law
+from analysis.runset import RunSetError, analyse_set, find_runs
+from analysis.statistics import mass_distribution
+
+TAU, ALPHA, GAMMA, PHI, NU_ALPHA = 1.8, 1.0, 1.5, 0.7, 0.5
+STRAINS = [0.1, 0.2, 0.4, 0.8]
+
+
+def _write_run(root: Path, cfg: dict, summary: dict, tables: dict[str, pd.DataFrame]) -> Path:
+    (root / "results").mkdir(parents=True)
+    (root / "config.resolved.yaml").write_text(yaml.safe_dump(cfg))
+    (root / "status.json").write_text(json.dumps({"state": "finished"}))
+    (root / "results" / "summary.json").write_text(json.dumps(summary))
+    for name, df in tables.items():
+        df.to_parquet(root / "results" / f"{name}.parquet", index=False)
+    return root
+
+
+def fake_shear_run(root: Path, L: float, edot: float, m_star: float, amplitude: float, seed: int) -> Path:
+    """Grain masses at the last strain from N(M) = amplitude M^-TAU exp(-M / m_star) (discrete,
+    drawn by rejection from the pure law); the number of grains above the cut grows as eps^PHI."""
+    k = np.arange(1, int(30 * m_star) + 1)
+    n = int(amplitude * np.sum(k ** -TAU))
+    rng = np.random.default_rng(seed)
+    draws = sample_power_law(n, TAU, 1, xmax=30 * m_star, discrete=True, rng=rng).astype(float)
+    masses = draws[rng.random(n) < np.exp(-draws / m_star)]
+    nm = mass_distribution(masses, m_min=3)
+    nm.insert(0, "strain", STRAINS[-1])
+    frames = pd.DataFrame({"strain": STRAINS, "n_grains_M>=3": [100 * e ** PHI for e in STRAINS],
+                           "M2": [float(np.sum(masses ** 2))] * len(STRAINS)})
+    grains = pd.DataFrame({"strain": STRAINS[-1], "mass": masses})
+    cfg = {"name": f"L{L:g}_e{edot:g}", "seed": seed, "model": {"kind": "bpm", "dimension": 2, "L": L, "k_A": 4,
+                                                                 "lambda_c": 1.05},
+           "scenario": {"kind": "shear", "strain_rate": edot}}
+    return _write_run(root, cfg, {"n_particles": int(masses.sum())}, {"nm": nm, "frames": frames, "grains": grains})
+
+
+@pytest.fixture(scope="module")
+def size_set(tmp_path_factory) -> Path:
+    """Finite size: N(M, L) = L^(GAMMA - ALPHA TAU) f(M / L^ALPHA), f(x) = 20 x^-TAU exp(-x / 10)."""
+    root = tmp_path_factory.mktemp("sizes")
+    for i, L in enumerate([16, 32, 64]):
+        fake_shear_run(root / f"L{L}", L, 1e-3, 10 * L ** ALPHA, 20 * L ** GAMMA, seed=i)
+    return root
+
+
+@pytest.fixture(scope="module")
+def rate_set(tmp_path_factory) -> Path:
+    """Finite rate at L = 16: N = L^2 edot^(2 NU_ALPHA) h(M edot^NU_ALPHA), h(x) = 40 x^-TAU exp(-x / 4)."""
+    root = tmp_path_factory.mktemp("rates")
+    for i, edot in enumerate([1e-3, 4e-3, 1.6e-2]):
+        amp = 40 * 16 ** 2 * edot ** (2 * NU_ALPHA) * edot ** (-NU_ALPHA * TAU)
+        fake_shear_run(root / f"e{edot:g}", 16, edot, 4 * edot ** -NU_ALPHA, amp, seed=10 + i)
+    return root
+
+
+def _fits(out: Path) -> pd.DataFrame:
+    return pd.read_csv(out / "fits.csv")
+
+
+def _value(fits: pd.DataFrame, fit_prefix: str, parameter: str) -> tuple[float, float]:
+    row = fits[fits.fit.str.startswith(fit_prefix) & (fits.parameter == parameter)].iloc[0]
+    return float(row.value), float(row.sigma)
+
+
+def test_finite_size_set_recovers_exponents(size_set, tmp_path):
+    out = tmp_path / "out"
+    analyse_set([size_set], out, n_bootstrap=40)
+    fits = _fits(out)
+    tau, s_tau = _value(fits, "N(M)", "tau")
+    # the sample is truncated at 4 L^alpha while the MLE assumes an unbounded law: a small bias
+    assert abs(tau - TAU) < max(3 * s_tau, 0.05)
+    alpha, s_alpha = _value(fits, "finite size", "alpha")
+    gamma, s_gamma = _value(fits, "finite size", "gamma")
+    assert abs(alpha - ALPHA) < max(3 * s_alpha, 0.05), (alpha, s_alpha)
+    assert abs(gamma - GAMMA) < max(3 * s_gamma, 0.1), (gamma, s_gamma)
+    assert s_alpha > 0 and s_gamma > 0
+    phi = fits[fits.parameter == "phi"]
+    assert len(phi) == 3 and np.allclose(phi.value, PHI)
+    assert "finite rate" not in " ".join(fits.fit)  # one rate: no finite-rate collapse
+    for name in ["report.md", "report.html", "runs.csv", "nm.csv", "plots/collapse_finite_size_at_edot_0.001.png",
+                 "plots/growth.png"]:
+        assert (out / name).exists(), name
+
+
+def test_finite_rate_set_recovers_nu_alpha(rate_set, tmp_path):
+    out = tmp_path / "out"
+    analyse_set([rate_set], out, n_bootstrap=40)
+    nu_alpha, sigma = _value(_fits(out), "finite rate", "nu_alpha")
+    assert abs(nu_alpha - NU_ALPHA) < max(3 * sigma, 0.05), (nu_alpha, sigma)
+
+
+def fake_impact_run(root: Path, velocity: float, seed: int) -> Path:
+    """omega = velocity^2 / 4; D_w = 0.2 (omega - 0.5)^0.8 above 0.5; two or more multi-cell
+    fragments from omega 2; eta = 0.05 omega^0.3; fragment masses p(m) ~ m^-1.6."""
+    omega = velocity ** 2 / 4
+    d_w = 0.2 * (omega - 0.5) ** 0.8 if omega > 0.5 else 0.0
+    multi = 1 if omega < 2 else int(3 * omega)
+    rng = np.random.default_rng(seed)
+    masses = sample_power_law(400, 1.6, 1e-3, xmax=1.0, rng=rng)
+    frags = pd.DataFrame({"mass": masses, "single_cell": False, "shape_factor": rng.uniform(3.0, 3.5, len(masses))})
+    summary = {"omega": omega, "D_w": d_w, "eta": 0.05 * omega ** 0.3, "e_k2": 0.7 * omega ** -0.2,
+               "n_fragments": multi + 5, "n_fragments_multi_cell": multi}
+    cfg = {"name": f"v{velocity:g}_s{seed}", "seed": seed,
+           "model": {"kind": "bcm", "n_cells": 100, "interface": {"G_c": 1.0}},
+           "scenario": {"kind": "impact", "velocity": velocity}}
+    return _write_run(root, cfg, summary, {"fragments": frags})
+
+
+def test_impact_set_crossovers_and_fits(tmp_path):
+    runs = tmp_path / "runs"
+    for v in [0.6, 1.0, 1.6, 2.4, 3.6, 5.0, 7.0]:
+        for seed in (1, 2):
+            fake_impact_run(runs / f"v{v:g}_s{seed}", v, seed)
+    out = tmp_path / "out"
+    result = analyse_set([runs], out)
+    th = result["thresholds"]["1"]
+    # omega sampled at 0.09, 0.25, 0.64, 1.44, 3.24, 6.25, 12.25
+    assert th["omega_0"] == pytest.approx((0.25 + 0.64) / 2)
+    assert th["omega_1"] == pytest.approx((1.44 + 3.24) / 2)
+    fits = _fits(out)
+    assert _value(fits, "D_w", "omega0")[0] == pytest.approx(0.5, abs=1e-4)
+    assert _value(fits, "D_w", "beta")[0] == pytest.approx(0.8, abs=1e-4)
+    assert _value(fits, "eta", "b")[0] == pytest.approx(0.3, abs=1e-9)
+    tau, sigma = _value(fits, "p(m", "tau")
+    assert abs(tau - 1.6) < 3 * sigma
+    points = pd.read_csv(out / "points.csv")
+    assert (points.n_runs == 2).all() and len(points) == 7
+    assert (out / "plots/measures_vs_omega.png").exists() and (out / "report.html").exists()
+
+
+def test_sets_refused_with_reasons(tmp_path, size_set):
+    impact = fake_impact_run(tmp_path / "imp", 3.0, 1)
+    with pytest.raises(RunSetError, match="different kinds"):
+        analyse_set([size_set, impact], tmp_path / "o")
+    unfinished = tmp_path / "unfinished"
+    fake_impact_run(unfinished / "a", 3.0, 1)
+    (unfinished / "a" / "status.json").write_text(json.dumps({"state": "running"}))
+    with pytest.raises(RunSetError, match="no finished runs"):
+        find_runs([unfinished])
+    proc = subprocess.run([sys.executable, "-m", "driver.cli", "scaling", str(size_set), str(impact), "--out",
+                           str(tmp_path / "o2")], capture_output=True, text=True)
+    assert proc.returncode == 2 and "different kinds" in proc.stderr
+    assert not (tmp_path / "o2").exists()
