@@ -269,7 +269,7 @@ def test_run_directory_and_post_reproduce_tables(small_impact):
     # fragment rows: masses add up to the particle's, centre-of-mass energy below the cells' total
     frags = before["fragments"]
     system = json.loads((small_impact / "system.json").read_text())
-    assert frags.mass.sum() == pytest.approx(system["mass"], rel=1e-9)
+    assert frags.mass.sum() == pytest.approx(system["mass"], rel=1e-6)  # dumps carry 8 digits
     assert frags.ke_cm.sum() == pytest.approx(summary["W_k_plus_cm"], rel=1e-12)
     assert (frags.ke_trans - frags.ke_cm >= -1e-18).all()
     assert summary["mass_tau"] is None or summary["mass_tau"] > 1.0
