@@ -46,13 +46,15 @@ def dump_kind(path: Path) -> str:
 
 
 def analyse_dump_files(files: list[Path], out: Path, dimension: int | None = None, plots: bool = True,
-                       m_min: float | None = None) -> dict:
+                       m_min: float | None = None, reader: str = "numpy") -> dict:
     """Grain tables, N(M), frame table, tracking, plots and report of the paired frames of
     `files` into `out`. dimension: 2 or 3 (default: 2 when every z is equal); m_min: the
-    small-grain cut of N(M) (default SPEC 2.5's for the dimension)."""
+    small-grain cut of N(M) (default SPEC 2.5's for the dimension); reader: the atom-dump
+    engine of analysis.dumps.read_atom_dump ("numpy", or "mdanalysis" for MDAnalysis'
+    DumpReader positions and velocities)."""
     files = [Path(f) for f in files]
     kinds = {f: dump_kind(f) for f in files}
-    atoms = {fr.timestep: (fr, f) for f in files if kinds[f] == "atoms" for fr in read_atom_dump(f)}
+    atoms = {fr.timestep: (fr, f) for f in files if kinds[f] == "atoms" for fr in read_atom_dump(f, engine=reader)}
     bonds = {fr.timestep: (fr, f) for f in files if kinds[f] == "bonds" for fr in read_local_dump(f)}
     if not atoms or not bonds:
         raise DumpError(f"need atom and bond dumps; got {len(atoms)} atom and {len(bonds)} bond frames in "

@@ -68,6 +68,8 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
          dimension: Optional[int] = typer.Option(None, "--dimension", min=2, max=3,
                                                  help="dump files: 2 or 3 (default: 2 when every z is equal)"),
          plots: bool = typer.Option(True, "--plots/--no-plots", help="write plots and pictures"),
+         reader: str = typer.Option("numpy", "--reader", help="dump files: atom-dump reader, numpy (float64, "
+                                                             "default) or mdanalysis (MDAnalysis' DumpReader)"),
          animate: bool = typer.Option(False, "--animate", help="run directory: also write plots/fragmentation.gif "
                                                                "from its periodic dumps (as output.animation)")) -> None:
     """Recompute tables, plots and report from dumps, without LAMMPS."""
@@ -96,7 +98,10 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
             missing = [p for p in paths if not p.is_file()]
             if missing:
                 _fail(f"not a file: {', '.join(map(str, missing))} (name one run directory, or dump files)", 2)
-            summary = analyse_dump_files(paths, out or paths[0].parent / "post", dimension=dimension, plots=plots)
+            if reader not in ("numpy", "mdanalysis"):
+                _fail(f"--reader {reader!r}: allowed values are numpy, mdanalysis", 2)
+            summary = analyse_dump_files(paths, out or paths[0].parent / "post", dimension=dimension, plots=plots,
+                                         reader=reader)
     except DumpError as exc:
         _fail(str(exc), 2)
     except (FileNotFoundError, ValueError) as exc:

@@ -115,7 +115,7 @@ def fake_impact_run(root: Path, velocity: float, seed: int) -> Path:
     d_w = 0.2 * (omega - 0.5) ** 0.8 if omega > 0.5 else 0.0
     multi = 1 if omega < 2 else int(3 * omega)
     rng = np.random.default_rng(seed)
-    masses = sample_power_law(400, 1.6, 1e-3, xmax=1.0, rng=rng)
+    masses = sample_power_law(150, 1.6, 1e-3, xmax=1.0, rng=rng)
     frags = pd.DataFrame({"mass": masses, "single_cell": False, "shape_factor": rng.uniform(3.0, 3.5, len(masses))})
     summary = {"omega": omega, "D_w": d_w, "eta": 0.05 * omega ** 0.3, "e_k2": 0.7 * omega ** -0.2,
                "n_fragments": multi + 5, "n_fragments_multi_cell": multi}

@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 import yaml
@@ -187,6 +188,14 @@ def test_post_on_dump_files(finished_run, tmp_path):
     grains_run = pd.read_parquet(finished_run / "results/grains.parquet").drop(columns=["strain"])
     pd.testing.assert_frame_equal(pd.read_parquet(out / "grains.parquet"), grains_run)
     assert (out / "report.html").exists() and (out / "tracking.csv").exists()
+    # MDAnalysis' reader (float32 positions) finds the same grains; centres of mass agree to float32
+    mda = tmp_path / "mda"
+    proc = subprocess.run([sys.executable, "-m", "driver.cli", "post", *map(str, dumps), "--out", str(mda),
+                           "--reader", "mdanalysis", "--no-plots"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    other = pd.read_parquet(mda / "grains.parquet")
+    assert list(other["size"]) == list(grains_run["size"])
+    assert np.allclose(other.x, grains_run.x, atol=1e-5, equal_nan=True)
 
 
 def test_post_on_dump_files_needs_both_kinds(finished_run, tmp_path):
