@@ -20,7 +20,7 @@ from analysis.grain_table import grain_table
 from analysis.grains import grains_from_bond_dump
 from analysis.pictures import render_particles_2d, render_particles_3d
 from analysis.plots import plot_nm
-from analysis.report import Report, write_report
+from analysis.report import Report, clear_report, write_report
 from analysis.statistics import SMALL_GRAIN_CUT, fit_grain_tau, mass_distribution, moments
 from analysis.tables import save_table
 from analysis.tracking import lineage_table
@@ -67,6 +67,7 @@ def analyse_dump_files(files: list[Path], out: Path, dimension: int | None = Non
     dim = dimension or (2 if np.ptp(first.positions[:, 2]) == 0 else 3)
     cut = m_min if m_min is not None else SMALL_GRAIN_CUT[dim]
     out = Path(out)
+    clear_report(out)
 
     grain_rows, nm_rows, frame_rows, labels_seq, ids0 = [], [], [], [], first.ids
     for step in steps:

@@ -21,7 +21,7 @@ from analysis.grains import grain_labels
 from analysis.pictures import render_cells
 from analysis.plots import plot_energies, plot_mass_pdf, plot_shapes
 from analysis.powerlaw import fit_power_law
-from analysis.report import Report, provenance_line, write_report
+from analysis.report import Report, clear_report, provenance_line, write_report
 from analysis.shapes import fragment_table, shape_averages, vertices_in_space
 from analysis.statistics import normalised_mass_distribution
 from analysis.tables import save_table
@@ -102,6 +102,7 @@ def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
     """Measures, fragment table, mass and shape distributions, energy series, fragment history
     (when periodic dumps exist), plots, picture and report of a finished impact run."""
     run_dir = Path(run_dir)
+    clear_report(run_dir)  # written last: no report = the analysis did not finish
     model, scen = cfg["model"], cfg["scenario"]
     system = json.loads((run_dir / "system.json").read_text())
     thermo = read_impact_thermo(run_dir / "thermo.dat")

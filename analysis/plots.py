@@ -11,6 +11,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
@@ -92,6 +93,9 @@ def plot_energies(energies: pd.DataFrame, wk_minus: float, path: Path, title: st
 
 
 def _finish(fig, ax, path: Path, title: str) -> None:
+    for axis in (ax.xaxis, ax.yaxis):
+        if axis.get_scale() == "log":
+            axis.set_minor_formatter(matplotlib.ticker.NullFormatter())  # labelled minor ticks overlap
     if title:
         ax.set_title(title, fontsize=9)
     fig.tight_layout()

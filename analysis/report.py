@@ -118,6 +118,13 @@ def to_html(rep: Report) -> str:
     return "\n".join(parts)
 
 
+def clear_report(directory: Path, stem: str = "report") -> None:
+    """Remove an earlier report before its tables are rewritten: the report is written last,
+    so a directory without one holds an analysis that did not finish."""
+    for suffix in (".md", ".html"):
+        (Path(directory) / f"{stem}{suffix}").unlink(missing_ok=True)
+
+
 def write_report(rep: Report, directory: Path, stem: str = "report") -> tuple[Path, Path]:
     """Write `<directory>/<stem>.md` and `<stem>.html` atomically; returns both paths."""
     directory = Path(directory)

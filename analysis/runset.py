@@ -17,7 +17,7 @@ import yaml
 
 from analysis.plots import plot_curves, plot_histograms, plot_mass_pdf, plot_measures_vs_omega
 from analysis.powerlaw import fit_power_law
-from analysis.report import Report, write_report
+from analysis.report import Report, clear_report, write_report
 from analysis.scaling import (Curve, finite_rate_rescale, finite_size_rescale, fit_finite_rate, fit_finite_size,
                               fit_growth, fit_loglog, fit_moment_collapse, fit_threshold_power, moment_curves, moment_rescale,
                               omega_0, omega_1, power_law, threshold_power)
@@ -77,6 +77,7 @@ def analyse_set(paths: list[Path], out: Path, plots: bool = True, strain: float 
     """Tables, plots and report of a set of runs into `out`; returns the fitted figures."""
     runs = load_runs(find_runs(paths))
     out = Path(out)
+    clear_report(out)
     kind = runs[0]["cfg"]["scenario"]["kind"]
     if kind == "shear":
         return analyse_shear_set(runs, out, plots, strain, n_bootstrap)

@@ -13,7 +13,7 @@ from analysis.grain_table import grain_table
 from analysis.grains import grains_from_bond_dump
 from analysis.pictures import render_particles_2d, render_particles_3d
 from analysis.plots import plot_nm, plot_stress
-from analysis.report import Report, provenance_line, write_report
+from analysis.report import Report, clear_report, provenance_line, write_report
 from analysis.statistics import SMALL_GRAIN_CUT, fit_grain_tau, mass_distribution, moments
 from analysis.stress import inertial_number, stress_measures
 from analysis.tables import save_table
@@ -36,6 +36,7 @@ def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
     cfg is the resolved config as a plain mapping (config.resolved.yaml).
     """
     run_dir = Path(run_dir)
+    clear_report(run_dir)  # written last: no report = the analysis did not finish
     model, scen = cfg["model"], cfg["scenario"]
     dim = int(model["dimension"])
     system = json.loads((run_dir / "system.json").read_text())
