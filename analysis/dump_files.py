@@ -85,11 +85,12 @@ def analyse_dump_files(files: list[Path], out: Path, dimension: int | None = Non
         nm.insert(0, "step", step)
         nm_rows.append(nm)
         kept = masses[masses >= cut]
-        fit = fit_grain_tau(masses, cut, discrete=integer)
+        fit = fit_grain_tau(masses, cut, discrete=integer, n_bootstrap=200)
         frame_rows.append({"step": step, "atoms_file": str(atoms[step][1]), "bonds_file": str(bonds[step][1]),
                            "n_atoms": len(af.ids), "n_grains": int(len(masses)), f"n_grains_M>={cut:g}": len(kept),
                            "largest_grain": float(masses.max()), "percolating_grains": int(table.percolating.sum()),
                            "tau": None if fit is None else fit.tau, "tau_sigma": None if fit is None else fit.sigma,
+                           "tau_sigma_bootstrap": None if fit is None else fit.sigma_bootstrap,
                            **moments(masses)})
     grains = pd.concat(grain_rows, ignore_index=True)
     nm_all = pd.concat(nm_rows, ignore_index=True)

@@ -142,12 +142,17 @@ def shear_report(run_dir: Path, cfg: dict, summary: dict, frames: pd.DataFrame, 
     return rep
 
 
+N_BOOTSTRAP = 200  # resamples behind the bootstrap uncertainty of tau (seeded: tables are reproducible)
+
+
 def _fit_tau(masses: np.ndarray, cut: int, snap: dict) -> dict:
-    """Discrete maximum-likelihood exponent of N(M) ~ M^-tau over grains with cut <= M <= largest."""
-    fit = fit_grain_tau(masses, cut)
+    """Discrete maximum-likelihood exponent of N(M) ~ M^-tau over grains with cut <= M <= largest,
+    with its asymptotic (sigma) and bootstrap (sigma_bootstrap) standard errors."""
+    fit = fit_grain_tau(masses, cut, n_bootstrap=N_BOOTSTRAP)
     return {"strain": snap["strain"], "step": snap["step"], "xmin": cut, "xmax": None if fit is None else fit.xmax,
             "n": int(np.sum(masses >= cut)), "tau": None if fit is None else float(fit.tau),
-            "sigma": None if fit is None else float(fit.sigma)}
+            "sigma": None if fit is None else float(fit.sigma),
+            "sigma_bootstrap": None if fit is None else float(fit.sigma_bootstrap)}
 
 
 def _picture(run_dir: Path, snap: dict, labels: np.ndarray, dim: int, system: dict, title: str) -> None:

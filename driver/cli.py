@@ -68,6 +68,8 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
          dimension: Optional[int] = typer.Option(None, "--dimension", min=2, max=3,
                                                  help="dump files: 2 or 3 (default: 2 when every z is equal)"),
          plots: bool = typer.Option(True, "--plots/--no-plots", help="write plots and pictures"),
+         m_min: Optional[float] = typer.Option(None, "--m-min", help="dump files: smallest grain mass in N(M) and "
+                                                                    "the tau fit (default SPEC 2.5: 3 in 2D, 4 in 3D)"),
          reader: str = typer.Option("numpy", "--reader", help="dump files: atom-dump reader, numpy (float64, "
                                                              "default) or mdanalysis (MDAnalysis' DumpReader)"),
          animate: bool = typer.Option(False, "--animate", help="run directory: also write plots/fragmentation.gif "
@@ -101,7 +103,7 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
             if reader not in ("numpy", "mdanalysis"):
                 _fail(f"--reader {reader!r}: allowed values are numpy, mdanalysis", 2)
             summary = analyse_dump_files(paths, out or paths[0].parent / "post", dimension=dimension, plots=plots,
-                                         reader=reader)
+                                         m_min=m_min, reader=reader)
     except DumpError as exc:
         _fail(str(exc), 2)
     except (FileNotFoundError, ValueError) as exc:
