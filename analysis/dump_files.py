@@ -5,7 +5,9 @@ Atom dumps (`dump custom` with id and x y z, optionally type, vx vy vz, mass, ra
 dumps (`dump local` whose first three columns are atom1, atom2 and a type or state: > 0 intact,
 <= 0 broken, as both models' dumps write them) are told apart by their headers and paired by
 timestep. Every paired frame gives a grain table, N(M), moments and a row of the frame table;
-consecutive frames give the parent-child tracking table.
+consecutive frames give the parent-child tracking table. Grain masses M in N(M), the
+moments and tau are particle counts (SPEC 2.5's unit: the particle mass); the grain table
+also has each grain's mass from the dump's mass column (1 per atom without one).
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from analysis.grains import grains_from_bond_dump
 from analysis.pictures import render_particles_2d, render_particles_3d
 from analysis.plots import plot_nm
 from analysis.report import Report, clear_report, write_report
-from analysis.statistics import SMALL_GRAIN_CUT, fit_grain_tau, mass_distribution, moments
+from analysis.statistics import SMALL_GRAIN_CUT, fit_grain_tau, frame_measures, mass_distribution
 from analysis.tables import save_table
 from analysis.tracking import lineage_table
 
@@ -46,10 +48,12 @@ def dump_kind(path: Path) -> str:
 
 
 def analyse_dump_files(files: list[Path], out: Path, dimension: int | None = None, plots: bool = True,
-                       m_min: float | None = None, reader: str = "numpy") -> dict:
+                       m_min: float | None = None, reader: str = "numpy", count_above: tuple[float, ...] = (10, 100)
+                       ) -> dict:
     """Grain tables, N(M), frame table, tracking, plots and report of the paired frames of
     `files` into `out`. dimension: 2 or 3 (default: 2 when every z is equal); m_min: the
-    small-grain cut of N(M) (default SPEC 2.5's for the dimension); reader: the atom-dump
+    small-grain cut of N(M) (default SPEC 2.5's for the dimension); count_above: further
+    thresholds whose grain counts the frame table holds; reader: the atom-dump
     engine of analysis.dumps.read_atom_dump ("numpy", or "mdanalysis" for MDAnalysis'
     DumpReader positions and velocities)."""
     files = [Path(f) for f in files]
@@ -64,8 +68,9 @@ def analyse_dump_files(files: list[Path], out: Path, dimension: int | None = Non
         raise DumpError(f"no timestep is in both the atom dumps ({min(atoms)}..{max(atoms)}) and the bond dumps "
                         f"({min(bonds)}..{max(bonds)})")
     first = atoms[steps[0]][0]
-    dim = dimension or (2 if np.ptp(first.positions[:, 2]) == 0 else 3)
+    dim = dimension or (2 if first.positions.shape[1] == 2 or np.ptp(first.positions[:, 2]) == 0 else 3)
     cut = m_min if m_min is not None else SMALL_GRAIN_CUT[dim]
+    thresholds = tuple(t for t in count_above if t != cut)
     out = Path(out)
     clear_report(out)
 
@@ -76,22 +81,21 @@ def analyse_dump_files(files: list[Path], out: Path, dimension: int | None = Non
             raise DumpError(f"{atoms[step][1]}: timestep {step} holds other atoms than timestep {steps[0]}: "
                             "tracking needs the same atoms in every frame")
         labels, table = frame_grains(af, bf, dim)
-        masses = table["mass"].to_numpy()
-        integer = bool(np.all(masses == np.round(masses)))
+        # M counts particles (SPEC 2.5: masses in units of the particle mass m), whatever the
+        # dump's mass column holds (kg for BCM cells); the grain table keeps the mass too
+        masses = table["size"].to_numpy(dtype=float)
         table.insert(0, "step", step)
         grain_rows.append(table)
         labels_seq.append(labels)
-        nm = mass_distribution(masses, m_min=cut, integer_masses=integer)
+        nm = mass_distribution(masses, m_min=cut)
         nm.insert(0, "step", step)
         nm_rows.append(nm)
-        kept = masses[masses >= cut]
-        fit = fit_grain_tau(masses, cut, discrete=integer, n_bootstrap=200)
+        fit = fit_grain_tau(masses, cut, n_bootstrap=200)
         frame_rows.append({"step": step, "atoms_file": str(atoms[step][1]), "bonds_file": str(bonds[step][1]),
-                           "n_atoms": len(af.ids), "n_grains": int(len(masses)), f"n_grains_M>={cut:g}": len(kept),
-                           "largest_grain": float(masses.max()), "percolating_grains": int(table.percolating.sum()),
+                           "n_atoms": len(af.ids), **frame_measures(masses, table["percolating"], cut, thresholds),
+                           "largest_grain_mass": float(table["mass"].max()),
                            "tau": None if fit is None else fit.tau, "tau_sigma": None if fit is None else fit.sigma,
-                           "tau_sigma_bootstrap": None if fit is None else fit.sigma_bootstrap,
-                           **moments(masses)})
+                           "tau_sigma_bootstrap": None if fit is None else fit.sigma_bootstrap})
     grains = pd.concat(grain_rows, ignore_index=True)
     nm_all = pd.concat(nm_rows, ignore_index=True)
     frames = pd.DataFrame(frame_rows)

@@ -35,7 +35,7 @@ def plot_nm(nm: pd.DataFrame, path: Path, title: str = "", mass_unit: str = "m",
                   linestyle=_LINES[k % len(_LINES)], color=str(0.75 * k / max(1, nm[by].nunique() - 1)),
                   mfc="white", label=legend.format(eps))
     if fit and fit.get("tau") is not None:
-        last = nm[(nm.strain == fit["strain"]) & (nm.N > 0)]
+        last = nm[(nm[by] == fit[by]) & (nm.N > 0)]
         if not last.empty:
             x = np.array([last.m_mean.min(), last.m_mean.max()])
             y0 = np.exp(np.mean(np.log(last.N) + fit["tau"] * np.log(last.m_mean)))
@@ -171,23 +171,27 @@ def plot_curves(curves: list[tuple[str, np.ndarray, np.ndarray]], path: Path, xl
     _finish(fig, ax, path, title)
 
 
-def plot_measures_vs_omega(points: pd.DataFrame, path: Path, thresholds: dict | None = None,
-                           fits: dict | None = None, title: str = "") -> None:
-    """SPEC 1.5 sweep level: D_w, eta, e_k^2 and fragment count against omega (mean +- standard
-    deviation over tessellations), one marker per G_c; vertical lines at omega_0 (dashed) and
-    omega_1 (dotted); fits[(G_c, measure)] = (callable(omega), omega_lo, omega_hi) drawn as
-    thin lines over the fitted range."""
+def plot_measures(points: pd.DataFrame, path: Path, x: str = "omega", thresholds: dict | None = None,
+                  fits: dict | None = None, title: str = "") -> None:
+    """SPEC 1.5 sweep level: D_w, eta, e_k^2 and fragment count against omega (x="omega") or
+    the impact velocity (x="velocity"), mean +- standard deviation over tessellations, one
+    marker per G_c. Against omega: vertical lines at omega_0 (dashed) and omega_1 (dotted), and
+    fits[(G_c, measure)] = (callable(omega), omega_lo, omega_hi) drawn over the fitted range."""
     panels = [("D_w", "damage $D_w = A/A_0$ [-]"), ("eta", r"fracture efficiency $\eta$ [-]"),
               ("e_k2", "restitution $e_k^2$ [-]"), ("n_fragments", "fragments [-]")]
+    xcol = "omega_mean" if x == "omega" else "velocity"
+    xlabel = r"damage potential $\omega = W_k^-/W_s$ [-]" if x == "omega" else "impact velocity $v_0$ [m/s]"
     fig, axes = plt.subplots(2, 2, figsize=(8.0, 6.5), dpi=150)
     groups = list(points.groupby("G_c", sort=True))
     for ax, (col, label) in zip(axes.flat, panels):
         for k, (gc, grp) in enumerate(groups):
             grey = str(0.6 * k / max(1, len(groups) - 1))
-            grp = grp.sort_values("omega_mean")
-            ax.errorbar(grp.omega_mean, grp[f"{col}_mean"], yerr=grp[f"{col}_std"].fillna(0), marker=_MARKERS[k],
-                        linestyle=_LINES[k % len(_LINES)], color=grey, mfc="white", ms=5, capsize=2,
-                        label=f"$G_c$ = {gc:g} J/m²")
+            grp = grp.sort_values(xcol)
+            ax.errorbar(grp[xcol], grp[f"{col}_mean"], yerr=grp[f"{col}_std"].fillna(0),
+                        marker=_MARKERS[k % len(_MARKERS)], linestyle=_LINES[k % len(_LINES)], color=grey,
+                        mfc="white", ms=5, capsize=2, label=f"$G_c$ = {gc:g} J/m²")
+            if x != "omega":
+                continue
             f = (fits or {}).get((gc, col))
             if f is not None:
                 fn, lo, hi = f
@@ -199,13 +203,13 @@ def plot_measures_vs_omega(points: pd.DataFrame, path: Path, thresholds: dict | 
                 if v is not None and np.isfinite(v):
                     ax.axvline(v, color=grey, ls=style, lw=0.8)
         ax.set_xscale("log")
-        if col in ("n_fragments",):
+        if col == "n_fragments":
             ax.set_yscale("log")
-        ax.set_xlabel(r"damage potential $\omega = W_k^-/W_s$ [-]")
+        ax.set_xlabel(xlabel)
         ax.set_ylabel(label)
     axes.flat[0].legend(fontsize=7, frameon=False)
-    fig.suptitle((title + "\n" if title else "") + r"dashed: $\omega_0$ (first cracks), dotted: $\omega_1$ (first break-up)",
-                 fontsize=9)
+    note = r"dashed: $\omega_0$ (first cracks), dotted: $\omega_1$ (first break-up)" if x == "omega" else ""
+    fig.suptitle("\n".join(t for t in (title, note) if t), fontsize=9)
     fig.tight_layout()
     atomic_save(path, lambda p: fig.savefig(p, format="png"))
     plt.close(fig)

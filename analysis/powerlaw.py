@@ -81,6 +81,8 @@ def fit_power_law(x: np.ndarray, xmin: float | None = None, xmax: float | None =
     n_bootstrap: number of resamples for sigma_bootstrap (0: none), seeded by seed.
     """
     x = _check_data(x, discrete)
+    if discrete and xmin is not None:
+        xmin = float(np.ceil(xmin))  # integer data: a cut of 3.5 keeps M >= 4, and the law starts there
     if xmax is not None and xmin is not None and xmax <= xmin:
         raise ValueError(f"xmax = {xmax} must exceed xmin = {xmin}")
     if n_bootstrap < 0:
@@ -93,7 +95,9 @@ def fit_power_law(x: np.ndarray, xmin: float | None = None, xmax: float | None =
     for _ in range(n_bootstrap):
         xb = rng.choice(x, size=len(x), replace=True)
         try:
-            taus.append(_fit(xb, xmin, xmax, discrete, min_tail, max_candidates).tau)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # a degenerate resample may sit at a bound
+                taus.append(_fit(xb, xmin, xmax, discrete, min_tail, max_candidates).tau)
         except ValueError:
             continue  # a resample with too few data in range: skip it
     sb = float(np.std(taus, ddof=1)) if len(taus) > 1 else float("nan")

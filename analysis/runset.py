@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from analysis.plots import plot_curves, plot_histograms, plot_mass_pdf, plot_measures_vs_omega
+from analysis.plots import plot_curves, plot_histograms, plot_mass_pdf, plot_measures
 from analysis.powerlaw import fit_power_law
 from analysis.report import Report, clear_report, write_report
 from analysis.scaling import (Curve, finite_rate_rescale, finite_size_rescale, fit_finite_rate, fit_finite_size,
@@ -103,7 +103,8 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
                            "lambda_c": r["cfg"]["model"]["lambda_c"], "seed": r["cfg"]["seed"],
                            **{k: v for k, v in r["summary"].items() if not isinstance(v, (dict, list))}}
                           for r in runs])
-    frames = {r["cfg"]["name"]: pd.read_parquet(r["dir"] / "results" / "frames.parquet") for r in runs}
+    # runs are keyed by their directory: names repeat across sweeps made from one base config
+    frames = {str(r["dir"]): pd.read_parquet(r["dir"] / "results" / "frames.parquet") for r in runs}
     if strain is None:
         common = set.intersection(*(set(f.strain.round(12)) for f in frames.values()))
         if not common:
@@ -124,17 +125,17 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
     # N(M) at the strain, and tau from the largest (then slowest) run's grains
     nm, masses = [], {}
     for r in runs:
-        name = r["cfg"]["name"]
+        key = str(r["dir"])
         t = pd.read_parquet(r["dir"] / "results" / "nm.parquet")
         t = t[np.isclose(t.strain, strain)]
         if t.empty:
             raise RunSetError(f"{r['dir']}: no N(M) at strain {strain:g}")
-        nm.append(t.assign(run=name, L=table.set_index("run").at[name, "L"],
-                           edot=table.set_index("run").at[name, "edot"]))
+        nm.append(t.assign(run=r["cfg"]["name"], run_dir=key, L=float(r["cfg"]["model"]["L"]),
+                           edot=float(r["cfg"]["scenario"]["strain_rate"])))
         g = pd.read_parquet(r["dir"] / "results" / "grains.parquet", columns=["strain", "mass"])
-        masses[name] = g[np.isclose(g.strain, strain)]["mass"].to_numpy()
+        masses[key] = g[np.isclose(g.strain, strain)]["mass"].to_numpy()
     nm = pd.concat(nm, ignore_index=True)
-    ref = table.sort_values(["L", "edot"], ascending=[False, True]).iloc[0]["run"]
+    ref = table.sort_values(["L", "edot"], ascending=[False, True]).iloc[0]["run_dir"]
     tau, sigma_tau = None, None
     pl = fit_grain_tau(masses[ref], cut, n_bootstrap=n_bootstrap)
     if pl is not None:
@@ -144,8 +145,9 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
                      "method": f"{pl.method}; range [{cut}, {pl.xmax:g}] (largest grain)"})
     curves = [Curve(t.m_mean.to_numpy(), t.N.to_numpy(), {"L": float(t.L.iloc[0]), "edot": float(t.edot.iloc[0])},
                     1.0 / np.sqrt(np.maximum(t["count"].to_numpy(dtype=float), 1)))
-              for _, t in nm.groupby("run", sort=False)]
-    kw = {"n_bootstrap": n_bootstrap, "seed": 0}
+              for _, t in nm.groupby("run_dir", sort=False)]
+    # fewer than 2 resamples cannot give a spread: errors from the curvature of the cost instead
+    kw = {"n_bootstrap": n_bootstrap, "seed": 0} if n_bootstrap >= 2 else {"uncertainty": "curvature"}
     collapses = {}
     Ls, rates = sorted(table.L.unique()), sorted(table.edot.unique())
     if len(Ls) >= 2 and tau is not None:
@@ -164,7 +166,7 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
                       FINITE_RATE_BOUNDS,
                       lambda c, p: finite_rate_rescale(c.x, c.y, c.params["L"], c.params["edot"], p[0], d),
                       r"$M\,\dot\varepsilon^{\nu\alpha}$", r"$N / (L^d \dot\varepsilon^{2\nu\alpha})$")
-    m2 = table.assign(M2=[frames[n].loc[np.isclose(frames[n].strain, strain), "M2"].iloc[0] for n in table.run])
+    m2 = table.assign(M2=[frames[d].loc[np.isclose(frames[d].strain, strain), "M2"].iloc[0] for d in table.run_dir])
     if len(Ls) >= 2 and m2.groupby("L").edot.nunique().min() >= 2:
         _try_collapse(fits, collapses, "second moment", moment_curves(m2.L, m2.edot, m2.M2),
                       lambda cs: fit_moment_collapse(cs, d, bounds=MOMENT_BOUNDS, n_grid=25, **kw), MOMENT_BOUNDS,
@@ -180,7 +182,8 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
         label = [f"L = {c.params['L']:g}, edot = {c.params['edot']:g}" for c in curves]
         plot_curves([(lb, c.x, c.y) for lb, c in zip(label, curves)], out / "plots" / "nm.png",
                     "grain mass $M$ [m]", "$N(M)$ [grains per unit mass, 1/m]", title)
-        plot_curves([(n, f.strain, f[f"n_grains_M>={cut}"]) for n, f in frames.items()], out / "plots" / "growth.png",
+        plot_curves([(Path(d).name, f.strain, f[f"n_grains_M>={cut}"]) for d, f in frames.items()],
+                    out / "plots" / "growth.png",
                     r"true strain $\varepsilon$ [-]", f"grains with $M \\geq {cut}$ [-]", title)
         for key, (fit, sel, rescale, xl, yl) in collapses.items():
             p = list(fit.params.values())
@@ -284,8 +287,8 @@ def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True) -> dict:
 
     # fragments of every run: p(S_f) pooled, p(m/m_max) per G_c
     frags = pd.concat([pd.read_parquet(r["dir"] / "results" / "fragments.parquet").assign(
-        run=r["cfg"]["name"], G_c=float(r["cfg"]["model"]["interface"]["G_c"])) for r in runs], ignore_index=True)
-    frags["m_over_m_max"] = frags.mass / frags.groupby("run").mass.transform("max")
+        run_dir=str(r["dir"]), G_c=float(r["cfg"]["model"]["interface"]["G_c"])) for r in runs], ignore_index=True)
+    frags["m_over_m_max"] = frags.mass / frags.groupby("run_dir").mass.transform("max")
     multi = frags[~frags.single_cell]
     sf = histogram_table(multi.shape_factor, bins=20) if len(multi) else pd.DataFrame()
     mass_tables, mass_fits = {}, {}
@@ -310,7 +313,8 @@ def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True) -> dict:
         save_table(sf, out / "shape_factor")
     title = f"BCM impacts, {len(runs)} runs"
     if plots:
-        plot_measures_vs_omega(points, out / "plots" / "measures_vs_omega.png", thresholds, fit_fns, title)
+        plot_measures(points, out / "plots" / "measures_vs_omega.png", "omega", thresholds, fit_fns, title)
+        plot_measures(points, out / "plots" / "measures_vs_velocity.png", "velocity", title=title)
         plot_mass_pdf(mass_tables, out / "plots" / "fragment_masses.png", title, fits=mass_fits)
         if len(sf):
             plot_histograms({"fragments of two or more cells": sf}, out / "plots" / "shape_factor.png",
@@ -320,6 +324,7 @@ def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True) -> dict:
     rep.table(points[["G_c", "velocity", "n_runs", *[c for c in points.columns if c.endswith("_mean")]]],
               "measures per parameter point (means over tessellations; points.csv has the standard deviations)")
     rep.figure(out / "plots" / "measures_vs_omega.png", "measures against the damage potential omega")
+    rep.figure(out / "plots" / "measures_vs_velocity.png", "measures against the impact velocity")
     rep.figure(out / "plots" / "fragment_masses.png", "fragment mass distributions per G_c")
     rep.figure(out / "plots" / "shape_factor.png", "distribution of the shape factor over all runs")
     write_report(rep, out)

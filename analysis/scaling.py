@@ -221,7 +221,7 @@ def _resample(curves: list[Curve], rng: np.random.Generator) -> list[Curve]:
             y = cv.y * np.exp(rng.normal(size=len(cv.y)) * cv.sigma_lny)
             out.append(Curve(cv.x, y, cv.params, cv.sigma_lny))
         else:
-            idx = np.unique(rng.integers(0, len(cv.x), len(cv.x)))
+            idx = np.sort(rng.integers(0, len(cv.x), len(cv.x)))  # with replacement: duplicates kept
             out.append(Curve(cv.x[idx], cv.y[idx], cv.params))
     return out
 

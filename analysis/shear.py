@@ -14,7 +14,7 @@ from analysis.grains import grains_from_bond_dump
 from analysis.pictures import render_particles_2d, render_particles_3d
 from analysis.plots import plot_nm, plot_stress
 from analysis.report import Report, clear_report, provenance_line, write_report
-from analysis.statistics import SMALL_GRAIN_CUT, fit_grain_tau, mass_distribution, moments
+from analysis.statistics import SMALL_GRAIN_CUT, fit_grain_tau, frame_measures, mass_distribution
 from analysis.stress import inertial_number, stress_measures
 from analysis.tables import save_table
 from analysis.tracking import lineage_table
@@ -43,6 +43,7 @@ def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
     snaps = json.loads((run_dir / "snapshots.json").read_text())
     n_atoms = int(system["n_particles"])
     cut = SMALL_GRAIN_CUT[dim]
+    thresholds = tuple(t for t in cfg["output"].get("count_above", ()) if t != cut)
 
     # Stress series.
     stress = stress_measures(read_thermo(run_dir / "thermo.dat"), dim)
@@ -64,10 +65,8 @@ def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
         fit_rows.append(_fit_tau(masses, cut, snap))
         nm.insert(0, "strain", snap["strain"])
         nm_rows.append(nm)
-        frame_rows.append({"strain": snap["strain"], "step": snap["step"], "n_grains": int(len(masses)),
-                           f"n_grains_M>={cut}": int(np.sum(masses >= cut)),
-                           "largest_grain": float(masses.max()), "intact_bonds": int(bonds_intact(bonds).sum()),
-                           "percolating_grains": int(table["percolating"].sum()), **moments(masses)})
+        frame_rows.append({"strain": snap["strain"], "step": snap["step"], "intact_bonds": int(bonds_intact(bonds).sum()),
+                           **frame_measures(masses, table["percolating"], cut, thresholds)})
     grains = pd.concat(grain_rows, ignore_index=True)
     nm_all = pd.concat(nm_rows, ignore_index=True)
     frames = pd.DataFrame(frame_rows)

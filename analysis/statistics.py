@@ -55,6 +55,22 @@ def moments(masses: np.ndarray, orders=(1, 2, 3)) -> dict[str, float]:
     return {f"M{n}": float(np.sum(m ** n)) for n in orders}
 
 
+def frame_measures(masses: np.ndarray, percolating: np.ndarray, m_min: float,
+                   thresholds: tuple[float, ...] = ()) -> dict[str, float]:
+    """One frame's row (SPEC 2.5): grain count, grains with M >= m_min and with M >= each
+    threshold, largest grain, percolating grains, moments <M^n> = sum of M^n over all grains,
+    and M2_nonpercolating, the second moment without grains that wrap the periodic box (the
+    intact solid: M^2 ~ N^2 dominates <M^2> until it breaks up)."""
+    m = np.asarray(masses, dtype=float)
+    perc = np.asarray(percolating, dtype=bool)
+    row = {"n_grains": int(len(m)), f"n_grains_M>={m_min:g}": int(np.sum(m >= m_min))}
+    for t in thresholds:
+        row[f"n_grains_M>={t:g}"] = int(np.sum(m >= t))
+    row.update({"largest_grain": float(m.max()), "percolating_grains": int(perc.sum()), **moments(m),
+                "M2_nonpercolating": float(np.sum(m[~perc] ** 2))})
+    return row
+
+
 def fit_grain_tau(masses: np.ndarray, m_min: float, discrete: bool = True, n_bootstrap: int = 0,
                   min_grains: int = 10) -> PowerLawFit | None:
     """tau of N(M) ~ M^-tau (SPEC 2.5) by maximum likelihood over the grains with
@@ -85,8 +101,12 @@ def normalised_mass_distribution(masses: np.ndarray, bins_per_decade: int = 5) -
     if len(m) == 0 or m.max() <= 0:
         return pd.DataFrame(columns=cols)
     x = m / m.max()
-    edges = log_bin_edges(x.min(), 1.0, bins_per_decade)
-    edges[-1] = max(edges[-1], 1.0 + 1e-12)  # x = 1 falls inside the last bin
+    # edges 10^(-k / bins_per_decade) down from exactly 1 (no bin reaches past x = 1, where no
+    # fragment can be); np.histogram closes the last bin, so x = 1 is counted
+    k = max(1, int(np.ceil(-np.log10(x.min()) * bins_per_decade - 1e-9)))
+    if 10 ** (-k / bins_per_decade) > x.min():
+        k += 1
+    edges = 10.0 ** (-np.arange(k, -1, -1) / bins_per_decade)
     counts, _ = np.histogram(x, bins=edges)
     sums, _ = np.histogram(x, bins=edges, weights=x)
     lo, hi = edges[:-1], edges[1:]

@@ -70,6 +70,9 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
          plots: bool = typer.Option(True, "--plots/--no-plots", help="write plots and pictures"),
          m_min: Optional[float] = typer.Option(None, "--m-min", help="dump files: smallest grain mass in N(M) and "
                                                                     "the tau fit (default SPEC 2.5: 3 in 2D, 4 in 3D)"),
+         count_above: Optional[str] = typer.Option(None, "--count-above", help="grain masses (comma-separated, in "
+                                                                           "particle masses) whose grain counts per "
+                                                                           "frame are tabulated (default 10,100)"),
          reader: str = typer.Option("numpy", "--reader", help="dump files: atom-dump reader, numpy (float64, "
                                                              "default) or mdanalysis (MDAnalysis' DumpReader)"),
          animate: bool = typer.Option(False, "--animate", help="run directory: also write plots/fragmentation.gif "
@@ -78,6 +81,14 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
     from analysis.dumps import DumpError  # noqa: PLC0415
     from driver.pipeline import analyse_run, load_resolved  # noqa: PLC0415
 
+    thresholds = None
+    if count_above is not None:
+        try:
+            thresholds = [float(v) for v in count_above.split(",") if v.strip()]
+        except ValueError:
+            _fail(f"--count-above {count_above!r}: expected numbers separated by commas, e.g. 10,100", 2)
+        if any(not t >= 1 for t in thresholds):
+            _fail(f"--count-above {count_above!r}: every mass must be >= 1 (particles)", 2)
     try:
         if len(paths) == 1 and paths[0].is_dir():
             run_dir = paths[0]
@@ -85,6 +96,8 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
                 _fail(f"{run_dir}: not a run directory (no config.resolved.yaml); name dump files instead", 2)
             cfg = load_resolved(run_dir)
             cfg["output"]["plots"] = plots
+            if thresholds is not None:
+                cfg["output"]["count_above"] = thresholds
             animate = animate or cfg["output"].get("animation", False)
             cfg["output"]["animation"] = False  # made below, with a message
             summary = analyse_run(run_dir, cfg)
@@ -100,10 +113,13 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
             missing = [p for p in paths if not p.is_file()]
             if missing:
                 _fail(f"not a file: {', '.join(map(str, missing))} (name one run directory, or dump files)", 2)
+            if m_min is not None and not m_min >= 1:
+                _fail(f"--m-min {m_min:g}: the smallest grain mass counted must be >= 1 (particles)", 2)
             if reader not in ("numpy", "mdanalysis"):
                 _fail(f"--reader {reader!r}: allowed values are numpy, mdanalysis", 2)
             summary = analyse_dump_files(paths, out or paths[0].parent / "post", dimension=dimension, plots=plots,
-                                         m_min=m_min, reader=reader)
+                                         m_min=m_min, reader=reader,
+                                         count_above=tuple(thresholds) if thresholds is not None else (10, 100))
     except DumpError as exc:
         _fail(str(exc), 2)
     except (FileNotFoundError, ValueError) as exc:
@@ -162,8 +178,8 @@ def sweep(input_yaml: Path = typer.Argument(..., help="base configuration (YAML)
         err.print(f"[bold]run[/] {values}")
         try:
             execute(cfg, np_ranks=np, show_progress=True, console=err)
-        except LammpsError as exc:
-            err.print(f"[red]failed[/] {values}: {exc}")
+        except Exception as exc:  # noqa: BLE001 - one failed run must not stop the sweep
+            err.print(f"[red]failed[/] {values}: {type(exc).__name__}: {exc} (see {cfg.run_dir()}/status.json)")
     table = sweep_table(runs)
     save_table(table, sweep_dir / "sweep")
     if len(table):

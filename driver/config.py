@@ -124,6 +124,9 @@ class ImpactScenario(_Strict):
 class Output(_Strict):
     dir: Path | None = Field(None, description="run directory; default runs/<name>")
     plots: bool = True
+    count_above: list[Annotated[float, Field(ge=1)]] = Field(
+        [10, 100], description="grain masses (in particle masses) whose grain counts per frame the frame table "
+                               "holds, besides SPEC 2.5's small-grain cut")
     animation: bool = Field(False, description="also write plots/fragmentation.gif from the periodic dumps "
                                                "(needs scenario.dump_every > 0)")
 

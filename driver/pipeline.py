@@ -38,14 +38,13 @@ def execute(cfg: RunConfig, source: Path | None = None, force: bool = False, np_
         else:
             from driver.scenarios.impact import run_impact as run_scenario  # noqa: PLC0415
         facts = run_scenario(cfg, rd, plugin, ranks, show_progress)
-        summary = analyse_run(rd.root, cfg.model_dump(mode="json"))
+        analyse_run(rd.root, cfg.model_dump(mode="json"))
     except BaseException as exc:
         rd.set_state("failed", error=f"{type(exc).__name__}: {exc}")
         raise
     prov["wall_seconds"] = time.time() - t0
     prov["lammps_wall_seconds"] = facts.get("lammps_wall_seconds")
     atomic_write_json(rd.root / "provenance.json", prov)
-    atomic_write_json(rd.root / "results" / "summary.json", {"name": cfg.name, **summary})
     rd.set_state("finished")
     return rd.root
 
@@ -56,7 +55,7 @@ def load_resolved(run_dir: Path) -> dict:
 
 def analyse_run(run_dir: Path, cfg: dict) -> dict:
     """The analysis of a run directory for its scenario: what `driver run` ends with and
-    `driver post` repeats."""
+    `driver post` repeats; writes results/summary.json and returns the summary."""
     if cfg["scenario"]["kind"] == "shear":
         from analysis.shear import analyse_shear  # noqa: PLC0415
 
@@ -69,4 +68,6 @@ def analyse_run(run_dir: Path, cfg: dict) -> dict:
         from analysis.animation import animate_run  # noqa: PLC0415
 
         animate_run(run_dir)
+    # written here, so that `driver post` refreshes the summary a set analysis reads
+    atomic_write_json(Path(run_dir) / "results" / "summary.json", {"name": cfg["name"], **summary})
     return summary

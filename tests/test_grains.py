@@ -67,3 +67,26 @@ def test_moments_not_normalised():
 def test_nm_mean_mass_of_bin():
     nm = mass_distribution(np.array([3, 3, 4, 10]), m_min=3, bins_per_decade=5)
     assert nm.iloc[0]["m_mean"] == (3 + 3 + 4) / 3
+
+
+def test_normalised_mass_distribution_density():
+    """p(m/m_max) is a density on (0, 1]: the last bin ends at 1, a uniform sample is flat."""
+    from analysis.statistics import normalised_mass_distribution
+
+    x = np.random.default_rng(1).uniform(0.3, 1.0, 100_000)
+    x[0] = 1.0
+    t = normalised_mass_distribution(x)
+    assert t.x_hi.iloc[-1] == 1.0 and t.x_lo.iloc[0] <= x.min()
+    assert np.sum(t.p * (t.x_hi - t.x_lo)) == pytest.approx(1.0)
+    full = t[t.x_lo >= 0.3]  # bins wholly inside the support
+    assert np.allclose(full.p, 1 / 0.7, rtol=0.03)
+    assert t["count"].sum() == len(x)
+
+
+def test_frame_measures_counts_and_nonpercolating_moment():
+    from analysis.statistics import frame_measures
+
+    row = frame_measures(np.array([100.0, 5, 3, 1, 1]), np.array([True, False, False, False, False]), 3, (5, 50))
+    assert row["n_grains"] == 5 and row["n_grains_M>=3"] == 3 and row["n_grains_M>=5"] == 2
+    assert row["n_grains_M>=50"] == 1 and row["percolating_grains"] == 1
+    assert row["M2"] == 10000 + 25 + 9 + 2 and row["M2_nonpercolating"] == 25 + 9 + 2

@@ -126,3 +126,12 @@ def test_bad_input():
         fit_power_law(np.array([1.5, 2.0]), xmin=1, discrete=True)
     with pytest.raises(ValueError, match="too few"):
         fit_power_law(np.array([1.0, 2.0, 3.0]), xmin=2.5)
+
+
+def test_discrete_cut_between_integers_is_rounded_up():
+    """Integer data cut at 3.5 keep M >= 4: the law must start at 4, not at 3.5."""
+    x = sample_power_law(20_000, 2.0, 1, discrete=True, rng=3)
+    a = fit_power_law(x, xmin=3.5, discrete=True)
+    b = fit_power_law(x, xmin=4, discrete=True)
+    assert a.tau == b.tau and a.xmin == 4
+    assert abs(a.tau - 2.0) < 3 * a.sigma

@@ -108,6 +108,20 @@ def test_finite_rate_set_recovers_nu_alpha(rate_set, tmp_path):
     assert abs(nu_alpha - NU_ALPHA) < max(3 * sigma, 0.05), (nu_alpha, sigma)
 
 
+def test_no_bootstrap_and_repeated_run_names(size_set, tmp_path):
+    """--bootstrap 0 gives curvature errors; two sweeps made from one base config (same run
+    names in different directories) stay separate runs."""
+    import shutil
+
+    shutil.copytree(size_set, tmp_path / "again")
+    out = tmp_path / "out"
+    analyse_set([size_set, tmp_path / "again"], out, n_bootstrap=0)
+    assert pd.read_csv(out / "nm.csv").run_dir.nunique() == 6
+    fits = _fits(out)
+    alpha, s_alpha = _value(fits, "finite size", "alpha")
+    assert np.isfinite(s_alpha) and s_alpha > 0 and "curvature" in " ".join(fits.method)
+
+
 def fake_impact_run(root: Path, velocity: float, seed: int) -> Path:
     """omega = velocity^2 / 4; D_w = 0.2 (omega - 0.5)^0.8 above 0.5; two or more multi-cell
     fragments from omega 2; eta = 0.05 omega^0.3; fragment masses p(m) ~ m^-1.6."""

@@ -83,6 +83,8 @@ def test_generated_input_runs_standalone_with_lmp(finished_run, tmp_path, plugin
 def test_post_reproduces_tables(finished_run):
     names = ["nm", "frames", "grains", "stress", "nm_fits", "tracking"]
     before = {n: pd.read_parquet(finished_run / f"results/{n}.parquet") for n in names}
+    summary = json.loads((finished_run / "results/summary.json").read_text())
+    (finished_run / "results/summary.json").unlink()
     for name in ["report.md", "report.html", "plots/nm.png", "plots/grains.png"]:
         (finished_run / name).unlink()
     proc = subprocess.run([sys.executable, "-m", "driver.cli", "post", str(finished_run)], capture_output=True,
@@ -92,6 +94,8 @@ def test_post_reproduces_tables(finished_run):
         pd.testing.assert_frame_equal(df, pd.read_parquet(finished_run / f"results/{name}.parquet"))
     for name in ["report.md", "report.html", "plots/nm.png", "plots/grains.png"]:
         assert (finished_run / name).exists(), name
+    assert json.loads((finished_run / "results/summary.json").read_text()) == summary
+    assert {"n_grains_M>=10", "n_grains_M>=100", "M2_nonpercolating"} <= set(before["frames"].columns)
     assert "data:image/png;base64," in (finished_run / "report.html").read_text()
 
 
