@@ -17,7 +17,7 @@ from driver.rundir import RunDirError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Brittle particle fracture on LAMMPS (BCM and BPM models).")
-err = Console(stderr=True)
+err = Console(stderr=True, soft_wrap=True)  # paths in messages stay on one line
 
 
 def _fail(msg: str, code: int) -> None:
@@ -119,7 +119,8 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
                 _fail(f"--reader {reader!r}: allowed values are numpy, mdanalysis", 2)
             summary = analyse_dump_files(paths, out or paths[0].parent / "post", dimension=dimension, plots=plots,
                                          m_min=m_min, reader=reader,
-                                         count_above=tuple(thresholds) if thresholds is not None else (10, 100))
+                                         count_above=tuple(thresholds) if thresholds is not None else (10, 100),
+                                         log=lambda msg: err.print(msg, highlight=False, markup=False, soft_wrap=True))
     except DumpError as exc:
         _fail(str(exc), 2)
     except (FileNotFoundError, ValueError) as exc:

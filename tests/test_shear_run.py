@@ -209,3 +209,20 @@ def test_post_on_dump_files_needs_both_kinds(finished_run, tmp_path):
     assert proc.returncode == 2
     assert "need atom and bond dumps" in proc.stderr
     assert not (tmp_path / "p").exists()
+
+
+def test_post_on_dump_files_with_truncated_dump(finished_run, tmp_path):
+    """A dump cut short: a warning naming the file, frame and line; earlier frames analysed."""
+    import shutil
+
+    for p in (finished_run / "dumps").glob("*.lammpstrj"):
+        shutil.copy(p, tmp_path / p.name)
+    steps = sorted(int(p.name.split(".")[1]) for p in tmp_path.glob("atoms.*.lammpstrj"))
+    last = tmp_path / f"atoms.{steps[-1]}.lammpstrj"
+    last.write_bytes(last.read_bytes()[: len(last.read_bytes()) // 2])
+    proc = subprocess.run([sys.executable, "-m", "driver.cli", "post", *map(str, sorted(tmp_path.glob("*.lammpstrj"))),
+                           "--out", str(tmp_path / "post"), "--no-plots"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert f"atoms.{steps[-1]}.lammpstrj, frame 0 (timestep {steps[-1]}), line" in proc.stderr
+    assert list(pd.read_csv(tmp_path / "post" / "frames.csv").step) == steps[:-1]
+    assert "Warning" in (tmp_path / "post" / "report.md").read_text()
