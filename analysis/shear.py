@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.dumps import AtomFrame, LocalFrame, bond_pairs, read_atom_dump, read_local_dump
+from analysis.dumps import AtomFrame, DumpError, LocalFrame, bond_pairs, read_atom_dump, read_local_dump
 from analysis.grain_table import grain_table
 from analysis.grains import grains_from_bond_dump
 from analysis.pictures import render_particles_2d, render_particles_3d
@@ -30,10 +30,12 @@ def read_thermo(path: Path) -> pd.DataFrame:
     return df.drop_duplicates("step", keep="last").reset_index(drop=True)
 
 
-def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
+def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = False) -> dict:
     """Tables, plots and summary figures of a finished shear run; returns the summary dict.
 
-    cfg is the resolved config as a plain mapping (config.resolved.yaml).
+    cfg is the resolved config as a plain mapping (config.resolved.yaml). partial=True (a run
+    that did not finish) analyses the snapshots before the first missing or truncated one and
+    lists what was left out under "warnings" in the summary.
     """
     run_dir = Path(run_dir)
     clear_report(run_dir)  # written last: no report = the analysis did not finish
@@ -52,9 +54,17 @@ def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
 
     # Grains at each snapshot: labels, one row per grain, N(M), one row per frame.
     grain_rows, nm_rows, frame_rows, fit_rows, all_labels = [], [], [], [], []
-    for snap in snaps:
-        atoms = read_atom_dump(run_dir / snap["atoms"])[-1]
-        bonds = read_local_dump(run_dir / snap["bonds"])[-1]
+    warnings_: list[str] = []
+    for k, snap in enumerate(snaps):
+        try:
+            atoms = read_atom_dump(run_dir / snap["atoms"])[-1]
+            bonds = read_local_dump(run_dir / snap["bonds"])[-1]
+        except (FileNotFoundError, DumpError) as exc:
+            if not partial or k == 0:
+                raise
+            warnings_.append(f"snapshots from strain {snap['strain']:g} on left out: {exc}")
+            snaps = snaps[:k]
+            break
         labels, table = grains_of_frame(atoms, bonds, n_atoms, dim)
         masses = table["mass"].to_numpy()
         table.insert(0, "step", snap["step"])
@@ -101,6 +111,7 @@ def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
         f"grains_M>={cut}_at_strain": {f"{r['strain']:g}": r[f"n_grains_M>={cut}"] for r in frame_rows},
         "final_mu": float(last.mu) if np.isfinite(last.mu) else None,
         "tau_final": fit_rows[-1]["tau"], "tau_final_sigma": fit_rows[-1]["sigma"],
+        **({"warnings": warnings_} if warnings_ else {}),
     }
     write_report(shear_report(run_dir, cfg, summary, frames, fits, title), run_dir)
     return summary

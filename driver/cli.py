@@ -100,7 +100,14 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
                 cfg["output"]["count_above"] = thresholds
             animate = animate or cfg["output"].get("animation", False)
             cfg["output"]["animation"] = False  # made below, with a message
-            summary = analyse_run(run_dir, cfg)
+            from driver.rundir import is_finished  # noqa: PLC0415
+
+            unfinished = not is_finished(run_dir)
+            if unfinished:
+                err.print(f"[yellow]{run_dir} did not finish (status.json): analysing the snapshots it has")
+            summary = analyse_run(run_dir, cfg, partial=unfinished)
+            for msg in summary.get("warnings", []):
+                err.print(f"[yellow]warning:[/] {msg}")
             if animate:
                 from analysis.animation import animate_run  # noqa: PLC0415
 

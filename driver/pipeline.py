@@ -53,13 +53,14 @@ def load_resolved(run_dir: Path) -> dict:
     return yaml.safe_load((Path(run_dir) / "config.resolved.yaml").read_text())
 
 
-def analyse_run(run_dir: Path, cfg: dict) -> dict:
+def analyse_run(run_dir: Path, cfg: dict, partial: bool = False) -> dict:
     """The analysis of a run directory for its scenario: what `driver run` ends with and
-    `driver post` repeats; writes results/summary.json and returns the summary."""
+    `driver post` repeats; writes results/summary.json and returns the summary. partial: the
+    run did not finish; analyse the snapshots it left (shear runs)."""
     if cfg["scenario"]["kind"] == "shear":
         from analysis.shear import analyse_shear  # noqa: PLC0415
 
-        summary = analyse_shear(run_dir, cfg, plots=cfg["output"]["plots"])
+        summary = analyse_shear(run_dir, cfg, plots=cfg["output"]["plots"], partial=partial)
     else:
         from analysis.impact import analyse_impact  # noqa: PLC0415
 

@@ -226,3 +226,24 @@ def test_post_on_dump_files_with_truncated_dump(finished_run, tmp_path):
     assert f"atoms.{steps[-1]}.lammpstrj, frame 0 (timestep {steps[-1]}), line" in proc.stderr
     assert list(pd.read_csv(tmp_path / "post" / "frames.csv").step) == steps[:-1]
     assert "Warning" in (tmp_path / "post" / "report.md").read_text()
+
+
+def test_post_on_unfinished_run_uses_snapshots_it_has(finished_run, tmp_path):
+    """A run killed before its last snapshot: `driver post` analyses the earlier snapshots and
+    says what it left out; in a finished run the same gap is an error."""
+    import shutil
+
+    rd = tmp_path / "killed"
+    shutil.copytree(finished_run, rd)
+    snaps = json.loads((rd / "snapshots.json").read_text())
+    (rd / snaps[-1]["bonds"]).unlink()
+    cmd = [sys.executable, "-m", "driver.cli", "post", str(rd), "--no-plots"]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    assert proc.returncode == 2 and "bonds" in proc.stderr  # finished run: a missing dump is an error
+    (rd / "status.json").write_text(json.dumps({"state": "failed", "error": "killed"}))
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert "did not finish" in proc.stderr and f"strain {snaps[-1]['strain']:g} on left out" in proc.stderr
+    frames = pd.read_parquet(rd / "results/frames.parquet")
+    assert list(frames.strain) == [s["strain"] for s in snaps[:-1]]
+    assert json.loads((rd / "status.json").read_text())["state"] == "failed"  # post does not relabel a run
