@@ -20,10 +20,9 @@ from analysis.grain_table import grain_table
 from analysis.grains import grain_labels
 from analysis.pictures import render_cells
 from analysis.plots import plot_energies, plot_mass_pdf, plot_shapes
-from analysis.powerlaw import fit_power_law
 from analysis.report import Report, clear_report, provenance_line, write_report
 from analysis.shapes import fragment_table, shape_averages, vertices_in_space
-from analysis.statistics import normalised_mass_distribution
+from analysis.statistics import fit_mass_ratio_law, normalised_mass_distribution
 from analysis.tables import save_table
 from analysis.tracking import lineage_table
 from driver.bcm.lammps_files import read_cells
@@ -171,19 +170,14 @@ def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
     return measures
 
 
-def fragment_mass_fit(masses: np.ndarray, min_fragments: int = 20, n_bootstrap: int = 200) -> dict:
-    """Power law p(m/m_max) ~ (m/m_max)^-tau fitted by continuous maximum likelihood, the lower
-    end of the range chosen by the smallest KS distance, with a bootstrap uncertainty
-    (SPEC 1.5). None values when there are fewer than min_fragments fragments."""
-    x = np.asarray(masses, dtype=float)
-    out = {"tau": None, "sigma": None, "sigma_bootstrap": None, "xmin": None, "xmax": None, "n_fit": None}
-    if len(x) < min_fragments:
-        return out
-    # m / m_max <= 1 by construction: the law is fitted truncated at 1
-    fit = fit_power_law(x / x.max(), xmax=1.0, discrete=False, n_bootstrap=n_bootstrap, seed=0)
-    out.update(tau=float(fit.tau), sigma=float(fit.sigma), sigma_bootstrap=float(fit.sigma_bootstrap),
-               xmin=float(fit.xmin), xmax=1.0, n_fit=int(fit.n))
-    return out
+def fragment_mass_fit(masses: np.ndarray, n_bootstrap: int = 200) -> dict:
+    """tau of p(m/m_max) of one impact (statistics.fit_mass_ratio_law) as summary entries;
+    None values with fewer than 20 fragments besides the largest."""
+    fit = fit_mass_ratio_law([masses], n_bootstrap=n_bootstrap)
+    if fit is None:
+        return {"tau": None, "sigma": None, "sigma_bootstrap": None, "xmin": None, "xmax": None, "n_fit": None}
+    return {"tau": float(fit.tau), "sigma": float(fit.sigma), "sigma_bootstrap": float(fit.sigma_bootstrap),
+            "xmin": float(fit.xmin), "xmax": 1.0, "n_fit": int(fit.n)}
 
 
 def fragment_history(run_dir: Path, n_cells: int) -> tuple[pd.DataFrame | None, pd.DataFrame | None]:

@@ -16,12 +16,12 @@ import pandas as pd
 import yaml
 
 from analysis.plots import plot_curves, plot_histograms, plot_mass_pdf, plot_measures
-from analysis.powerlaw import fit_power_law
 from analysis.report import Report, clear_report, write_report
 from analysis.scaling import (Curve, finite_rate_rescale, finite_size_rescale, fit_finite_rate, fit_finite_size,
                               fit_growth, fit_loglog, fit_moment_collapse, fit_threshold_power, moment_curves, moment_rescale,
                               omega_0, omega_1, power_law, threshold_power)
-from analysis.statistics import SMALL_GRAIN_CUT, fit_grain_tau, histogram_table, normalised_mass_distribution
+from analysis.statistics import (SMALL_GRAIN_CUT, fit_grain_tau, fit_mass_ratio_law, histogram_table,
+                                 normalised_mass_distribution)
 from analysis.tables import save_table
 
 
@@ -295,11 +295,12 @@ def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True) -> dict:
     for gc, grp in frags.groupby("G_c", sort=True):
         label = f"G_c = {gc:g} J/m²"
         mass_tables[label] = normalised_mass_distribution(grp.m_over_m_max.to_numpy())
-        if len(grp) >= 20:
-            pl = fit_power_law(grp.m_over_m_max.to_numpy(), xmax=1.0, discrete=False, n_bootstrap=100, seed=0)
+        pl = fit_mass_ratio_law([g.mass.to_numpy() for _, g in grp.groupby("run_dir")], n_bootstrap=100)
+        if pl is not None:
             mass_fits[label] = {"tau": pl.tau, "sigma": max(pl.sigma, pl.sigma_bootstrap or 0.0), "xmin": pl.xmin,
                                 "xmax": 1.0}
-            fits.append({"G_c": gc, "fit": "p(m/m_max) ~ (m/m_max)^-tau, all runs", "parameter": "tau",
+            fits.append({"G_c": gc, "fit": "p(m/m_max) ~ (m/m_max)^-tau, all runs (largest of each left out)",
+                         "parameter": "tau",
                          "value": pl.tau, "sigma": mass_fits[label]["sigma"], "n": pl.n,
                          "method": f"{pl.method}; range [{pl.xmin:.3g}, 1]"})
     fits_df = pd.DataFrame(fits, columns=["G_c", "fit", "parameter", "value", "sigma", "n", "method"])

@@ -116,6 +116,26 @@ def normalised_mass_distribution(masses: np.ndarray, bins_per_decade: int = 5) -
                          "count": counts, "p": counts / (len(x) * (hi - lo))})
 
 
+def fit_mass_ratio_law(runs: list[np.ndarray], n_bootstrap: int = 200, min_fragments: int = 20
+                       ) -> PowerLawFit | None:
+    """tau of p(m/m_max) ~ (m/m_max)^-tau (SPEC 1.5) over the fragments of one or several runs.
+
+    Each run's masses are divided by its largest; that fragment (x = 1 by definition, not a
+    draw from the law) is left out, the others pooled, and the law fitted by continuous maximum
+    likelihood truncated at x = 1 (no fragment can lie beyond), the lower end chosen by the
+    smallest KS distance, with a bootstrap error. None with fewer than min_fragments pooled."""
+    pooled = []
+    for m in runs:
+        m = np.asarray(m, dtype=float)
+        if len(m) > 1:
+            pooled.append(np.delete(m, np.argmax(m)) / m.max())
+    x = np.concatenate(pooled) if pooled else np.empty(0)
+    x = x[x > 0]
+    if len(x) < min_fragments or x.min() >= 1.0:
+        return None
+    return fit_power_law(x, xmax=1.0, discrete=False, n_bootstrap=n_bootstrap, seed=0)
+
+
 def histogram_table(values: np.ndarray, bins: np.ndarray | int, value_range: tuple[float, float] | None = None
                     ) -> pd.DataFrame:
     """Probability density of values in linear bins: lo, hi, center, count, p."""

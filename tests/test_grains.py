@@ -90,3 +90,18 @@ def test_frame_measures_counts_and_nonpercolating_moment():
     assert row["n_grains"] == 5 and row["n_grains_M>=3"] == 3 and row["n_grains_M>=5"] == 2
     assert row["n_grains_M>=50"] == 1 and row["percolating_grains"] == 1
     assert row["M2"] == 10000 + 25 + 9 + 2 and row["M2_nonpercolating"] == 25 + 9 + 2
+
+
+def test_mass_ratio_law_recovers_tau_of_truncated_samples():
+    """Fragments drawn from p(m) ~ m^-1.6 on [1e-2, 1] kg x 1e-6: tau of p(m/m_max) comes back
+    (largest of each run left out, law truncated at 1); an untruncated fit would not."""
+    from analysis.powerlaw import fit_power_law, sample_power_law
+    from analysis.statistics import fit_mass_ratio_law
+
+    rng = np.random.default_rng(5)
+    runs = [1e-6 * sample_power_law(300, 1.6, 1e-2, xmax=1.0, rng=rng) for _ in range(10)]
+    fit = fit_mass_ratio_law(runs, n_bootstrap=0)
+    assert abs(fit.tau - 1.6) < 3 * fit.sigma and fit.xmax == 1.0
+    pooled = np.concatenate([r / r.max() for r in runs])
+    assert fit_power_law(pooled, xmin=fit.xmin).tau > 1.6 + 3 * fit.sigma  # the bias truncation removes
+    assert fit_mass_ratio_law([np.ones(5)]) is None
