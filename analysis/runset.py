@@ -29,6 +29,7 @@ from analysis.tables import save_table
 FINITE_SIZE_BOUNDS = [(0.1, 4.0), (-4.0, 10.0)]
 FINITE_RATE_BOUNDS = [(0.01, 3.0)]
 MOMENT_BOUNDS = [(0.1, 4.0), (0.1, 5.0)]
+MIN_TRUSTED_TERMS = 10  # fewer point comparisons than this: a collapse (and its bootstrap) is flagged
 
 
 class RunSetError(ValueError):
@@ -221,9 +222,10 @@ def _try_collapse(fits: list, collapses: dict, key: str, curves: list[Curve], fi
     for (k, v), (lo, hi) in zip(fit.params.items(), bounds):
         edge = "; AT THE EDGE of its range [{:g}, {:g}]: not constrained".format(lo, hi) if min(
             abs(v - lo), abs(v - hi)) < 1e-3 * (hi - lo) else ""
+        few = (f"; ONLY {fit.n_terms} point comparisons: indicative, the error understates it"
+               if fit.n_terms < MIN_TRUSTED_TERMS else f"; {fit.n_terms} point comparisons")
         fits.append({"fit": f"{key} collapse", "runs": f"{len(curves)} runs", "parameter": k, "value": v,
-                     "sigma": fit.sigma[k], "quality": fit.cost,
-                     "method": f"{fit.method}; {fit.n_terms} point comparisons{edge}"})
+                     "sigma": fit.sigma[k], "quality": fit.cost, "method": f"{fit.method}{few}{edge}"})
     collapses[key] = (fit, curves, rescale, xlabel, ylabel)
 
 
