@@ -224,3 +224,20 @@ def test_atom_dump_truncated_and_duplicate_ids(tmp_path):
     dup = atom_frame(0, "id type x y z", [(1, 1, 0, 0, 0), (1, 1, 1, 1, 1)])
     with pytest.raises(DumpError, match="appears twice"):
         read_atom_dump(write(tmp_path, dup, "dup.txt"))
+
+
+def test_atom_ids_with_gaps_or_repeats_and_exact_values(tmp_path):
+    # ids with gaps (a dump of a group, or after atoms were lost): sorted by a general sort
+    rows = [(7, 1, 0.1, 0, 0), (3, 2, 0.2, 0, 0), (10, 1, 0.3, 0, 0)]
+    fr = read_atom_dump(write(tmp_path, atom_frame(0, "id type x y z", rows)))[0]
+    assert fr.ids.tolist() == [3, 7, 10] and fr.types.tolist() == [2, 1, 1]
+    assert fr.positions[:, 0].tolist() == [0.2, 0.1, 0.3]
+    # a contiguous range with one id repeated and one missing is not mistaken for a permutation
+    rep = [(3, 1, 0, 0, 0), (1, 1, 0, 0, 0), (3, 1, 1, 1, 1)]
+    with pytest.raises(DumpError, match="atom id 3 appears twice"):
+        read_atom_dump(write(tmp_path, atom_frame(0, "id type x y z", rep), "rep.txt"))
+    # 17 significant digits come back bit for bit (correctly rounded parsing)
+    vals = np.random.default_rng(5).normal(size=(50, 3)) * 1e-3
+    text = atom_frame(0, "id type x y z", [(i + 1, 1, *(f"{v:.17g}" for v in row)) for i, row in enumerate(vals)])
+    fr = read_atom_dump(write(tmp_path, text, "exact.txt"))[0]
+    assert np.array_equal(fr.positions, vals)
