@@ -55,17 +55,24 @@ def plot_nm(nm: pd.DataFrame, path: Path, title: str = "", mass_unit: str = "m",
 
 
 def plot_stress(stress: pd.DataFrame, path: Path, title: str = "") -> None:
-    """sqrt(J2), P and mu against strain (LJ units)."""
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(5.0, 5.0), dpi=150, sharex=True)
+    """sqrt(J2) and P, the stress ratio mu and the inertial number I against strain (LJ units)."""
+    panels = 3 if "I" in stress else 2
+    fig, axes = plt.subplots(panels, 1, figsize=(5.0, 2.2 * panels + 0.6), dpi=150, sharex=True)
+    ax1, ax2 = axes[0], axes[1]
     ax1.plot(stress.strain, stress.sqrtJ2, "k-", label=r"$\sqrt{J_2}$")
     ax1.plot(stress.strain, stress.P, "k--", label="$P$")
     ax1.set_ylabel(r"stress [$u/a^d$]")
     ax1.legend(fontsize=8, frameon=False)
-    # mu is undefined while the solid is still near zero pressure: show it where P is sizeable.
-    sizeable = stress.P > 0.05 * stress.P.max()
-    ax2.plot(stress.strain[sizeable], stress.mu[sizeable], "k-")
-    ax2.set_ylabel(r"$\mu = \sqrt{J_2}/P$ (where $P > 0.05\,P_{max}$)")
-    ax2.set_xlabel(r"true strain $\varepsilon$")
+    # mu and I are undefined while the solid is still near zero pressure (they diverge as
+    # P -> 0): show them where P is sizeable, on log axes so the loading transient and the
+    # steady flow are both readable.
+    sizeable = (stress.P > 0.05 * stress.P.max()).to_numpy()
+    ax2.semilogy(stress.strain[sizeable], stress.mu[sizeable], "k-")
+    ax2.set_ylabel(r"$\mu = \sqrt{J_2}/P$ [-]")
+    if panels == 3:
+        axes[2].semilogy(stress.strain[sizeable], stress.I[sizeable], "k-")
+        axes[2].set_ylabel(r"$I = \dot\varepsilon \langle d\rangle \sqrt{\rho/P}$ [-]")
+    axes[-1].set_xlabel(r"true strain $\varepsilon$ [-] (" + r"$\mu$, $I$ where $P > 0.05\,P_{max}$)")
     if title:
         ax1.set_title(title, fontsize=9)
     fig.tight_layout()

@@ -172,7 +172,8 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
         _try_collapse(fits, collapses, "second moment", moment_curves(m2.L, m2.edot, m2.M2),
                       lambda cs: fit_moment_collapse(cs, d, bounds=MOMENT_BOUNDS, n_grid=25, **kw), MOMENT_BOUNDS,
                       lambda c, p: moment_rescale(c.x, c.y, c.params["L"], p[0], p[1], d),
-                      r"$\dot\varepsilon L^{1/\nu}$", r"$\langle M^2\rangle / L^{d+\alpha}$")
+                      r"$\dot\varepsilon L^{1/\nu}$", r"$\langle M^2\rangle / L^{d+\alpha}$",
+                      runs=f"{len(m2)} runs ({m2.L.nunique()} curves, one per L)")
 
     fits_df = pd.DataFrame(fits, columns=["fit", "runs", "parameter", "value", "sigma", "quality", "method"])
     save_table(table, out / "runs")
@@ -209,14 +210,16 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
 
 
 def _try_collapse(fits: list, collapses: dict, key: str, curves: list[Curve], fitter, bounds, rescale,
-                  xlabel: str, ylabel: str) -> None:
+                  xlabel: str, ylabel: str, runs: str | None = None) -> None:
     """Fit one collapse and keep what its plot needs; curves that do not overlap are reported
     in the fits table, not fatal, and an exponent at the edge of its search range is flagged
-    (the data do not constrain it)."""
+    (the data do not constrain it). runs: what the curves are made of, for the table
+    (default: one run per curve)."""
+    runs = runs or f"{len(curves)} runs"
     try:
         fit = fitter(curves)
     except ValueError as exc:
-        fits.append({"fit": f"{key} collapse", "runs": f"{len(curves)} runs", "parameter": "-", "value": np.nan,
+        fits.append({"fit": f"{key} collapse", "runs": runs, "parameter": "-", "value": np.nan,
                      "sigma": np.nan, "quality": np.nan, "method": f"not fitted: {exc}"})
         return
     for (k, v), (lo, hi) in zip(fit.params.items(), bounds):
@@ -224,7 +227,7 @@ def _try_collapse(fits: list, collapses: dict, key: str, curves: list[Curve], fi
             abs(v - lo), abs(v - hi)) < 1e-3 * (hi - lo) else ""
         few = (f"; ONLY {fit.n_terms} point comparisons: indicative, the error understates it"
                if fit.n_terms < MIN_TRUSTED_TERMS else f"; {fit.n_terms} point comparisons")
-        fits.append({"fit": f"{key} collapse", "runs": f"{len(curves)} runs", "parameter": k, "value": v,
+        fits.append({"fit": f"{key} collapse", "runs": runs, "parameter": k, "value": v,
                      "sigma": fit.sigma[k], "quality": fit.cost, "method": f"{fit.method}{few}{edge}"})
     collapses[key] = (fit, curves, rescale, xlabel, ylabel)
 

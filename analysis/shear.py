@@ -145,7 +145,7 @@ def shear_report(run_dir: Path, cfg: dict, summary: dict, frames: pd.DataFrame, 
     rep = Report(f"{cfg['name']}: {title}", provenance_line(run_dir))
     rep.values({k: v for k, v in summary.items() if not isinstance(v, dict)}, "summary (LJ units: a, m, u)")
     rep.figure(run_dir / "plots" / "nm.png", "N(M) at the measure strains with the discrete MLE slope")
-    rep.figure(run_dir / "plots" / "stress.png", "shear stress, pressure and stress ratio against strain")
+    rep.figure(run_dir / "plots" / "stress.png", "shear stress, pressure, stress ratio and inertial number against strain")
     rep.figure(run_dir / "plots" / "grains.png", "particles coloured by grain at the last strain")
     rep.table(frames, "one row per snapshot (moments M_n = sum over grains of M^n)")
     rep.table(fits, "power-law fits of N(M) (discrete maximum likelihood over cut <= M <= largest grain)")
