@@ -19,9 +19,8 @@ from typing import Callable, Iterator
 import numpy as np
 import pandas as pd
 
-from analysis.dumps import AtomFrame, DumpError, LocalFrame, bond_pairs, iter_atom_dump, iter_local_dump, read_atom_dump
-from analysis.grain_table import grain_table
-from analysis.grains import grains_from_bond_dump
+from analysis.dumps import DumpError, iter_atom_dump, iter_local_dump, read_atom_dump
+from analysis.grain_table import frame_grains
 from analysis.pictures import render_particles_2d, render_particles_3d
 from analysis.plots import plot_nm
 from analysis.report import Report, clear_report, write_report
@@ -181,21 +180,3 @@ def analyse_dump_files(files: list[Path], out: Path, dimension: int | None = Non
     write_report(rep, out)
     return {"frames": len(steps), "steps": steps, "dimension": dim,
             "n_grains_last": int(frames.n_grains.iloc[-1]), "out": str(out), "warnings": problems}
-
-
-def frame_grains(atoms: AtomFrame, bonds: LocalFrame, dim: int) -> tuple[np.ndarray, pd.DataFrame]:
-    """Grain labels (in atom-id order) and grain table of one atom frame and its bond frame.
-    Atom ids need not be 1..n: bonds are mapped onto the frame's ids."""
-    pairs, types = bond_pairs(bonds)
-    index = np.searchsorted(atoms.ids, pairs)
-    bad = (index >= len(atoms.ids)) | (atoms.ids[np.minimum(index, len(atoms.ids) - 1)] != pairs)
-    if bad.any():
-        raise DumpError(f"bond dump at timestep {bonds.timestep}: atom id {int(pairs[bad][0])} is not in the atom "
-                        "dump of that timestep")
-    labels = grains_from_bond_dump(len(atoms.ids), index + 1, types)
-    periodic = [b.startswith("p") for b in atoms.boundary] if atoms.boundary else [True] * 3
-    masses = atoms.extra.get("mass")
-    vel = None if atoms.velocities is None else atoms.velocities[:, :dim]
-    table = grain_table(labels, atoms.positions[:, :dim], vel, masses, index[types > 0], atoms.box, atoms.tilt,
-                        periodic)
-    return labels, table

@@ -27,6 +27,9 @@ import pandas as pd
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import breadth_first_order
 
+from analysis.dumps import AtomFrame, DumpError, LocalFrame, bond_pairs
+from analysis.grains import grains_from_bond_dump
+
 # Chunk of vectors searched at once when refining a triclinic minimum image over neighbour
 # images (only vectors longer than half the shortest lattice vector get there: rare for bonds).
 _REFINE_CHUNK = 65536
@@ -327,3 +330,22 @@ def grain_table(labels: np.ndarray, positions: np.ndarray, velocities: np.ndarra
     cols["rg"] = np.sqrt(np.maximum(trace, 0.0))
     cols["percolating"] = percolating
     return pd.DataFrame(cols, index=pd.RangeIndex(ng, name=None))
+
+
+def frame_grains(atoms: AtomFrame, bonds: LocalFrame, dim: int) -> tuple[np.ndarray, pd.DataFrame]:
+    """Grain label per atom (in atom-id order) and grain table (`grain_table`) of one atom
+    frame and its bond frame (bonds of type > 0 intact; masses from the dump's mass column,
+    else 1). Atom ids need not be 1..n: bonds are mapped onto the frame's ids."""
+    pairs, types = bond_pairs(bonds)
+    index = np.searchsorted(atoms.ids, pairs)
+    bad = (index >= len(atoms.ids)) | (atoms.ids[np.minimum(index, len(atoms.ids) - 1)] != pairs)
+    if bad.any():
+        raise DumpError(f"bond dump at timestep {bonds.timestep}: atom id {int(pairs[bad][0])} is not in the atom "
+                        "dump of that timestep")
+    labels = grains_from_bond_dump(len(atoms.ids), index + 1, types)
+    periodic = periodic_from_boundary(atoms.boundary, dim)
+    masses = atoms.extra.get("mass")
+    vel = None if atoms.velocities is None else atoms.velocities[:, :dim]
+    table = grain_table(labels, atoms.positions[:, :dim], vel, masses, index[types > 0], atoms.box, atoms.tilt,
+                        periodic)
+    return labels, table

@@ -9,8 +9,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.dumps import AtomFrame, DumpError, LocalFrame, bond_pairs, read_atom_dump, read_local_dump
-from analysis.grain_table import grain_table
-from analysis.grains import grains_from_bond_dump
+from analysis.grain_table import frame_grains
 from analysis.pictures import render_particles_2d, render_particles_3d
 from analysis.plots import plot_nm, plot_stress
 from analysis.report import Report, clear_report, provenance_line, write_report
@@ -122,21 +121,13 @@ def bonds_intact(bonds: LocalFrame) -> np.ndarray:
     return bond_pairs(bonds)[1] > 0
 
 
-def grains_of_frame(atoms: AtomFrame, bonds: LocalFrame, n_atoms: int, dim: int,
-                    masses: np.ndarray | None = None) -> tuple[np.ndarray, pd.DataFrame]:
-    """Grain label per atom (ordered by atom id) and the grain table of one snapshot
-    (analysis.grain_table: size, mass, centre of mass unwrapped through the bonds, velocity,
-    kinetic energy, gyration tensor, percolating). Atom ids must be 1..n_atoms."""
+def grains_of_frame(atoms: AtomFrame, bonds: LocalFrame, n_atoms: int, dim: int) -> tuple[np.ndarray, pd.DataFrame]:
+    """Grain label per atom (ordered by atom id) and the grain table of one snapshot of a run
+    (analysis.grain_table.frame_grains), checking that it holds the run's atoms 1..n_atoms."""
     if len(atoms.ids) != n_atoms or atoms.ids[0] != 1 or atoms.ids[-1] != n_atoms:
         raise ValueError(f"atom dump at step {atoms.timestep} holds ids {atoms.ids[0]}..{atoms.ids[-1]} "
                          f"({len(atoms.ids)} atoms), expected 1..{n_atoms}")
-    pairs, types = bond_pairs(bonds)
-    labels = grains_from_bond_dump(n_atoms, pairs, types)
-    periodic = [b.startswith("p") for b in atoms.boundary] if atoms.boundary else [True] * 3
-    vel = None if atoms.velocities is None else atoms.velocities[:, :dim]
-    table = grain_table(labels, atoms.positions[:, :dim], vel, masses, pairs[types > 0] - 1, atoms.box,
-                        atoms.tilt, periodic)
-    return labels, table
+    return frame_grains(atoms, bonds, dim)
 
 
 def shear_report(run_dir: Path, cfg: dict, summary: dict, frames: pd.DataFrame, fits: pd.DataFrame,
