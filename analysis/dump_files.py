@@ -61,8 +61,12 @@ def _stream(files: list[Path], kind: str, reader: str, problems: list[str]) -> I
         try:
             if kind == "bonds":
                 frames = iter_local_dump(f)
-            elif reader == "mdanalysis":
-                frames = iter(read_atom_dump(f, engine="mdanalysis"))
+            elif reader == "mdanalysis":  # reads the whole file: its complete frames come with the error
+                try:
+                    frames = iter(read_atom_dump(f, engine="mdanalysis"))
+                except DumpError as exc:
+                    yield from ((fr, f) for fr in exc.frames)
+                    raise
             else:
                 frames = iter_atom_dump(f)
             for fr in frames:
@@ -82,22 +86,24 @@ def paired_frames(files: list[Path], reader: str = "numpy", problems: list[str] 
                         f"bond files among {', '.join(map(str, files))}")
     streams = {k: _stream(v, k, reader, problems) for k, v in by_kind.items()}
     cur = {k: next(streams[k], None) for k in streams}
-    last = {"atoms": None, "bonds": None}
+    last = {"atoms": None, "bonds": None}  # (timestep, file) of the frame each stream gave before
+
+    def advance(k: str) -> None:
+        frame, file = cur[k]
+        last[k] = (frame.timestep, file)
+        cur[k] = next(streams[k], None)
+        if cur[k] is not None and cur[k][0].timestep <= last[k][0]:
+            raise DumpError(f"{cur[k][1]}: timestep {cur[k][0].timestep} comes after timestep {last[k][0]} of "
+                            f"{last[k][1]}: the {k} dumps are not in timestep order")
+
     while cur["atoms"] is not None and cur["bonds"] is not None:
-        for k in ("atoms", "bonds"):
-            step = cur[k][0].timestep
-            if last[k] is not None and step <= last[k][0]:
-                raise DumpError(f"{cur[k][1]}: timestep {step} comes after timestep {last[k][0]} of {last[k][1]}: "
-                                f"the {k} dumps are not in timestep order")
         (fa, file_a), (fb, file_b) = cur["atoms"], cur["bonds"]
-        last = {"atoms": (fa.timestep, file_a), "bonds": (fb.timestep, file_b)}
         if fa.timestep == fb.timestep:
             yield fa, file_a, fb, file_b
-            cur = {k: next(streams[k], None) for k in streams}
-        elif fa.timestep < fb.timestep:
-            cur["atoms"] = next(streams["atoms"], None)
+            advance("atoms")
+            advance("bonds")
         else:
-            cur["bonds"] = next(streams["bonds"], None)
+            advance("atoms" if fa.timestep < fb.timestep else "bonds")
 
 
 def analyse_dump_files(files: list[Path], out: Path, dimension: int | None = None, plots: bool = True,

@@ -188,7 +188,12 @@ def read_atom_dump(path: str | Path, on_error: OnError = "raise",
     _check_on_error(on_error)
     if engine not in ("numpy", "mdanalysis"):
         raise ValueError(f"engine must be 'numpy' or 'mdanalysis', not {engine!r}")
-    frames = _collect(iter_atom_dump(path), on_error)
+    try:
+        frames = _collect(iter_atom_dump(path), on_error)
+    except DumpError as exc:
+        if engine == "mdanalysis" and exc.frames:  # the complete frames it carries get them too
+            _positions_from_mdanalysis(Path(path), exc.frames)
+        raise
     if engine == "mdanalysis" and frames:
         _positions_from_mdanalysis(Path(path), frames)
     return frames

@@ -94,6 +94,12 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
             run_dir = paths[0]
             if not (run_dir / "config.resolved.yaml").exists():
                 _fail(f"{run_dir}: not a run directory (no config.resolved.yaml); name dump files instead", 2)
+            # a run directory's results go back into it, with its own dimension, cut and reader
+            given = [name for name, value in (("--out", out), ("--dimension", dimension), ("--m-min", m_min),
+                                              ("--reader", None if reader == "numpy" else reader)) if value is not None]
+            if given:
+                _fail(f"{' '.join(given)}: options for dump files named on the command line, not for a run "
+                      f"directory ({run_dir}); its results are rewritten in place from its resolved config", 2)
             cfg = load_resolved(run_dir)
             cfg["output"]["plots"] = plots
             if thresholds is not None:

@@ -57,6 +57,9 @@ def analyse_run(run_dir: Path, cfg: dict, partial: bool = False) -> dict:
     """The analysis of a run directory for its scenario: what `driver run` ends with and
     `driver post` repeats; writes results/summary.json and returns the summary. partial: the
     run did not finish; analyse the snapshots it left (shear runs)."""
+    # The summary is what a set analysis reads of a run: removed first and written last, so
+    # that an analysis that fails half way leaves no summary beside its new tables.
+    (Path(run_dir) / "results" / "summary.json").unlink(missing_ok=True)
     if cfg["scenario"]["kind"] == "shear":
         from analysis.shear import analyse_shear  # noqa: PLC0415
 
