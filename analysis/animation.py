@@ -88,14 +88,13 @@ def _particles_frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
 
 
 def _cells_frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
-    from analysis.impact import fragments_of, read_interfaces  # noqa: PLC0415
+    from analysis.impact import cell_shapes, fragments_of, read_interfaces  # noqa: PLC0415
     from analysis.shapes import vertices_in_space  # noqa: PLC0415
-    from driver.bcm.lammps_files import read_cells  # noqa: PLC0415
 
     cells = read_atom_dump(run_dir / "dumps" / f"cells.{step}.lammpstrj")[-1]
     ifaces = read_interfaces(run_dir / "dumps" / f"interfaces.{step}.lammpstrj")
     labels = fragments_of(len(cells.ids), ifaces)
-    body, faces = read_cells(run_dir / "cells.txt")
+    body, faces, _ = cell_shapes(run_dir)
     offsets = np.concatenate([[0], np.cumsum([len(v) for v in body])])
     space = vertices_in_space(np.concatenate(body), offsets, cells.positions, cells.quaternions())
     verts = [space[offsets[i]:offsets[i + 1]] for i in range(len(cells.ids))]

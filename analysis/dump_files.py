@@ -145,7 +145,7 @@ def analyse_dump_files(files: list[Path], out: Path, dimension: int | None = Non
         nm = mass_distribution(masses, m_min=cut)
         nm.insert(0, "step", step)
         nm_rows.append(nm)
-        fit = fit_grain_tau(masses, cut, n_bootstrap=200)
+        fit = fit_grain_tau(masses, cut, table["percolating"].to_numpy(), n_bootstrap=200)
         frame_rows.append({"step": step, "atoms_file": str(file_a), "bonds_file": str(file_b),
                            "n_atoms": len(af.ids), **frame_measures(masses, table["percolating"], cut, thresholds),
                            "largest_grain_mass": float(table["mass"].max()),

@@ -97,6 +97,18 @@ def fragments_of(n_cells: int, interfaces: pd.DataFrame) -> np.ndarray:
     return grain_labels(n_cells, pairs, interfaces["state"].to_numpy() > 0.5)
 
 
+def cell_shapes(run_dir: Path) -> tuple[list[np.ndarray], list[list[np.ndarray]], str | None]:
+    """Body-frame vertices and faces of the Voronoi cells of an impact run (they carry the mass,
+    and SPEC 1.5 measures fragment boxes on their vertices), and a warning when the run, made
+    by an older version without voronoi_cells.txt, only has the cores eroded by r_m."""
+    run_dir = Path(run_dir)
+    if (run_dir / "voronoi_cells.txt").exists():
+        return (*read_cells(run_dir / "voronoi_cells.txt"), None)
+    return (*read_cells(run_dir / "cells.txt"),
+            f"{run_dir} has no voronoi_cells.txt (made by an older version): fragment shapes are measured on "
+            "the cell cores eroded by r_m, each of a, b, c about 2 r_m short")
+
+
 def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
     """Measures, fragment table, mass and shape distributions, energy series, fragment history
     (when periodic dumps exist), plots, picture and report of a finished impact run."""
@@ -111,7 +123,8 @@ def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
     labels = fragments_of(n, ifaces)
     masses = cells.extra["mass"]
     volumes = masses / model["density"]
-    body, faces = read_cells(run_dir / "cells.txt")
+    body, faces, warning = cell_shapes(run_dir)
+    warnings_ = [warning] if warning else []
     offsets = np.concatenate([[0], np.cumsum([len(v) for v in body])])
     space = vertices_in_space(np.concatenate(body), offsets, cells.positions, cells.quaternions())
     frags = fragment_table(labels, masses, volumes, (space, offsets))
@@ -145,6 +158,7 @@ def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
                       f"{scen['max_time']:g} s"),
         **{f"shape_{k}": v for k, v in shape_averages(frags).items()},
         **{f"mass_{k}": v for k, v in tau.items()},
+        **({"warnings": warnings_} if warnings_ else {}),
     })
     history, tracking = fragment_history(run_dir, n)
 
@@ -219,6 +233,8 @@ def impact_report(run_dir: Path, cfg: dict, system: dict, measures: dict, frags:
                                           "shape_elongation_mean", "shape_flatness_mean", "end_time", "settled")},
                "SPEC 1.5 measures (energies in J: see summary.json and the tables for all)")
     rep.text(measures["stop_rule"] + f"; time step {system['timestep']:.4g} s.")
+    for msg in measures.get("warnings", []):
+        rep.text(f"Warning: {msg}")
     rep.figure(run_dir / "plots" / "energies.png", "energy budget against time, fractions of W_k^-")
     rep.figure(run_dir / "plots" / "fragments.png", "cells coloured by fragment at the end")
     rep.figure(run_dir / "plots" / "fragment_masses.png", "fragment mass distribution p(m/m_max)")

@@ -133,17 +133,19 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
             raise RunSetError(f"{r['dir']}: no N(M) at strain {strain:g}")
         nm.append(t.assign(run=r["cfg"]["name"], run_dir=key, L=float(r["cfg"]["model"]["L"]),
                            edot=float(r["cfg"]["scenario"]["strain_rate"])))
-        g = pd.read_parquet(r["dir"] / "results" / "grains.parquet", columns=["strain", "mass"])
-        masses[key] = g[np.isclose(g.strain, strain)]["mass"].to_numpy()
+        g = pd.read_parquet(r["dir"] / "results" / "grains.parquet")
+        g = g[np.isclose(g.strain, strain)]
+        masses[key] = (g["mass"].to_numpy(), g["percolating"].to_numpy() if "percolating" in g else None)
     nm = pd.concat(nm, ignore_index=True)
     ref = table.sort_values(["L", "edot"], ascending=[False, True]).iloc[0]["run_dir"]
     tau, sigma_tau = None, None
-    pl = fit_grain_tau(masses[ref], cut, n_bootstrap=n_bootstrap)
+    ref_masses, ref_percolating = masses[ref]
+    pl = fit_grain_tau(ref_masses, cut, ref_percolating, n_bootstrap=n_bootstrap)
     if pl is not None:
         tau, sigma_tau = pl.tau, max(pl.sigma, pl.sigma_bootstrap or 0.0)
         fits.append({"fit": f"N(M) ~ M^-tau at strain {strain:g}", "runs": ref, "parameter": "tau", "value": tau,
                      "sigma": sigma_tau, "quality": pl.ks,
-                     "method": f"{pl.method}; range [{cut}, {pl.xmax:g}] (largest grain)"})
+                     "method": f"{pl.method}; range [{cut}, {pl.xmax:g}]"})
     curves = [Curve(t.m_mean.to_numpy(), t.N.to_numpy(), {"L": float(t.L.iloc[0]), "edot": float(t.edot.iloc[0])},
                     1.0 / np.sqrt(np.maximum(t["count"].to_numpy(dtype=float), 1)))
               for _, t in nm.groupby("run_dir", sort=False)]
@@ -260,7 +262,9 @@ def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True) -> dict:
     thresholds, fits, fit_fns = {}, [], {}
     for gc, grp in table.groupby("G_c", sort=True):
         # break-up: two or more fragments of two or more cells (single chipped cells, e.g. slivers, do not count)
-        w0, w1 = omega_0(grp.omega, grp.D_w), omega_1(grp.omega, grp.n_fragments_multi_cell)
+        # bracketed between parameter points (velocities): tessellations of one point differ a little in omega
+        w0 = omega_0(grp.omega, grp.D_w, groups=grp.velocity)
+        w1 = omega_1(grp.omega, grp.n_fragments_multi_cell, groups=grp.velocity)
         thresholds[gc] = {"omega_0": w0.value, "omega_1": w1.value}
         for name, th in (("omega_0", w0), ("omega_1", w1)):
             fits.append({"G_c": gc, "fit": f"{name} (first {'cracks' if name == 'omega_0' else 'break-up into multi-cell fragments'})",
@@ -277,7 +281,10 @@ def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True) -> dict:
         except ValueError as exc:
             fits.append({"G_c": gc, "fit": "D_w = A (omega - omega0)^beta", "parameter": "-", "value": np.nan,
                          "sigma": np.nan, "n": len(grp), "method": f"not fitted: {exc}"})
-        above = grp[grp.omega >= w1.hi] if np.isfinite(w1.hi) else grp.iloc[0:0]  # sampled points past break-up
+        # every run of the parameter points from the first break-up on
+        point_omega = grp.groupby("velocity").omega.transform("mean")
+        above = (grp[point_omega >= point_omega[grp.omega == w1.hi].iloc[0]] if np.isfinite(w1.hi)
+                 else grp.iloc[0:0])
         for col in ("eta", "e_k2"):
             try:
                 pf = fit_loglog(above.omega, above[col])

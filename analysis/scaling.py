@@ -167,8 +167,9 @@ def fit_collapse(curves: Sequence[Curve], rescale: Rescale, p0: Sequence[float],
         axes = [np.linspace(lo, hi, n_grid) for lo, hi in bounds]
         grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, len(names))
         costs = np.array([collapse_cost(curves, rescale, g, min_terms) for g in grid])
-        # a coarse grid can rank a flat side minimum first: descend from the best few points
-        starts = grid[np.argsort(costs, kind="stable")[:n_starts]]
+        # a coarse grid can rank a flat side minimum first: descend from the best few points,
+        # and from the caller's own start
+        starts = [start, *grid[np.argsort(costs, kind="stable")[:n_starts]]]
     else:
         starts = [start]
     best = min((_minimise(curves, rescale, s0, bounds, min_terms) for s0 in starts),
@@ -244,16 +245,45 @@ def _hessian(f: Callable[[np.ndarray], float], p: np.ndarray) -> np.ndarray:
 
 
 def fit_finite_size(curves: Sequence[Curve], tau: float, p0: tuple[float, float] = (1.0, 1.0),
-                    sigma_tau: float = 0.0, **kw) -> CollapseFit:
+                    sigma_tau: float = 0.0, bounds: Sequence[tuple[float, float]] | None = None,
+                    **kw) -> CollapseFit:
     """alpha and gamma of N(M, L) = L^(gamma - alpha tau) f(M / L^alpha), curves of N against M
-    with params["L"]; tau fixed (from fit_power_law); with sigma_tau > 0 each bootstrap
-    replicate draws tau from N(tau, sigma_tau), so gamma's error includes tau's."""
+    with params["L"], tau fixed (from fit_power_law).
 
-    def rescale_with(t):
-        return lambda cv, p: finite_size_rescale(cv.x, cv.y, cv.params["L"], p[0], p[1], t)
+    The data fix the horizontal shift alpha and the vertical one kappa = gamma - alpha tau,
+    whose cost valley is narrow along gamma; the collapse is fitted in (alpha, kappa), which do
+    not involve tau, and gamma = kappa + alpha tau. Its standard error includes tau's:
+    var(gamma) = var(kappa) + tau^2 var(alpha) + 2 tau cov(alpha, kappa) + alpha^2 sigma_tau^2
+    (bootstrap replicates draw tau from N(tau, sigma_tau)). p0 and bounds are in (alpha, gamma).
+    """
 
-    perturb = (lambda rng: rescale_with(rng.normal(tau, sigma_tau))) if sigma_tau > 0 else None
-    return fit_collapse(curves, rescale_with(tau), p0, ("alpha", "gamma"), perturb=perturb, **kw)
+    def rescale(cv, p):
+        return finite_size_rescale(cv.x, cv.y, cv.params["L"], p[0], p[1], 0.0)  # p = (alpha, kappa)
+
+    start = (p0[0], p0[1] - p0[0] * tau)
+    kb = None
+    if bounds is not None:
+        (alo, ahi), (glo, ghi) = bounds
+        kb = [(alo, ahi), (min(glo - alo * tau, glo - ahi * tau), max(ghi - alo * tau, ghi - ahi * tau))]
+    fit = fit_collapse(curves, rescale, start, ("alpha", "kappa"), bounds=kb, **kw)
+    alpha, kappa = fit.params["alpha"], fit.params["kappa"]
+    jac = np.array([[1.0, 0.0], [tau, 1.0]])  # (alpha, gamma) from (alpha, kappa)
+    samples = None
+    if fit.samples is not None:
+        if "bootstrap" in fit.method and sigma_tau > 0:
+            taus = np.random.default_rng(kw.get("seed", 0) + 1).normal(tau, sigma_tau, len(fit.samples))
+        else:
+            taus = np.full(len(fit.samples), tau)
+        samples = np.column_stack([fit.samples[:, 0], fit.samples[:, 1] + fit.samples[:, 0] * taus])
+    if samples is not None and "bootstrap" in fit.method:
+        cov = np.atleast_2d(np.cov(samples.T, ddof=1))
+    else:
+        cov = jac @ fit.cov @ jac.T
+        cov[1, 1] += (alpha * sigma_tau) ** 2
+    sig = np.sqrt(np.clip(np.diag(cov), 0, None))
+    return CollapseFit({"alpha": alpha, "gamma": kappa + alpha * tau}, {"alpha": float(sig[0]), "gamma": float(sig[1])},
+                       fit.cost, fit.n_terms, fit.method + (f"; tau = {tau:.3g} +- {sigma_tau:.2g} propagated"
+                                                            if sigma_tau > 0 else ""), cov, samples)
 
 
 def fit_finite_rate(curves: Sequence[Curve], d: int, p0: float = 0.5, **kw) -> CollapseFit:
@@ -283,7 +313,7 @@ def fit_moment_collapse(curves: Sequence[Curve], d: int, p0: tuple[float, float]
     return fit_collapse(curves, rescale, p0, ("alpha", "nu"), **kw)
 
 
-def curves_from_table(table: pd.DataFrame, by: Sequence[str], x: str = "m_center", y: str = "N",
+def curves_from_table(table: pd.DataFrame, by: Sequence[str], x: str = "m_mean", y: str = "N",
                       count: str | None = "count") -> list[Curve]:
     """Curves from a long table (e.g. N(M) of analysis.statistics.mass_distribution with run
     parameter columns such as L and edot): one curve per group of `by`; with `count`, the
@@ -354,41 +384,56 @@ class Threshold:
         return 0.5 * (self.hi - self.lo)
 
 
-def locate_threshold(omega, y, level: float = 0.0, estimate: str = "midpoint") -> Threshold:
-    """First sampled omega at which some run has y > level, bracketed by the sampled omega
-    below it. Runs may repeat an omega (tessellations). estimate="midpoint" (default; right
-    for measures that are exactly 0 below, like D_w) or "linear" (the mean of y over runs
-    interpolated linearly to `level` inside the bracket).
-    If the first omega already has y > level, lo = -inf and value = NaN (only an upper
-    bound); if none has, hi = +inf and value = NaN.
+def locate_threshold(omega, y, level: float = 0.0, estimate: str = "midpoint", groups=None) -> Threshold:
+    """The first parameter point at which some run has y > level, bracketed by the point
+    below it.
+
+    groups: the parameter point of each run (e.g. its impact velocity). The runs of one point
+    (tessellations) have slightly different omegas (W_s and the mass vary with the
+    tessellation), so the bracket runs between points, from the largest omega of the point
+    below (no run there has y > level) to the smallest omega of a run with y > level at the
+    point found; when the tessellation spread makes these overlap, the bracket is the
+    overlap's span. groups None: every distinct omega is a point of its own.
+    estimate="midpoint" (default; right for measures that are exactly 0 below, like D_w) or
+    "linear" (the mean of y per point interpolated linearly to `level` inside the bracket).
+    If the first point already has y > level, lo = -inf and value = NaN (only an upper bound);
+    if none has, hi = +inf and value = NaN.
     """
     if estimate not in ("midpoint", "linear"):
         raise ValueError(f"estimate must be 'midpoint' or 'linear', not {estimate!r}")
     omega, y = np.asarray(omega, dtype=float), np.asarray(y, dtype=float)
-    w = np.unique(omega)
-    above = np.array([np.any(y[omega == v] > level) for v in w])
+    g = omega if groups is None else np.asarray(groups)
+    if g.shape != omega.shape:
+        raise ValueError(f"{g.size} group labels for {omega.size} runs")
+    points = sorted(np.unique(g), key=lambda k: float(np.mean(omega[g == k])))
+    above = np.array([np.any(y[g == k] > level) for k in points])
     if not above.any():
-        return Threshold(float("nan"), float(w[-1]), float("inf"))
+        return Threshold(float("nan"), float(omega.max()), float("inf"))
     k = int(np.argmax(above))
+    at = (g == points[k]) & (y > level)
+    hi = float(omega[at].min())
     if k == 0:
-        return Threshold(float("nan"), float("-inf"), float(w[0]))
-    lo, hi = float(w[k - 1]), float(w[k])
+        return Threshold(float("nan"), float("-inf"), hi)
+    below = g == points[k - 1]
+    lo = float(omega[below].max())
+    lo, hi = min(lo, hi), max(lo, hi)
     if estimate == "midpoint":
         return Threshold(0.5 * (lo + hi), lo, hi)
-    y_lo, y_hi = float(np.mean(y[omega == lo])), float(np.mean(y[omega == hi]))
+    y_lo, y_hi = float(np.mean(y[below])), float(np.mean(y[g == points[k]]))
     t = (level - y_lo) / (y_hi - y_lo) if y_hi != y_lo else 0.5
     return Threshold(lo + float(np.clip(t, 0.0, 1.0)) * (hi - lo), lo, hi)
 
 
-def omega_0(omega, damage) -> Threshold:
-    """omega_0: first omega with cracks (D_w > 0) (SPEC 1.5)."""
-    return locate_threshold(omega, damage, level=0.0)
+def omega_0(omega, damage, groups=None) -> Threshold:
+    """omega_0: first omega with cracks (D_w > 0) (SPEC 1.5); groups as in locate_threshold."""
+    return locate_threshold(omega, damage, level=0.0, groups=groups)
 
 
-def omega_1(omega, n_fragments) -> Threshold:
+def omega_1(omega, n_fragments, groups=None) -> Threshold:
     """omega_1: first omega where a particle breaks into two or more fragments (SPEC 1.5).
-    Pass the count of fragments of two or more cells to leave single chipped cells out."""
-    return locate_threshold(omega, n_fragments, level=1.0)
+    Pass the count of fragments of two or more cells to leave single chipped cells out;
+    groups as in locate_threshold."""
+    return locate_threshold(omega, n_fragments, level=1.0, groups=groups)
 
 
 def threshold_power(omega, omega0: float, beta: float, prefactor: float):
@@ -477,6 +522,8 @@ def fit_threshold_power(omega, y, omega0: float | None = None, sigma_lny=None,
     cov = s2 * np.linalg.pinv(J.T @ J)
     o0, beta, lnA = best.x
     note = "; omega0 at a bound" if min(abs(o0 - lo), abs(o0 - hi_eff)) < 1e-6 * max(span, 1.0) else ""
+    if omega0_bounds is None and not zero_below:
+        note += "; no sampled omega has y = 0 in every run: omega0 is extrapolated below the data"
     return ThresholdFit(float(o0), float(beta), float(np.exp(lnA)), float(np.sqrt(cov[0, 0])),
                         float(np.sqrt(cov[1, 1])), float(np.exp(lnA) * np.sqrt(cov[2, 2])), int(len(w)), cov,
                         "least squares in ln y, omega0 fitted" + note)

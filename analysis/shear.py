@@ -71,7 +71,7 @@ def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = 
         grain_rows.append(table)
         all_labels.append(labels)
         nm = mass_distribution(masses, m_min=cut)
-        fit_rows.append(_fit_tau(masses, cut, snap))
+        fit_rows.append(_fit_tau(masses, table["percolating"].to_numpy(), cut, snap))
         nm.insert(0, "strain", snap["strain"])
         nm_rows.append(nm)
         frame_rows.append({"strain": snap["strain"], "step": snap["step"], "intact_bonds": int(bonds_intact(bonds).sum()),
@@ -139,19 +139,21 @@ def shear_report(run_dir: Path, cfg: dict, summary: dict, frames: pd.DataFrame, 
     rep.figure(run_dir / "plots" / "stress.png", "shear stress, pressure, stress ratio and inertial number against strain")
     rep.figure(run_dir / "plots" / "grains.png", "particles coloured by grain at the last strain")
     rep.table(frames, "one row per snapshot (moments M_n = sum over grains of M^n)")
-    rep.table(fits, "power-law fits of N(M) (discrete maximum likelihood over cut <= M <= largest grain)")
+    rep.table(fits, "power-law fits of N(M): discrete maximum likelihood over the n grains with M >= cut, "
+                     "the largest finite grain (the remnant) left out, the law truncated at xmax")
     return rep
 
 
 N_BOOTSTRAP = 200  # resamples behind the bootstrap uncertainty of tau (seeded: tables are reproducible)
 
 
-def _fit_tau(masses: np.ndarray, cut: int, snap: dict) -> dict:
-    """Discrete maximum-likelihood exponent of N(M) ~ M^-tau over grains with cut <= M <= largest,
-    with its asymptotic (sigma) and bootstrap (sigma_bootstrap) standard errors."""
-    fit = fit_grain_tau(masses, cut, n_bootstrap=N_BOOTSTRAP)
+def _fit_tau(masses: np.ndarray, percolating: np.ndarray, cut: int, snap: dict) -> dict:
+    """Discrete maximum-likelihood exponent of N(M) ~ M^-tau (statistics.fit_grain_tau: grains
+    M >= cut but the largest finite one, the law truncated at xmax, the largest fitted), with
+    its asymptotic (sigma) and bootstrap (sigma_bootstrap) standard errors; n: grains fitted."""
+    fit = fit_grain_tau(masses, cut, percolating, n_bootstrap=N_BOOTSTRAP)
     return {"strain": snap["strain"], "step": snap["step"], "xmin": cut, "xmax": None if fit is None else fit.xmax,
-            "n": int(np.sum(masses >= cut)), "tau": None if fit is None else float(fit.tau),
+            "n": 0 if fit is None else fit.n, "tau": None if fit is None else float(fit.tau),
             "sigma": None if fit is None else float(fit.sigma),
             "sigma_bootstrap": None if fit is None else float(fit.sigma_bootstrap)}
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pandas as pd
 
@@ -71,18 +73,27 @@ def frame_measures(masses: np.ndarray, percolating: np.ndarray, m_min: float,
     return row
 
 
-def fit_grain_tau(masses: np.ndarray, m_min: float, discrete: bool = True, n_bootstrap: int = 0,
-                  min_grains: int = 10) -> PowerLawFit | None:
-    """tau of N(M) ~ M^-tau (SPEC 2.5) by maximum likelihood over the grains with
-    m_min <= M <= M_largest, the law truncated at the largest grain: a finite system cuts the
-    law off, and an unbounded fit then overestimates tau (1.88 instead of 1.80 for 3e4
-    grains of a discrete law cut at M = 256). None with fewer than min_grains grains in range."""
+def fit_grain_tau(masses: np.ndarray, m_min: float, percolating: np.ndarray | None = None, discrete: bool = True,
+                  n_bootstrap: int = 0, min_grains: int = 10) -> PowerLawFit | None:
+    """tau of N(M) ~ M^-tau (SPEC 2.5) by maximum likelihood over the grains M >= m_min.
+
+    Grains that wrap the periodic box (`percolating`) are not finite grains, and the largest
+    finite grain is the remnant of the solid until late strains, no draw from the law: both
+    are left out. The law is truncated at the largest grain fitted, since a finite system cuts
+    it off and an unbounded fit then overestimates tau (1.88 instead of 1.80 for 3e4 grains of
+    a discrete law cut at M = 256). None with fewer than min_grains grains fitted.
+    """
     m = np.asarray(masses, dtype=float)
-    kept = m[m >= m_min]
-    if len(kept) < min_grains or kept.max() <= m_min:
+    if percolating is not None:
+        m = m[~np.asarray(percolating, dtype=bool)]
+    kept = np.sort(m[m >= m_min])
+    if len(kept) <= min_grains or kept[-2] <= m_min:
         return None
-    return fit_power_law(kept, xmin=m_min, xmax=float(kept.max()), discrete=discrete, n_bootstrap=n_bootstrap,
-                         seed=0)
+    largest, rest = kept[-1], kept[:-1]
+    fit = fit_power_law(rest, xmin=m_min, xmax=float(rest[-1]), discrete=discrete, n_bootstrap=n_bootstrap, seed=0)
+    left_out = "percolating grains and the largest finite grain" if percolating is not None and np.any(
+        percolating) else "the largest grain"
+    return replace(fit, method=fit.method + f"; {left_out} (M = {largest:g}) left out")
 
 
 def count_above(masses: np.ndarray, threshold: float) -> int:

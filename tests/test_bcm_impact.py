@@ -12,12 +12,15 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
+import yaml
+from scipy.spatial.distance import pdist
 
 from analysis.dumps import read_atom_dump
 from analysis.impact import read_impact_thermo
 from driver.bcm.lammps_files import write_cell_data, write_cells, write_interfaces
-from driver.bcm.particle import build_particle, contact_timestep, particle_tessellation
+from driver.bcm.particle import build_particle, contact_timestep, parent_shape, particle_tessellation
 from driver.config import BCMModel, parse_config
 from driver.pipeline import execute
 from driver.plugin_build import cache_base
@@ -109,6 +112,12 @@ def test_rebound_without_breakage(tmp_path, plugin_path):
     assert v_cm[2] > 0  # going up
     assert 0 < summary["e_k2"] < 1
     assert abs(summary["balance_residual"]) < 1e-3
+    # the one fragment is the whole particle: its box is the parent's, measured on the Voronoi
+    # cells' vertices (the eroded cores would give a, b, c about 2 r_m short)
+    cfg = yaml.safe_load((out / "config.resolved.yaml").read_text())["model"]
+    span = pdist(parent_shape(cfg["shape"], cfg["diameter"], cfg["diameter_kind"]).vertices).max()
+    frag = pd.read_parquet(out / "results" / "fragments.parquet").iloc[0]
+    assert frag["a"] == pytest.approx(span, rel=1e-4)  # the particle still vibrates: strains ~1e-6
 
 
 @pytest.mark.mpi
@@ -253,7 +262,7 @@ def test_run_directory_and_post_reproduce_tables(small_impact):
     for name in ["results/summary.json", "results/energies.parquet", "results/fragments.csv",
                  "results/interfaces.parquet", "results/cells.csv",
                  "plots/cells.png", "dumps/cells.end.lammpstrj", "dumps/interfaces.end.lammpstrj", "in.lammps",
-                 "interfaces.txt", "cells.txt", "system.data", "provenance.json"]:
+                 "interfaces.txt", "cells.txt", "voronoi_cells.txt", "system.data", "provenance.json"]:
         assert (small_impact / name).exists(), name
     tables = ["energies", "fragments", "interfaces", "fragment_masses"]
     before = {n: pd.read_parquet(small_impact / f"results/{n}.parquet") for n in tables}

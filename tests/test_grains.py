@@ -105,3 +105,29 @@ def test_mass_ratio_law_recovers_tau_of_truncated_samples():
     pooled = np.concatenate([r / r.max() for r in runs])
     assert fit_power_law(pooled, xmin=fit.xmin).tau > 1.6 + 3 * fit.sigma  # the bias truncation removes
     assert fit_mass_ratio_law([np.ones(5)]) is None
+
+
+@pytest.mark.parametrize("tau", [1.5, 2.5])
+def test_grain_tau_recovers_discrete_law_beside_a_remnant(tau):
+    """Grains drawn exactly from N(M) ~ M^-tau on 3..300 (probability table), plus the remnant
+    of the solid (M = 5000) and a grain wrapping the box: both are left out of the fit, which
+    recovers tau as if they were not there."""
+    from analysis.powerlaw import fit_power_law
+    from analysis.statistics import fit_grain_tau
+
+    rng = np.random.default_rng(21)
+    k = np.arange(3, 301)
+    hits = []
+    for _ in range(40):
+        m = np.concatenate([rng.choice(k, 400, p=k ** -tau / np.sum(k ** -tau)), [5000, 20000]]).astype(float)
+        perc = m == 20000
+        fit = fit_grain_tau(m, 3, perc)
+        hits.append(abs(fit.tau - tau) < 2 * fit.sigma)
+    assert fit.n == 400 and fit.xmax == float(np.sort(m[~perc])[-2]) and fit.xmax <= 300
+    assert "left out" in fit.method and "percolating" in fit.method
+    assert np.mean(hits) > 0.85
+    draws = m[m < 5000]
+    alone = fit_power_law(draws, xmin=3, xmax=draws.max(), discrete=True)  # the remnant changes nothing
+    assert (alone.tau, alone.sigma, alone.n) == (fit.tau, fit.sigma, fit.n)
+    assert fit_grain_tau(np.array([3.0] * 20 + [5.0]), 3) is None  # no range above the cut
+    assert fit_grain_tau(np.arange(3.0, 12.0), 3) is None  # 9 grains: too few

@@ -79,6 +79,21 @@ def test_truncated_laws():
     assert abs(est[:, 1].mean() / est[:, 0].std(ddof=1) - 1) < 0.2
 
 
+@pytest.mark.parametrize("tau", [1.5, 2.5])
+def test_discrete_truncated_recovers_tau(tau):
+    """The fit used for grains (discrete, truncated at the largest grain): exact draws from the
+    probability table on 3..300, seeded."""
+    rng = np.random.default_rng(16)
+    k = np.arange(3, 301)
+    p = k ** -tau / np.sum(k ** -tau)
+    fit = fit_power_law(rng.choice(k, 2000, p=p).astype(float), xmin=3, xmax=300, discrete=True)
+    assert abs(fit.tau - tau) < 2 * fit.sigma and fit.n == 2000
+    est = np.array([(f.tau, f.sigma) for f in (fit_power_law(rng.choice(k, 400, p=p).astype(float), xmin=3, xmax=300,
+                                                             discrete=True) for _ in range(150))])
+    assert abs(est[:, 0].mean() - tau) < 3 * est[:, 0].std() / np.sqrt(150) + 0.005
+    assert abs(est[:, 1].mean() / est[:, 0].std(ddof=1) - 1) < 0.2
+
+
 def test_xmin_scan_and_bootstrap():
     rng = np.random.default_rng(14)
     # 2100 points of a tau = 2.5 law above xmin = 5 plus 900 uniform on [1, 5): CSN's test case.

@@ -123,7 +123,7 @@ def test_second_moment_collapse():
 
 
 def test_curves_from_table():
-    t = pd.DataFrame({"L": [10, 10, 10, 20, 20], "edot": [1e-3] * 5, "m_center": [3, 5, 8, 3, 5],
+    t = pd.DataFrame({"L": [10, 10, 10, 20, 20], "edot": [1e-3] * 5, "m_mean": [3, 5, 8, 3, 5],
                       "N": [4.0, 1.0, 0.0, 8.0, 2.0], "count": [16, 4, 0, 64, 16]})
     curves = curves_from_table(t, by=["L", "edot"])
     assert [c.params for c in curves] == [{"L": 10.0, "edot": 1e-3}, {"L": 20.0, "edot": 1e-3}]
@@ -165,6 +165,23 @@ def test_locate_thresholds():
     assert np.isnan(omega_0([1, 2], [0.1, 0.2]).value) and np.isnan(omega_0([1, 2], [0, 0]).value)
 
 
+def test_thresholds_bracket_between_parameter_points():
+    """Two tessellations per velocity, each with its own omega: the bracket runs from the point
+    below to the first run that broke, whichever tessellation it is, never between two
+    tessellations of one point."""
+    omega = np.array([0.452, 0.453, 2.034, 2.040, 8.14, 8.16])
+    velocity = np.array([1, 1, 3, 3, 6, 6])
+    for frags, hi in (([1, 1, 1, 3, 9, 12], 2.040), ([1, 1, 3, 1, 9, 12], 2.034)):
+        t = omega_1(omega, np.array(frags), groups=velocity)
+        assert (t.lo, t.hi) == (0.453, hi)
+    # spreads that overlap: the bracket is the overlap's span
+    t = omega_0([1.0, 1.3, 1.2, 1.5], [0, 0, 0.1, 0], groups=[1, 1, 2, 2])
+    assert (t.lo, t.hi) == (1.2, 1.3)
+    assert np.isnan(omega_0([1.0, 1.1], [0.2, 0.0], groups=[1, 1]).value)
+    with pytest.raises(ValueError, match="group labels"):
+        omega_0([1.0, 2.0], [0, 1], groups=[1])
+
+
 def test_fit_threshold_power_recovers_and_covers():
     rng = np.random.default_rng(8)
     omega, dw = damage_sweep(rng)
@@ -186,3 +203,5 @@ def test_fit_threshold_power_recovers_and_covers():
     assert g.sigma_omega0 == 0.0 and "fixed" in g.method
     with pytest.raises(ValueError, match="at or below"):
         fit_threshold_power(omega, dw, omega0=3.0)
+    assert "extrapolated" not in fit.method
+    assert "extrapolated" in fit_threshold_power(omega[omega > 2.5], dw[omega > 2.5]).method

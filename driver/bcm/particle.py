@@ -39,8 +39,10 @@ class Particle:
     quats: np.ndarray  # (n, 4) body -> lab
     masses: np.ndarray  # (n,)
     moments: np.ndarray  # (n, 3) principal moments (kg m^2)
-    core_vertices: list[np.ndarray]  # body frame, per cell
+    core_vertices: list[np.ndarray]  # body frame, per cell: eroded by r_m (contact geometry)
     core_faces: list[list[np.ndarray]]
+    cell_vertices: list[np.ndarray]  # body frame, per cell: the Voronoi cell (mass, fragment shapes)
+    cell_faces: list[list[np.ndarray]]
     bound_radius: np.ndarray  # (n,) circumradius of the Voronoi cell about its centroid
     interface_polygons: list[np.ndarray]  # lab frame, reference state
 
@@ -56,13 +58,14 @@ def build_particle(tess: Tessellation, density: float, rounding: float, rng: np.
     h = tess.mean_cell_size
     r_m = rounding * h
     n = tess.n_cells
-    cores_v, cores_f, bound = [], [], np.empty(n)
+    cores_v, cores_f, cells_v, cells_f, bound = [], [], [], [], np.empty(n)
     for i in range(n):
         cell = tess.cell(i)
         core = erode(cell, r_m) if r_m > 0 else cell
-        body = (core.vertices - tess.centroid[i]) @ tess.principal_axes[i]  # R^T (v - c)
-        cores_v.append(body)
+        cores_v.append((core.vertices - tess.centroid[i]) @ tess.principal_axes[i])  # R^T (v - c)
         cores_f.append(core.faces)
+        cells_v.append((cell.vertices - tess.centroid[i]) @ tess.principal_axes[i])
+        cells_f.append(cell.faces)
         # bounding radius of the whole (unrounded) cell: it holds the rounded core and the
         # interface polygons, whose corners lie farther out than the core's
         bound[i] = np.linalg.norm(cell.vertices - tess.centroid[i], axis=1).max()
@@ -75,7 +78,7 @@ def build_particle(tess: Tessellation, density: float, rounding: float, rng: np.
         tess=tess, placement=placement, r_m=r_m, centroids=placement.apply(tess.centroid),
         quats=placement.orient(tess.principal_axes), masses=density * tess.volume,
         moments=density * tess.principal_moments, core_vertices=cores_v, core_faces=cores_f,
-        bound_radius=bound, interface_polygons=polys)
+        cell_vertices=cells_v, cell_faces=cells_f, bound_radius=bound, interface_polygons=polys)
 
 
 def particle_tessellation(model, seed: int, cache_dir: Path) -> Tessellation:

@@ -46,6 +46,8 @@ def build_system(cfg: RunConfig, rd: RunDir) -> dict:
     write_interfaces(root / "interfaces.txt", tess.iface_cells, tess.iface_area,
                      tess.iface_normal @ particle.placement.rotation.T, particle.interface_polygons)
     write_cells(root / "cells.txt", particle.core_vertices, particle.core_faces)
+    # the Voronoi cells themselves, for the analysis: fragment boxes from the cells' own vertices
+    write_cells(root / "voronoi_cells.txt", particle.cell_vertices, particle.cell_faces)
     k_max = max(m.contact.kn, m.interface.kn)
     dt, period = contact_timestep(particle.masses, k_max, sc.steps_per_period)
     return {
