@@ -52,7 +52,9 @@ def render_cells(cell_vertices: list[np.ndarray], cell_faces: list[list[np.ndarr
     allv = np.concatenate([np.asarray(v) for v in cell_vertices]) / length_unit
     fig = plt.figure(figsize=(5.5, 5.0), dpi=150)
     ax = fig.add_subplot(projection="3d")
-    ax.add_collection3d(Poly3DCollection(polys, facecolors=face_cols, edgecolors=(0, 0, 0, 0.25), linewidths=0.2))
+    with np.errstate(over="ignore"):  # mplot3d autoscales the still empty axes from +-inf limits first
+        ax.add_collection3d(Poly3DCollection(polys, facecolors=face_cols, edgecolors=(0, 0, 0, 0.25),
+                                             linewidths=0.2))
     centre, half = allv.mean(0), 0.5 * (allv.max(0) - allv.min(0)).max()
     for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre):
         setter(c - half, c + half)

@@ -269,7 +269,7 @@ def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True) -> dict:
         for name, th in (("omega_0", w0), ("omega_1", w1)):
             fits.append({"G_c": gc, "fit": f"{name} (first {'cracks' if name == 'omega_0' else 'break-up into multi-cell fragments'})",
                          "parameter": name, "value": th.value, "sigma": th.half_width, "n": len(grp),
-                         "method": f"bracket [{th.lo:.4g}, {th.hi:.4g}] between sampled omegas"})
+                         "method": f"bracket [{th.lo:.4g}, {th.hi:.4g}] between velocities"})
         try:
             tf = fit_threshold_power(grp.omega, grp.D_w)
             fits += [{"G_c": gc, "fit": "D_w = A (omega - omega0)^beta", "parameter": p, "value": v, "sigma": s,
