@@ -281,10 +281,10 @@ def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True) -> dict:
         except ValueError as exc:
             fits.append({"G_c": gc, "fit": "D_w = A (omega - omega0)^beta", "parameter": "-", "value": np.nan,
                          "sigma": np.nan, "n": len(grp), "method": f"not fitted: {exc}"})
-        # every run of the parameter points from the first break-up on
+        # every run of the parameter points from the first break-up (the point omega_1 found) on
         point_omega = grp.groupby("velocity").omega.transform("mean")
-        above = (grp[point_omega >= point_omega[grp.omega == w1.hi].iloc[0]] if np.isfinite(w1.hi)
-                 else grp.iloc[0:0])
+        broke = point_omega[grp.n_fragments_multi_cell > 1]
+        above = grp[point_omega >= broke.min()] if len(broke) else grp.iloc[0:0]
         for col in ("eta", "e_k2"):
             try:
                 pf = fit_loglog(above.omega, above[col])
