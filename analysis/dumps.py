@@ -4,7 +4,7 @@ Frames are found by scanning for `ITEM: TIMESTEP`, never by a fixed number of li
 `dump local` bond lists change length every frame, and an atom dump can lose atoms. Each
 frame's body is parsed as one block by pyarrow's CSV reader (multithreaded, correctly rounded,
 and strict about the number of fields per line), never line by line in Python: 1 GB files
-read at about 150 MB/s (atoms, 14 columns) and 250 MB/s (bonds) on this 2-core machine
+read at about 215 MB/s (atoms, 14 columns) and 230 MB/s (bonds) on this 2-core machine
 (bench/dump_reading.py). The per-line checks only run when that block parse fails.
 
 Failure contract (both kinds of dump): a truncated or inconsistent frame raises DumpError
