@@ -7,6 +7,10 @@ and strict about the number of fields per line), never line by line in Python: 1
 read at about 215 MB/s (atoms, 14 columns) and 230 MB/s (bonds) on this 2-core machine
 (bench/dump_reading.py). The per-line checks only run when that block parse fails.
 
+Columns are read by their header names (`ITEM: ATOMS` / `ITEM: ENTRIES`), in any order: atom
+frames by id, type, x y z (or another coordinate convention) and vx vy vz; bond frames'
+atom ids and type or state by `bond_columns`, which refuses names it cannot tell apart.
+
 Failure contract (both kinds of dump): a truncated or inconsistent frame raises DumpError
 naming the file, the frame index, its timestep and the file line. The frames before it are
 complete and usable: they travel on the exception (`DumpError.frames`), and
@@ -91,6 +95,7 @@ class LocalFrame:
     columns: dict[str, np.ndarray]
     tilt: np.ndarray | None = None
     boundary: tuple[str, ...] = ()
+    path: Path | None = None  # the file it came from, for messages
 
     def __len__(self) -> int:
         return len(next(iter(self.columns.values()))) if self.columns else 0
@@ -104,6 +109,7 @@ class AtomFrame:
     coordinates (scaled conventions converted, d = 2 or 3 by the columns present) or None;
     velocities: (n, d) or None; extra: every other column by header name, (n,) float64
     (quaternion components, mass, radius, image flags ...). box/tilt as in LocalFrame.
+    names: the header's column names in file order; path: the file it came from.
     """
 
     timestep: int
@@ -117,6 +123,8 @@ class AtomFrame:
     boundary: tuple[str, ...] = ()
     coordinate_convention: str | None = None
     time: float | None = None
+    names: tuple[str, ...] = ()
+    path: Path | None = None
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -173,7 +181,7 @@ def iter_local_dump(path: str | Path) -> Iterator[LocalFrame]:
     path = Path(path)
     for hdr, data in _iter_frames(path, "ENTRIES"):
         yield LocalFrame(hdr.timestep, hdr.box, {nm: data[:, k] for k, nm in enumerate(hdr.names)},
-                         hdr.tilt, hdr.boundary)
+                         hdr.tilt, hdr.boundary, path)
 
 
 def read_atom_dump(path: str | Path, on_error: OnError = "raise",
@@ -207,15 +215,67 @@ def iter_atom_dump(path: str | Path) -> Iterator[AtomFrame]:
 
 
 def bond_pairs(frame: LocalFrame) -> tuple[np.ndarray, np.ndarray]:
-    """(pairs of 1-based atom ids (n, 2) int, bond types (n,) int) of a bond dump frame.
+    """(pairs of 1-based atom ids (n, 2) int, bond types or states (n,) int) of a bond dump
+    frame, its columns found by their header names (`bond_columns`): in any order, an
+    `index` column or other extra columns beside them. DumpError naming the file and the
+    columns found when the names do not tell, or when an id column holds non-integers."""
+    try:
+        a1, a2, state = bond_columns(list(frame.columns))
+    except ValueError as exc:
+        raise DumpError(f"bond dump at timestep {frame.timestep}: {exc}", path=frame.path) from None
+    pairs = np.empty((len(frame), 2), dtype=np.int64)
+    for k, name in enumerate((a1, a2)):
+        col = frame.columns[name]
+        if not np.all(np.isfinite(col) & (np.floor(col) == col)):
+            raise DumpError(f"bond dump at timestep {frame.timestep}: column {name!r}, read as an atom id, holds "
+                            f"values that are not integers (found columns: {' '.join(frame.columns)})", path=frame.path)
+        pairs[:, k] = col
+    return pairs, frame.columns[state].astype(np.int64)
 
-    Columns are taken by position (atom1, atom2, type) as the driver writes them.
+
+# Bond `dump local` columns by the names LAMMPS writes (read by name, never by position).
+# Plain names (a converted or hand-written file): compute property/local's keywords or the
+# bare words, one of each role.
+BOND_NAMES = {"atom1": ("batom1", "atom1"), "atom2": ("batom2", "atom2"), "state": ("btype", "type", "state")}
+# `dump local` itself names a compute's vector c_ID[k]. Two layouts, the tool's own:
+#  - `compute ID property/local batom1 batom2 btype` (driver/scenarios/shear.py, ID bl):
+#    c_ID[1] c_ID[2] c_ID[3], for any ID whose vector has exactly these three components;
+#  - the impact scenario's (driver/scenarios/impact.py): `compute ifc property/local batom1
+#    batom2` and `compute ifs bond/local b1 ... b6` of bond bcm/griffith, whose b1 is the
+#    interface state (1 intact, 0 broken): c_ifc[1] c_ifc[2] c_ifs[1].
+BCM_INTERFACE_NAMES = ("c_ifc[1]", "c_ifc[2]", "c_ifs[1]")
+BOND_NAMES_NEEDED = ("the two atom ids and the bond type or state: batom1 batom2 btype (or atom1 atom2 type|state), "
+                     "c_ID[1] c_ID[2] c_ID[3] of `compute ID property/local batom1 batom2 btype`, or "
+                     + " ".join(BCM_INTERFACE_NAMES) + "; an index column is skipped")
+
+
+def bond_columns(names: list[str]) -> tuple[str, str, str]:
+    """Header names of (atom1, atom2, type or state) among a bond dump's column names.
+
+    Exactly one of the layouts above must fit; none, or more than one (two candidate compute
+    vectors, batom1 beside atom1 ...), is a ValueError listing the names found: the columns
+    are never guessed by position. `index` and any other column are left alone.
     """
-    cols = list(frame.columns.values())
-    if len(cols) < 3:
-        raise DumpError(f"bond frame at timestep {frame.timestep} has {len(cols)} columns, need atom1 atom2 type")
-    pairs = np.stack([cols[0], cols[1]], axis=1).astype(np.int64)
-    return pairs, cols[2].astype(np.int64)
+    found = f"found: {' '.join(names)}; needed: {BOND_NAMES_NEEDED}"
+    layouts = []
+    plain = {role: [nm for nm in names if nm in options] for role, options in BOND_NAMES.items()}
+    if any(len(v) > 1 for v in plain.values()):
+        raise ValueError(f"ambiguous bond columns {sum(plain.values(), [])}; {found}")
+    if all(plain.values()):
+        layouts.append(tuple(v[0] for v in plain.values()))
+    components: dict[str, set[str]] = {}
+    for nm in names:
+        if nm.startswith("c_") and nm.endswith("]") and "[" in nm:
+            prefix, _, k = nm[:-1].partition("[")
+            components.setdefault(prefix, set()).add(k)
+    layouts += [(f"{p}[1]", f"{p}[2]", f"{p}[3]") for p, ks in components.items() if ks == {"1", "2", "3"}]
+    if components.get("c_ifc") == {"1", "2"} and BCM_INTERFACE_NAMES[2] in names:
+        layouts.append(BCM_INTERFACE_NAMES)
+    if len(layouts) > 1:
+        raise ValueError(f"ambiguous bond columns: {' and '.join(' '.join(lay) for lay in layouts)} both fit; {found}")
+    if not layouts:
+        raise ValueError(f"cannot tell the bond columns by name; {found}")
+    return layouts[0]
 
 
 # ---------------------------------------------------------------------------------------
@@ -485,7 +545,7 @@ def _atom_frame(path: Path, index: int, hdr: _Header, data: np.ndarray) -> AtomF
         raise DumpError(msg, path=path, frame=index, timestep=hdr.timestep, line=hdr.body_line - 1)
 
     if "id" not in col:
-        fail("atom dump has no 'id' column")
+        fail(f"atom dump has no 'id' column; found: {' '.join(hdr.names)}")
     ids = data[:, col["id"]].astype(np.int64)
     order = _id_order(ids)
     if order is not None:
@@ -525,7 +585,7 @@ def _atom_frame(path: Path, index: int, hdr: _Header, data: np.ndarray) -> AtomF
         used.update(vel)
     extra = {nm: column(j) for nm, j in col.items() if nm not in used}
     return AtomFrame(hdr.timestep, hdr.box, ids, types, positions, velocities, extra, hdr.tilt,
-                     hdr.boundary, convention, hdr.time)
+                     hdr.boundary, convention, hdr.time, tuple(hdr.names), path)
 
 
 def _id_order(ids: np.ndarray) -> np.ndarray | None:

@@ -26,6 +26,7 @@ from analysis.statistics import fit_mass_ratio_law, normalised_mass_distribution
 from analysis.tables import save_table
 from analysis.tracking import lineage_table
 from driver.bcm.lammps_files import read_cells
+from driver.rundir import display_dir
 
 
 def impact_measures(wk_minus: float, wk_plus: float, wk_plus_cm: float, broken_area: float,
@@ -105,26 +106,50 @@ def cell_shapes(run_dir: Path) -> tuple[list[np.ndarray], list[list[np.ndarray]]
     if (run_dir / "voronoi_cells.txt").exists():
         return (*read_cells(run_dir / "voronoi_cells.txt"), None)
     return (*read_cells(run_dir / "cells.txt"),
-            f"{run_dir} has no voronoi_cells.txt (made by an older version): fragment shapes are measured on "
+            f"{display_dir(run_dir)} has no voronoi_cells.txt (made by an older version): fragment shapes are measured on "
             "the cell cores eroded by r_m, each of a, b, c about 2 r_m short")
 
 
-def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True) -> dict:
+def last_state_dumps(run_dir: Path, partial: bool) -> tuple[Path, Path, str | None]:
+    """The (cells, interfaces) dumps of the end state; for a run cut short (partial), the
+    latest periodic pair instead, with a warning saying so."""
+    dumps = Path(run_dir) / "dumps"
+    end = (dumps / "cells.end.lammpstrj", dumps / "interfaces.end.lammpstrj")
+    if end[0].exists() and end[1].exists():
+        return (*end, None)
+    if not partial:
+        raise FileNotFoundError(f"{end[0]}: the end state of the run is missing")
+    steps = sorted(int(p.name.split(".")[1]) for p in dumps.glob("cells.*.lammpstrj")
+                   if p.name.split(".")[1].isdigit() and (dumps / f"interfaces.{p.name.split('.')[1]}.lammpstrj").exists())
+    if not steps:
+        raise FileNotFoundError(f"{display_dir(run_dir)}: the run did not finish and left no snapshot after the start "
+                                "(set scenario.dump_every to keep periodic ones); nothing to analyse")
+    step = steps[-1]
+    return (dumps / f"cells.{step}.lammpstrj", dumps / f"interfaces.{step}.lammpstrj",
+            f"the run did not finish: measured on its last snapshot (step {step}), not on a settled outcome; "
+            f"the end state (dumps/cells.end.lammpstrj) is missing")
+
+
+def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = False) -> dict:
     """Measures, fragment table, mass and shape distributions, energy series, fragment history
-    (when periodic dumps exist), plots, picture and report of a finished impact run."""
+    (when periodic dumps exist), plots, picture and report of a finished impact run (partial:
+    of a run cut short, on its last snapshot)."""
     run_dir = Path(run_dir)
     clear_report(run_dir)  # written last: no report = the analysis did not finish
     model, scen = cfg["model"], cfg["scenario"]
     system = json.loads((run_dir / "system.json").read_text())
+    cells_dump, ifaces_dump, cut_short = last_state_dumps(run_dir, partial)
+    cells = read_atom_dump(cells_dump)[-1]
+    ifaces = read_interfaces(ifaces_dump)
     thermo = read_impact_thermo(run_dir / "thermo.dat")
-    cells = read_atom_dump(run_dir / "dumps" / "cells.end.lammpstrj")[-1]
-    ifaces = read_interfaces(run_dir / "dumps" / "interfaces.end.lammpstrj")
+    if cut_short:
+        thermo = thermo[thermo.step <= cells.timestep].reset_index(drop=True)
     n = len(cells.ids)
     labels = fragments_of(n, ifaces)
     masses = cells.extra["mass"]
     volumes = masses / model["density"]
     body, faces, warning = cell_shapes(run_dir)
-    warnings_ = [warning] if warning else []
+    warnings_ = [w for w in (cut_short, warning) if w]
     offsets = np.concatenate([[0], np.cumsum([len(v) for v in body])])
     space = vertices_in_space(np.concatenate(body), offsets, cells.positions, cells.quaternions())
     frags = fragment_table(labels, masses, volumes, (space, offsets))

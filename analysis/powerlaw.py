@@ -140,6 +140,50 @@ def sample_power_law(n: int, tau: float, xmin: float, xmax: float | None = None,
     return lo.astype(float)
 
 
+# When a fitted exponent of the grain-mass distribution N(M) ~ M^-tau is a result.
+TAU_RANGE = (1.0, 3.0)
+"""Physical range of tau for N(M) ~ M^-tau, the open-closed interval (1, 3].
+
+tau <= 1 is no fragmentation law: the number of grains per unit mass would not fall with M
+(tau < 0: it rises), so the count above any mass is carried by the largest grains and the
+fit describes the cut-off or a remnant, not a scale-free distribution. tau > 3 is steeper
+than any fragment-mass exponent measured in brittle fragmentation, and than the Fisher
+exponent of percolation clusters (187/91 = 2.05 in 2D, 2.19 in 3D) that bounds a network
+breaking at random; such a value comes from a few grains piled at the cut.
+"""
+MIN_FIT_GRAINS = 10
+"""Fewest grains a tau fit may rest on: 10 grains fitted, i.e. with M >= m_min, neither
+percolating nor the largest finite grain (statistics.fit_grain_tau's `min_grains`). The
+maximum-likelihood standard error is about (tau - 1) / sqrt(n), already +-0.25 at n = 10 for
+tau = 1.8: fewer grains give no usable exponent."""
+
+
+def grains_fitted(masses: np.ndarray, m_min: float, percolating: np.ndarray | None = None) -> int:
+    """Number of grains a tau fit of N(M) rests on: M >= m_min, not percolating, the largest
+    of them (the remnant) left out, as statistics.fit_grain_tau selects them."""
+    keep = np.asarray(masses, dtype=float) >= m_min
+    if percolating is not None:
+        keep &= ~np.asarray(percolating, dtype=bool)
+    return max(int(keep.sum()) - 1, 0)
+
+
+def exponent_flag(tau: float | None, n: int, tau_range: tuple[float, float] = TAU_RANGE,
+                  min_grains: int = MIN_FIT_GRAINS) -> str | None:
+    """Why a fitted tau of N(M) is not a result, or None when it is one.
+
+    Flagged: fewer than `min_grains` grains fitted (MIN_FIT_GRAINS), no fit (tau None), and
+    tau outside (tau_range[0], tau_range[1]] (TAU_RANGE: (1, 3]; NaN is outside).
+    """
+    if n < min_grains:
+        return f"too few grains: {n} to fit, a fit needs at least {min_grains}"
+    if tau is None:
+        return f"no fit: the {n} grains to fit span no range of masses"
+    lo, hi = tau_range
+    if not lo < tau <= hi:
+        return f"tau = {tau:.3g} outside the physical range ({lo:g}, {hi:g}]"
+    return None
+
+
 # ---------------------------------------------------------------------------------------
 
 

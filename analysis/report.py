@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from driver.rundir import atomic_write_text
+from driver.rundir import atomic_write_text, display_dir
 
 
 @dataclass
@@ -138,9 +138,9 @@ def provenance_line(run_dir: Path) -> str:
     """What made a run, in one line (from its provenance.json)."""
     prov_path = Path(run_dir) / "provenance.json"
     if not prov_path.exists():
-        return str(run_dir)
+        return str(display_dir(run_dir))
     p = json.loads(prov_path.read_text())
-    return (f"{run_dir} — brittle-driver {p.get('package_version', '?')} ({p.get('git_commit', '?')}), "
+    return (f"{display_dir(run_dir)} — brittle-driver {p.get('package_version', '?')} ({p.get('git_commit', '?')}), "
             f"LAMMPS {p.get('lammps_version', '?')}, plugin build {p.get('plugin_build_hash', '?')}, "
             f"seed {p.get('seed', '?')}, {p.get('mpi_ranks', '?')} rank(s), started {p.get('started', '?')}")
 

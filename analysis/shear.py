@@ -12,6 +12,7 @@ from analysis.dumps import AtomFrame, DumpError, LocalFrame, bond_pairs, read_at
 from analysis.grain_table import frame_grains
 from analysis.pictures import render_particles_2d, render_particles_3d
 from analysis.plots import plot_nm, plot_stress
+from analysis.powerlaw import MIN_FIT_GRAINS, exponent_flag, grains_fitted
 from analysis.report import Report, clear_report, provenance_line, write_report
 from analysis.statistics import SMALL_GRAIN_CUT, fit_grain_tau, frame_measures, mass_distribution
 from analysis.stress import inertial_number, stress_measures
@@ -94,7 +95,9 @@ def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = 
     save_table(tracking, res / "tracking")
     title = f"BPM {dim}D, L = {model['L']:g}, edot = {scen['strain_rate']:g}, k_A = {model['k_A']:g}"
     if plots:
-        plot_nm(nm_all[nm_all.strain > 0], run_dir / "plots" / "nm.png", title, fit=fit_rows[-1])
+        # a flagged fit is no result: no slope drawn through the data
+        plot_nm(nm_all[nm_all.strain > 0], run_dir / "plots" / "nm.png", title,
+                fit=None if fit_rows[-1]["tau_flag"] else fit_rows[-1])
         plot_stress(stress, run_dir / "plots" / "stress.png", title)
         _picture(run_dir, snaps[-1], all_labels[-1], dim, system, f"{title}, strain {snaps[-1]['strain']:g}")
 
@@ -110,6 +113,7 @@ def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = 
         f"grains_M>={cut}_at_strain": {f"{r['strain']:g}": r[f"n_grains_M>={cut}"] for r in frame_rows},
         "final_mu": float(last.mu) if np.isfinite(last.mu) else None,
         "tau_final": fit_rows[-1]["tau"], "tau_final_sigma": fit_rows[-1]["sigma"],
+        "tau_final_flag": fit_rows[-1]["tau_flag"],
         **({"warnings": warnings_} if warnings_ else {}),
     }
     write_report(shear_report(run_dir, cfg, summary, frames, fits, title), run_dir)
@@ -135,12 +139,16 @@ def shear_report(run_dir: Path, cfg: dict, summary: dict, frames: pd.DataFrame, 
     """The one-page report of a shear run."""
     rep = Report(f"{cfg['name']}: {title}", provenance_line(run_dir))
     rep.values({k: v for k, v in summary.items() if not isinstance(v, dict)}, "summary (LJ units: a, m, u)")
+    if summary.get("tau_final_flag"):
+        rep.text(f"Warning: tau_final ({summary['tau_final']}) is not a result: {summary['tau_final_flag']}.")
     rep.figure(run_dir / "plots" / "nm.png", "N(M) at the measure strains with the discrete MLE slope")
     rep.figure(run_dir / "plots" / "stress.png", "shear stress, pressure, stress ratio and inertial number against strain")
     rep.figure(run_dir / "plots" / "grains.png", "particles coloured by grain at the last strain")
     rep.table(frames, "one row per snapshot (moments M_n = sum over grains of M^n)")
     rep.table(fits, "power-law fits of N(M): discrete maximum likelihood over the n grains with M >= cut, "
-                     "the largest finite grain (the remnant) left out, the law truncated at xmax")
+                     "the largest finite grain (the remnant) left out, the law truncated at xmax; a row with a "
+                     "tau_flag is not a result (analysis.powerlaw.exponent_flag: tau in (1, 3], n >= "
+                     f"{MIN_FIT_GRAINS})")
     return rep
 
 
@@ -150,12 +158,16 @@ N_BOOTSTRAP = 200  # resamples behind the bootstrap uncertainty of tau (seeded: 
 def _fit_tau(masses: np.ndarray, percolating: np.ndarray, cut: int, snap: dict) -> dict:
     """Discrete maximum-likelihood exponent of N(M) ~ M^-tau (statistics.fit_grain_tau: grains
     M >= cut but the largest finite one, the law truncated at xmax, the largest fitted), with
-    its asymptotic (sigma) and bootstrap (sigma_bootstrap) standard errors; n: grains fitted."""
-    fit = fit_grain_tau(masses, cut, percolating, n_bootstrap=N_BOOTSTRAP)
+    its asymptotic (sigma) and bootstrap (sigma_bootstrap) standard errors; n: grains fitted;
+    tau_flag: why the fit is not a result (analysis.powerlaw.exponent_flag: tau outside
+    (1, 3], fewer than MIN_FIT_GRAINS grains), None when it is one."""
+    fit = fit_grain_tau(masses, cut, percolating, n_bootstrap=N_BOOTSTRAP, min_grains=MIN_FIT_GRAINS)
+    n = fit.n if fit is not None else grains_fitted(masses, cut, percolating)  # for the flag
     return {"strain": snap["strain"], "step": snap["step"], "xmin": cut, "xmax": None if fit is None else fit.xmax,
             "n": 0 if fit is None else fit.n, "tau": None if fit is None else float(fit.tau),
             "sigma": None if fit is None else float(fit.sigma),
-            "sigma_bootstrap": None if fit is None else float(fit.sigma_bootstrap)}
+            "sigma_bootstrap": None if fit is None else float(fit.sigma_bootstrap),
+            "tau_flag": exponent_flag(None if fit is None else float(fit.tau), n)}
 
 
 def _picture(run_dir: Path, snap: dict, labels: np.ndarray, dim: int, system: dict, title: str) -> None:

@@ -10,7 +10,7 @@ from typing import Optional
 import typer
 from rich.console import Console
 
-from driver.config import ConfigError, load_config
+from driver.config import ConfigError, load_config, load_yaml, read_config_text
 from driver.engine import LammpsError
 from driver.plugin_build import PluginBuildError
 from driver.rundir import RunDirError
@@ -26,16 +26,36 @@ def _fail(msg: str, code: int) -> None:
 
 
 @app.command()
-def run(input_yaml: Path = typer.Argument(..., help="run configuration (YAML)"),
+def run(input_yaml: Path = typer.Argument(..., help="run configuration (YAML), or a run directory to --resume"),
+        output: Optional[Path] = typer.Option(None, "--output", "-o", help="run directory (overrides output.dir)"),
         np: Optional[int] = typer.Option(None, "--np", min=1, help="MPI ranks (overrides execution.np)"),
-        force: bool = typer.Option(False, "--force", help="overwrite a finished run directory"),
+        force: bool = typer.Option(False, "--force", help="run again in a run directory of this tool that holds a "
+                                                          "finished or interrupted run (its files only)"),
+        resume: bool = typer.Option(False, "--resume", help="continue an interrupted or stale run from its last "
+                                                            "checkpoint"),
+        yes: bool = typer.Option(False, "--yes", help="run even when the size estimate exceeds available memory"),
         quiet: bool = typer.Option(False, "--quiet", help="no progress bar")) -> None:
     """Build the system, run it in LAMMPS, and write results to the run directory."""
     from driver.pipeline import execute  # noqa: PLC0415
+    from driver.runner import RunInterrupted  # noqa: PLC0415
 
+    if force and resume:
+        _fail("--force and --resume exclude each other: --force starts again, --resume carries on", 2)
     try:
-        cfg = load_config(input_yaml)
-        out = execute(cfg, source=input_yaml, force=force, np_ranks=np, show_progress=not quiet, console=err)
+        source: Path | None = input_yaml
+        if input_yaml.is_dir():
+            if not resume:
+                _fail(f"{input_yaml}: a folder; name a YAML config, or add --resume to continue the run in it", 2)
+            cfg = load_config(input_yaml / "config.resolved.yaml")
+            cfg = cfg.model_copy(update={"output": cfg.output.model_copy(update={"dir": input_yaml})})
+            source = None
+        else:
+            cfg = load_config(input_yaml)
+        if output is not None:
+            cfg = with_output_dir(cfg, output)
+        _size_check(cfg, yes)
+        out = execute(cfg, source=source, force=force, np_ranks=np, show_progress=not quiet, console=err,
+                      resume=resume)
     except ConfigError as exc:
         _fail(str(exc), 2)
     except RunDirError as exc:
@@ -44,9 +64,51 @@ def run(input_yaml: Path = typer.Argument(..., help="run configuration (YAML)"),
         _fail(str(exc), 3)
     except LammpsError as exc:
         _fail(f"LAMMPS: {exc}", 1)
+    except RunInterrupted as exc:
+        _fail(f"{cfg.run_dir()}: {exc}" + ("" if exc.checkpoint is None else
+                                           f" (driver run {cfg.run_dir()} --resume)"), exc.exit_code)
     summary = json.loads((out / "results" / "summary.json").read_text())
     err.print(f"[green]finished:[/] {out}")
     typer.echo(json.dumps(summary, indent=2))
+
+
+def with_output_dir(cfg, output: Path):
+    """The config with output.dir set from the command line (~ and $VARS expanded)."""
+    from driver.rundir import expand_path  # noqa: PLC0415
+
+    return cfg.model_copy(update={"output": cfg.output.model_copy(update={"dir": expand_path(output)})})
+
+
+def _size_check(cfg, yes: bool) -> None:
+    """Print the size estimate; refuse above the available memory unless --yes."""
+    try:
+        from driver.estimate import check_size  # noqa: PLC0415
+    except ImportError:  # pragma: no cover
+        return
+    est = check_size(cfg, allow_large=yes)
+    err.print(f"size: {est.describe()}", highlight=False)
+
+
+@app.command()
+def status(paths: list[Path] = typer.Argument(..., help="run directories, or a sweep directory")) -> None:
+    """State of runs: running, interrupted, stale (its process is gone), failed or finished, with
+    the step reached, the last heartbeat and the checkpoint a resume would start from."""
+    from rich.table import Table  # noqa: PLC0415
+
+    from driver.status import describe_runs  # noqa: PLC0415
+
+    rows = describe_runs(paths)
+    if not rows:
+        _fail(f"no run directory of this tool in {', '.join(map(str, paths))}", 2)
+    table = Table("run", "state", "phase", "step", "heartbeat", "checkpoint", "note")
+    for r in rows:
+        table.add_row(*(str(r.get(k, "") if r.get(k) is not None else "") for k in
+                        ("run", "state", "phase", "step", "heartbeat", "checkpoint", "note")))
+    Console(width=max(120, Console().width)).print(table)
+    counts = {}
+    for r in rows:
+        counts[r["state"]] = counts.get(r["state"], 0) + 1
+    err.print(", ".join(f"{n} {state}" for state, n in sorted(counts.items())))
 
 
 @app.command()
@@ -157,9 +219,12 @@ def scaling(paths: list[Path] = typer.Argument(..., help="run directories and/or
             out = paths[0]
         else:
             _fail("--out is needed unless one directory of runs is named", 2)
+    from driver.rundir import SET_MARKER, SWEEP_MARKER, claim_dir  # noqa: PLC0415
+
     try:
+        out = claim_dir(out, SET_MARKER, "set-analysis directory", accept=(SWEEP_MARKER,))
         result = analyse_set(paths, out, plots=plots, strain=strain, n_bootstrap=bootstrap)
-    except RunSetError as exc:
+    except (RunSetError, RunDirError) as exc:
         _fail(str(exc), 2)
     err.print(f"[green]set analysed:[/] {out}/report.html")
     typer.echo(json.dumps(result, indent=2, default=str))
@@ -172,27 +237,36 @@ def sweep(input_yaml: Path = typer.Argument(..., help="base configuration (YAML)
           np: Optional[int] = typer.Option(None, "--np", min=1, help="MPI ranks per run"),
           columns: str = typer.Option("", "--columns", help="comma-separated summary columns to print")) -> None:
     """Run a config over a grid of values; finished runs are kept (a re-run resumes)."""
-    import yaml  # noqa: PLC0415
     from rich.table import Table  # noqa: PLC0415
 
     from analysis.tables import save_table  # noqa: PLC0415
     from driver.pipeline import execute  # noqa: PLC0415
     from driver.sweep import expand, parse_assignment, pending, sweep_table  # noqa: PLC0415
 
+    from driver.rundir import SWEEP_MARKER, claim_dir, expand_path, latest_checkpoint  # noqa: PLC0415
+    from driver.runner import RunInterrupted  # noqa: PLC0415
+
     try:
         base_cfg = load_config(input_yaml)  # the base itself must be valid
-        base = yaml.safe_load(input_yaml.read_text())
-        sweep_dir = out or Path("runs") / f"{base_cfg.name}_sweep"
+        base = load_yaml(read_config_text(input_yaml), str(input_yaml))
+        sweep_dir = expand_path(out) if out is not None else Path("runs") / f"{base_cfg.name}_sweep"
         runs = expand(base, [parse_assignment(a) for a in set_], sweep_dir, str(input_yaml))
-    except ConfigError as exc:
+        claim_dir(sweep_dir, SWEEP_MARKER, "sweep directory")
+    except (ConfigError, RunDirError) as exc:
         _fail(str(exc), 2)
     todo = pending(runs)
     err.print(f"sweep: {len(runs)} runs, {len(runs) - len(todo)} already finished, in {sweep_dir}")
+    failed = []
     for values, cfg in todo:
-        err.print(f"[bold]run[/] {values}")
+        # an interrupted run carries on from its checkpoint; any other unfinished one starts again
+        resume = latest_checkpoint(cfg.run_dir()) is not None
+        err.print(f"[bold]{'resume' if resume else 'run'}[/] {values}")
         try:
-            execute(cfg, np_ranks=np, show_progress=True, console=err)
+            execute(cfg, np_ranks=np, show_progress=True, console=err, resume=resume)
+        except RunInterrupted as exc:
+            _fail(f"sweep stopped: {cfg.run_dir()}: {exc}; run the same command again to carry on", exc.exit_code)
         except Exception as exc:  # noqa: BLE001 - one failed run must not stop the sweep
+            failed.append(str(cfg.run_dir()))
             err.print(f"[red]failed[/] {values}: {type(exc).__name__}: {exc} (see {cfg.run_dir()}/status.json)")
     table = sweep_table(runs)
     save_table(table, sweep_dir / "sweep")
@@ -209,6 +283,8 @@ def sweep(input_yaml: Path = typer.Argument(..., help="base configuration (YAML)
     for _, row in table.iterrows():
         rt.add_row(*(f"{row[c]:.4g}" if isinstance(row[c], float) else str(row[c]) for c in shown))
     Console(width=max(120, Console().width)).print(rt)
+    if failed:
+        _fail(f"{len(failed)} of {len(runs)} runs failed: {', '.join(failed)}", 1)
 
 
 @app.command()
@@ -222,8 +298,20 @@ def plugins(verbose: bool = typer.Option(False, "--verbose")) -> None:
         _fail(str(exc), 3)
 
 
-def main() -> None:  # pragma: no cover
-    app(prog_name="driver")
+def main() -> None:  # pragma: no cover - the console script
+    """`driver`: an OS error (permissions, a file where a folder is expected, a full disk) is one
+    line naming the path, exit code 2; `--debug` (anywhere on the line) shows the traceback."""
+    debug = "--debug" in sys.argv[1:]
+    if debug:
+        sys.argv.remove("--debug")
+    try:
+        app(prog_name="driver")
+    except OSError as exc:
+        if debug:
+            raise
+        where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+        err.print(f"[bold red]error:[/] {where}{exc.strerror or exc} (--debug shows where)", highlight=False)
+        sys.exit(2)
 
 
 if __name__ == "__main__":  # pragma: no cover

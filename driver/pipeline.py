@@ -1,65 +1,239 @@
-"""`driver run`: config -> run directory -> LAMMPS -> results, with provenance and status."""
+"""`driver run`: config -> run directory -> LAMMPS session -> results, with provenance and status.
+
+A run is `running` (pid, host, heartbeat, phase) while it lives, then `finished`, `failed`
+(with the error) or `interrupted` (with the step of its last checkpoint). `resume` carries an
+interrupted or stale run on from its last checkpoint; a run whose LAMMPS part had ended is
+only analysed again.
+"""
 
 from __future__ import annotations
 
+import json
+import os
+import re
 import shutil
 import time
 from pathlib import Path
+from typing import Any
 
 import yaml
 from rich.console import Console
 
 from driver.config import RunConfig, resolved_yaml
 from driver.plugin_build import plugin_library
-from driver.rundir import RunDir, atomic_write_json, atomic_write_text, provenance
+from driver.rundir import (LOCK, MARKER, STATUS, RunDir, atomic_write_json, atomic_write_text, check_claimable,
+                           latest_checkpoint, provenance, read_status)
+from driver.runner import RunInterrupted, interruptible, run_session
+
+# Keys that may change between an interrupted run and its resumption: how it runs, not what.
+RESUMABLE_CHANGES = ("execution.", "output.plots", "output.animation", "output.count_above", "output.dir")
+
+
+def _scenario(kind: str):
+    if kind == "shear":
+        from driver.scenarios import shear  # noqa: PLC0415
+
+        return shear.run_shear, shear.progress_spec
+    from driver.scenarios import impact  # noqa: PLC0415
+
+    return impact.run_impact, impact.progress_spec
 
 
 def execute(cfg: RunConfig, source: Path | None = None, force: bool = False, np_ranks: int | None = None,
-            show_progress: bool = True, console: Console | None = None) -> Path:
-    """Run one validated config to completion; returns the run directory."""
+            show_progress: bool = True, console: Console | None = None, resume: bool = False) -> Path:
+    """Run one validated config to completion; returns the run directory.
+
+    Raises RunDirError (folder refused, busy, finished), RunInterrupted (stopped by a signal),
+    LammpsError, ConfigError (resume with a changed config)."""
     console = console or Console(stderr=True)
     ranks = np_ranks or cfg.execution.np
+    rd = RunDir(cfg.run_dir())  # its location is checked here, before anything is built or written
+    check_claimable(rd.root, MARKER, "run directory")
     plugin = plugin_library()  # before touching the run dir: a build failure leaves nothing behind
-    rd = RunDir(cfg.run_dir())
-    action = rd.prepare(force=force)
-    if action == "cleared":
-        console.print(f"[yellow]{rd.root}: previous contents removed, starting clean")
-    if source is not None:
-        shutil.copy2(source, rd.root / "input.yaml")
-    atomic_write_text(rd.root / "config.resolved.yaml", resolved_yaml(cfg))
-    t0 = time.time()
-    prov = provenance({"config_name": cfg.name, "seed": cfg.seed, "mpi_ranks": ranks,
-                       "plugin_library": str(plugin), "plugin_build_hash": plugin.parent.name,
-                       "started": time.strftime("%Y-%m-%dT%H:%M:%S")})
-    atomic_write_json(rd.root / "provenance.json", prov)
+    action = rd.prepare(force=force, resume=resume)  # takes the run's lock
     try:
-        if cfg.scenario.kind == "shear":
-            from driver.scenarios.shear import run_shear as run_scenario  # noqa: PLC0415
-        else:
-            from driver.scenarios.impact import run_impact as run_scenario  # noqa: PLC0415
-        facts = run_scenario(cfg, rd, plugin, ranks, show_progress)
+        with interruptible():
+            return _execute_locked(cfg, rd, action, source, plugin, ranks, show_progress, console)
+    finally:
+        rd.release()
+
+
+def _execute_locked(cfg: RunConfig, rd: RunDir, action: str, source: Path | None, plugin: Path, ranks: int,
+                    show_progress: bool, console: Console) -> Path:
+    checkpoint = None
+    lammps_done = False
+    if action == "resume":
+        previous = read_status(rd.root) or {}
+        check_resumable(cfg, rd.root)
+        prov = json.loads((rd.root / "provenance.json").read_text())
+        system = json.loads((rd.root / "system.json").read_text())
+        lammps_done = bool(previous.get("lammps_done"))
+        if not lammps_done:
+            checkpoint = latest_checkpoint(rd.root)
+            trim_after(rd.root, checkpoint["step"])
+        prov.setdefault("resumed", []).append({"at": time.strftime("%Y-%m-%dT%H:%M:%S"), "mpi_ranks": ranks,
+                                               "from_step": None if lammps_done else checkpoint["step"]})
+        console.print(f"[yellow]{rd.root}: resuming " + (
+            "the analysis (its LAMMPS part had ended)" if lammps_done else f"from the checkpoint at step "
+                                                                            f"{checkpoint['step']}"))
+        _, progress_spec = _scenario(cfg.scenario.kind)
+        spec = progress_spec(cfg, system)
+    else:
+        if action == "cleared":
+            console.print(f"[yellow]{rd.root}: the earlier run's files were removed, starting clean")
+        foreign = rd.foreign_entries()
+        if foreign:
+            console.print(f"[yellow]{rd.root}: left alone, not made by this tool: {', '.join(foreign)}")
+        rd.set_running(phase="build")
+        if source is not None:
+            shutil.copy2(source, rd.root / "input.yaml")
+        atomic_write_text(rd.root / "config.resolved.yaml", resolved_yaml(cfg))
+        prov = provenance({"config_name": cfg.name, "seed": cfg.seed, "mpi_ranks": ranks,
+                           "plugin_library": str(plugin), "plugin_build_hash": plugin.parent.name,
+                           "started": time.strftime("%Y-%m-%dT%H:%M:%S")})
+        atomic_write_json(rd.root / "provenance.json", prov)
+        build, _ = _scenario(cfg.scenario.kind)
+        try:
+            system, spec = build(cfg, rd, plugin)
+        except RunInterrupted as exc:
+            rd.set_state("interrupted", error=str(exc), phase="build", signal=exc.signum)
+            raise
+        except BaseException as exc:
+            rd.set_state("failed", error=f"{type(exc).__name__}: {exc}", phase="build")
+            raise
+    t0 = time.time()
+    if not lammps_done:
+        rd.set_running(phase="lammps", mpi_ranks=ranks)
+        try:
+            run_session(rd.root, np=ranks, checkpoint=checkpoint, progress=spec, show_progress=show_progress,
+                        console=console, heartbeat=lambda last: rd.heartbeat(**last),
+                        checkpoint_seconds=cfg.execution.checkpoint_seconds())
+        except RunInterrupted as exc:
+            last = latest_checkpoint(rd.root)
+            rd.set_state("interrupted", error=str(exc), phase="lammps", signal=exc.signum,
+                         checkpoint_step=last["step"] if last else None)
+            raise RunInterrupted(exc.signum, last["step"] if last else None) from None
+        except BaseException as exc:
+            rd.set_state("failed", error=f"{type(exc).__name__}: {exc}", phase="lammps")
+            raise
+        prov["lammps_wall_seconds"] = prov.get("lammps_wall_seconds", 0.0) + (time.time() - t0)
+    rd.set_running(phase="analysis", lammps_done=True)
+    try:
         analyse_run(rd.root, cfg.model_dump(mode="json"))
-    except BaseException as exc:
-        rd.set_state("failed", error=f"{type(exc).__name__}: {exc}")
+    except RunInterrupted as exc:
+        rd.set_state("interrupted", error=str(exc), phase="analysis", lammps_done=True, signal=exc.signum)
         raise
-    prov["wall_seconds"] = time.time() - t0
-    prov["lammps_wall_seconds"] = facts.get("lammps_wall_seconds")
+    except BaseException as exc:
+        rd.set_state("failed", error=f"{type(exc).__name__}: {exc}", phase="analysis", lammps_done=True)
+        raise
+    prov["wall_seconds"] = prov.get("wall_seconds", 0.0) + (time.time() - t0)
     atomic_write_json(rd.root / "provenance.json", prov)
     rd.set_state("finished")
     return rd.root
 
 
+# ----------------------------------------------------------------------------- resume
+def _flat(d: Any, prefix: str = "") -> dict[str, Any]:
+    if isinstance(d, dict):
+        out: dict[str, Any] = {}
+        for k, v in d.items():
+            out.update(_flat(v, f"{prefix}{k}."))
+        return out
+    return {prefix[:-1]: d}
+
+
+def check_resumable(cfg: RunConfig, run_dir: Path) -> None:
+    """Refuse a resume whose config differs from the run's in what it simulates."""
+    from driver.config import ConfigError  # noqa: PLC0415
+
+    old = _flat(load_resolved(run_dir))
+    new = _flat(cfg.model_dump(mode="json"))
+    changed = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k)
+                     and not any(k == p or k.startswith(p) for p in RESUMABLE_CHANGES))
+    if changed:
+        detail = ", ".join(f"{k}: {old.get(k)!r} -> {new.get(k)!r}" for k in changed[:8])
+        raise ConfigError(f"{run_dir}: cannot resume, the config changed since the run started ({detail}); "
+                          "run it under another output directory, or use --force to start it again")
+
+
+_STEP_NAME = re.compile(r"^(?P<stem>.+)\.(?P<step>\d+)\.lammpstrj(\.gz)?$")
+
+
+def trim_after(run_dir: Path, step: int) -> None:
+    """Before resuming from `step`: drop the records and dumps the interrupted run wrote after it
+    (the resumed run writes them again), so no file mixes two attempts."""
+    thermo = run_dir / "thermo.dat"
+    if thermo.exists():
+        kept = []
+        for line in thermo.read_text().splitlines(keepends=True):
+            fields = line.split()
+            if not line.endswith("\n"):
+                break  # a record cut by the interruption
+            if line.startswith("#") or not fields:
+                kept.append(line)
+                continue
+            try:
+                if int(float(fields[0])) <= step:
+                    kept.append(line)
+            except ValueError:
+                continue
+        atomic_write_text(thermo, "".join(kept))
+    for dump in (run_dir / "dumps").glob("*.lammpstrj*"):
+        m = _STEP_NAME.match(dump.name)
+        if (m and int(m["step"]) > step) or ".end." in dump.name:
+            dump.unlink()
+
+
+# --------------------------------------------------------------------------- analysis
 def load_resolved(run_dir: Path) -> dict:
     return yaml.safe_load((Path(run_dir) / "config.resolved.yaml").read_text())
 
 
+_STAGED = ("results", "plots")
+_REPORTS = ("report.md", "report.html")
+
+
 def analyse_run(run_dir: Path, cfg: dict, partial: bool = False) -> dict:
     """The analysis of a run directory for its scenario: what `driver run` ends with and
-    `driver post` repeats; writes results/summary.json and returns the summary. partial: the
-    run did not finish; analyse the snapshots it left (shear runs)."""
-    # The summary is what a set analysis reads of a run: removed first and written last, so
-    # that an analysis that fails half way leaves no summary beside its new tables.
-    (Path(run_dir) / "results" / "summary.json").unlink(missing_ok=True)
+    `driver post` repeats; returns the summary. partial: the run did not finish; analyse the
+    snapshots it left.
+
+    The analysis works in a staging folder (links to the run's inputs, copies of its earlier
+    results) and its results replace the earlier ones only when it has finished, summary.json
+    last: an analysis that fails leaves the previous results, summary included, untouched."""
+    run_dir = Path(run_dir).resolve()
+    staging = run_dir / ".post-staging"
+    if staging.exists():
+        shutil.rmtree(staging)
+    staging.mkdir()
+    try:
+        for entry in run_dir.iterdir():
+            if entry.name in (*_STAGED, *_REPORTS, staging.name, MARKER, LOCK, STATUS):
+                continue
+            (staging / entry.name).symlink_to(entry)
+        for name in _STAGED:
+            (staging / name).mkdir()
+            if (run_dir / name).is_dir():
+                for f in (run_dir / name).iterdir():
+                    if f.is_file() and f.name != "summary.json":
+                        shutil.copy2(f, staging / name / f.name)
+        summary = _analyse(staging, cfg, partial)
+        atomic_write_json(staging / "results" / "summary.json", {"name": cfg["name"], **summary})
+        # swap in: plots and reports first, the results (holding summary.json) last
+        for name in ("plots", *_REPORTS, "results"):
+            new, old = staging / name, run_dir / name
+            if old.is_dir():
+                os.replace(old, staging / f"{name}.old")
+            elif not new.exists():
+                old.unlink(missing_ok=True)
+            if new.exists():
+                os.replace(new, old)
+        return summary
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+
+
+def _analyse(run_dir: Path, cfg: dict, partial: bool) -> dict:
     if cfg["scenario"]["kind"] == "shear":
         from analysis.shear import analyse_shear  # noqa: PLC0415
 
@@ -67,11 +241,9 @@ def analyse_run(run_dir: Path, cfg: dict, partial: bool = False) -> dict:
     else:
         from analysis.impact import analyse_impact  # noqa: PLC0415
 
-        summary = analyse_impact(run_dir, cfg, plots=cfg["output"]["plots"])
+        summary = analyse_impact(run_dir, cfg, plots=cfg["output"]["plots"], partial=partial)
     if cfg["output"].get("animation"):
         from analysis.animation import animate_run  # noqa: PLC0415
 
         animate_run(run_dir)
-    # written here, so that `driver post` refreshes the summary a set analysis reads
-    atomic_write_json(Path(run_dir) / "results" / "summary.json", {"name": cfg["name"], **summary})
     return summary

@@ -1,14 +1,23 @@
-"""The run directory: layout, status, atomic writes and provenance.
+"""The run directory: layout, ownership, lock, status, atomic writes and provenance.
 
-One directory per run. `status.json` says whether it is running, failed or finished, and is
-written last, so a directory without `"state": "finished"` is recognisably unfinished. A
-finished run is not overwritten without `force`; an unfinished one is cleared and started
-clean (runs do not resume from restart files: the cost of a restart is the run itself, and
-mixing two half-runs is never possible this way).
+One directory per run. The tool deletes or overwrites only what it can prove it made:
+  - ownership: a marker file `.brittle-run` (with a run id) is written when the tool creates
+    or first claims a directory; a directory without it is never cleared, `--force` or not;
+  - layout: clearing removes only the files and folders the run layout names (LAYOUT), never
+    a file the user put beside them;
+  - location: `.`, `..`, the filesystem root, the home directory, the current working
+    directory and its ancestors are refused as run directories.
+One run at a time: an OS file lock on `.brittle-run.lock`, held while the run lives, plus the
+pid, host and a heartbeat in `status.json`. `status.json` says running, interrupted, failed
+or finished and is written last; a `running` directory whose lock is free (or whose pid is
+gone) is reported as stale.
 """
 
 from __future__ import annotations
 
+import errno
+import fcntl
+import fnmatch
 import json
 import os
 import platform
@@ -18,25 +27,47 @@ import subprocess
 import sys
 import tempfile
 import time
+import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import driver
 
 STATUS = "status.json"
+MARKER = ".brittle-run"
+LOCK = ".brittle-run.lock"
+SWEEP_MARKER = ".brittle-sweep"
+SET_MARKER = ".brittle-set"
+CHECKPOINTS = "checkpoints"
+# a heartbeat older than this marks a run on another host as stale (its lock cannot be probed)
+STALE_AFTER_S = 600.0
 _UMASK = os.umask(0)
 os.umask(_UMASK)
 
+# What a run writes: top-level files (globs), and folders with the patterns of their files.
+LAYOUT_FILES = (STATUS, MARKER, LOCK, "input.yaml", "config.resolved.yaml", "provenance.json", "system.json",
+                "system.data", "in.lammps", "setup.lammps", "resume.lammps", "session.json", "control.lmp",
+                "log.lammps", "log.*.lammps", "thermo.dat", "interfaces.txt", "cells.txt", "voronoi_cells.txt",
+                "snapshots.json", "report.md", "report.html", ".session_error.json", ".*.tmp*")
+LAYOUT_DIRS = {
+    "dumps": ("*.lammpstrj", "*.lammpstrj.gz", ".*.tmp*"),
+    "results": ("*.parquet", "*.csv", "*.json", ".*.tmp*"),
+    "plots": ("*.png", "*.gif", ".*.tmp*"),
+    CHECKPOINTS: ("*.restart", "*.json", ".*"),
+    ".post-staging": ("*", ".*"),  # STAGING
+}
+
 
 class RunDirError(RuntimeError):
-    """The run directory cannot be used as asked (e.g. a finished run without --force)."""
+    """The run directory cannot be used as asked (foreign folder, busy, finished without --force)."""
 
 
+# ------------------------------------------------------------------------- atomic writes
 def atomic_write_text(path: Path, text: str) -> None:
     """Write a file so that readers see the old content or the whole new one, never a part."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "w") as fh:
             fh.write(text)
@@ -51,7 +82,7 @@ def atomic_write_json(path: Path, obj: Any) -> None:
     atomic_write_text(path, json.dumps(obj, indent=2, default=str) + "\n")
 
 
-def atomic_save(path: Path, writer) -> None:
+def atomic_save(path: Path, writer: Callable[[Path], Any]) -> None:
     """Call writer(tmp_path) then move the result into place (tables, figures)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.tmp{path.suffix}")
@@ -62,24 +93,157 @@ def atomic_save(path: Path, writer) -> None:
         tmp.unlink(missing_ok=True)
 
 
+# ------------------------------------------------------------------------------ location
+def expand_path(path: str | os.PathLike) -> Path:
+    """`~` and $VARIABLES expanded, as a shell would."""
+    return Path(os.path.expandvars(os.path.expanduser(str(path))))
+
+
+def check_location(root: Path, what: str = "run directory") -> Path:
+    """The absolute path of `root`, or RunDirError when it may not hold a run: `.`, `..`, the
+    filesystem root, the home directory, the current directory or an ancestor of it, or a path
+    that is a file."""
+    text = str(root)
+    if text.strip() in ("", ".", "..") or Path(text).name in (".", ".."):
+        raise RunDirError(f"{text!r} cannot be a {what}: name a new folder (e.g. runs/my_run)")
+    absolute = Path(os.path.abspath(expand_path(root)))
+    real = absolute.resolve()
+    cwd = Path.cwd().resolve()
+    home = Path.home().resolve()
+    if real == Path(real.anchor):
+        raise RunDirError(f"{absolute}: the filesystem root cannot be a {what}")
+    if real == home:
+        raise RunDirError(f"{absolute}: the home directory cannot be a {what}; name a folder inside it")
+    if cwd == real or real in cwd.parents:
+        raise RunDirError(f"{absolute}: the current directory or one of its parents cannot be a {what}; "
+                          "name a new folder (e.g. runs/my_run)")
+    if absolute.exists() and not absolute.is_dir():
+        raise RunDirError(f"{absolute}: exists and is not a folder; choose another path for the {what}")
+    return absolute
+
+
+STAGING = ".post-staging"
+
+
+def display_dir(path: str | os.PathLike) -> Path:
+    """The run directory a path stands for (an analysis works in its staging folder)."""
+    path = Path(path)
+    return path.parent if path.name == STAGING else path
+
+
+def has_marker(root: Path, marker: str = MARKER) -> bool:
+    return (root / marker).is_file()
+
+
+def check_claimable(root: Path, marker: str, what: str, accept: tuple[str, ...] = ()) -> Path:
+    """Whether claim_dir would accept `root` (checked without writing anything)."""
+    root = check_location(root, what)
+    if root.exists() and any(root.iterdir()) and not any(has_marker(root, m) for m in (marker, *accept)):
+        raise RunDirError(f"{root}: exists, is not empty and was not made by this tool (no {marker}); nothing "
+                          f"in it is touched. Choose a new folder for the {what}")
+    return root
+
+
+def claim_dir(root: Path, marker: str, what: str, accept: tuple[str, ...] = ()) -> Path:
+    """Make `root` a folder this tool may write into: new, empty, or carrying `marker` (or one of
+    `accept`). A non-empty folder without them is refused, whatever the flags."""
+    root = check_claimable(root, marker, what, accept)
+    root.mkdir(parents=True, exist_ok=True)
+    if not any(has_marker(root, m) for m in (marker, *accept)):
+        atomic_write_json(root / marker, {"tool": "brittle-driver", "kind": what, "id": uuid.uuid4().hex,
+                                          "created": _now(), "version": driver.__version__})
+    return root
+
+
+def _now() -> str:
+    return time.strftime("%Y-%m-%dT%H:%M:%S")
+
+
+# ------------------------------------------------------------------------------- status
 def read_status(run_dir: Path) -> dict[str, Any] | None:
     try:
-        return json.loads((run_dir / STATUS).read_text())
-    except (OSError, json.JSONDecodeError):
+        st = json.loads((Path(run_dir) / STATUS).read_text())
+    except (OSError, ValueError):
         return None
+    return st if isinstance(st, dict) else None
 
 
 def is_finished(run_dir: Path) -> bool:
     st = read_status(run_dir)
-    return bool(st and st.get("state") == "finished")
+    return bool(st and st.get("state") == "finished" and has_marker(Path(run_dir)))
 
 
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def lock_is_held(run_dir: Path) -> bool:
+    """Whether some process holds the run's lock (probed without taking it for long)."""
+    path = Path(run_dir) / LOCK
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except OSError as exc:
+        return exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES)
+    finally:
+        os.close(fd)  # closing releases a lock taken here
+    return False
+
+
+def run_state(run_dir: Path) -> dict[str, Any]:
+    """status.json with `state` made honest: a `running` run whose lock is free (same host) or
+    whose heartbeat is old (another host) is `stale`; a folder without marker is `foreign`."""
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        return {"state": "absent"}
+    if not has_marker(run_dir):
+        return {"state": "foreign"}
+    st = read_status(run_dir) or {"state": "new"}
+    if st.get("state") == "running":
+        same_host = st.get("host") == socket.gethostname()
+        if same_host:
+            alive = lock_is_held(run_dir) and _pid_alive(int(st.get("pid", -1)))
+        else:
+            alive = time.time() - float(st.get("heartbeat_epoch", 0)) < STALE_AFTER_S
+        if not alive:
+            st = {**st, "state": "stale", "recorded_state": "running"}
+    return st
+
+
+def latest_checkpoint(run_dir: Path) -> dict[str, Any] | None:
+    """The newest complete checkpoint (its JSON record is written after its restart file)."""
+    best = None
+    for rec in sorted((Path(run_dir) / CHECKPOINTS).glob("step*.json")):
+        try:
+            info = json.loads(rec.read_text())
+        except (OSError, ValueError):
+            continue
+        if (rec.parent / info.get("restart", "")).is_file():
+            if best is None or info["step"] > best["step"]:
+                best = info
+    return best
+
+
+# ------------------------------------------------------------------------------ run dir
 @dataclass
 class RunDir:
-    """Paths of one run's directory."""
+    """One run's directory, its lock while held, and its status."""
 
     root: Path
     started: float = field(default_factory=time.time)
+    _lock_fd: int | None = field(default=None, repr=False)
+
+    def __post_init__(self) -> None:
+        self.root = check_location(Path(self.root))
 
     @property
     def dumps(self) -> Path:
@@ -93,29 +257,129 @@ class RunDir:
     def plots(self) -> Path:
         return self.root / "plots"
 
-    def prepare(self, force: bool = False) -> str:
-        """Make the directory ready for a fresh run; returns what was done ('new', 'cleared')."""
-        root = self.root
-        if root.exists() and any(root.iterdir()):
-            if is_finished(root) and not force:
-                raise RunDirError(
-                    f"{root}: holds a finished run; use --force to overwrite it or choose another output.dir")
-            if read_status(root) is None and not force:
-                raise RunDirError(f"{root}: exists and is not a run directory of this tool; "
-                                  "choose another output.dir or use --force")
-            shutil.rmtree(root)
-            action = "cleared"
-        else:
-            action = "new"
-        for d in (root, self.dumps, self.results, self.plots):
-            d.mkdir(parents=True, exist_ok=True)
-        self.set_state("running")
-        return action
+    @property
+    def checkpoints(self) -> Path:
+        return self.root / CHECKPOINTS
 
+    # -- lock
+    def acquire(self) -> None:
+        """Claim the folder and take its lock; RunDirError (naming the holder) when busy."""
+        claim_dir(self.root, MARKER, "run directory")
+        fd = os.open(self.root / LOCK, os.O_RDWR | os.O_CREAT, 0o666 & ~_UMASK)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(fd)
+            st = read_status(self.root) or {}
+            raise RunDirError(f"{self.root}: busy, a run is in progress there (pid {st.get('pid', '?')} on host "
+                              f"{st.get('host', '?')}, since {st.get('started', '?')}); wait for it, stop it, "
+                              "or choose another output directory") from None
+        self._lock_fd = fd
+
+    def release(self) -> None:
+        if self._lock_fd is not None:
+            os.close(self._lock_fd)
+            self._lock_fd = None
+
+    # -- preparing
+    def prepare(self, force: bool = False, resume: bool = False) -> str:
+        """Take the lock and make the folder ready. Returns 'new', 'cleared' or 'resume'.
+
+        finished: refused unless force (then cleared). Unfinished with a checkpoint: resumed
+        with `resume`, cleared with `force`, refused otherwise (so a checkpoint is never lost
+        by accident). Unfinished without a checkpoint: cleared (a restart from the start)."""
+        self.acquire()
+        try:
+            st = read_status(self.root)
+            state = st.get("state") if st else None
+            if resume:
+                if state == "finished":
+                    raise RunDirError(f"{self.root}: the run has finished; nothing to resume (use --force to run "
+                                      "it again from the start)")
+                if state is not None and (latest_checkpoint(self.root) is not None or st.get("lammps_done")):
+                    return "resume"
+                action = self.clear() if state is not None else "new"
+            elif state == "finished" and not force:
+                raise RunDirError(f"{self.root}: holds a finished run; use --force to run it again or choose "
+                                  "another output directory")
+            elif state is not None and state != "finished" and not force \
+                    and latest_checkpoint(self.root) is not None:
+                raise RunDirError(f"{self.root}: holds an {state if state != 'running' else 'interrupted'} run with "
+                                  "checkpoints; use --resume to continue it, or --force to start it again")
+            else:
+                action = self.clear() if state is not None or self._has_layout_entries() else "new"
+            for d in (self.dumps, self.results, self.plots):
+                d.mkdir(parents=True, exist_ok=True)
+            return action
+        except BaseException:
+            self.release()
+            raise
+
+    def _has_layout_entries(self) -> bool:
+        return any(e.name not in (MARKER, LOCK) and _layout_name(e.name, e.is_dir()) for e in self.root.iterdir())
+
+    def clear(self) -> str:
+        """Remove what the run layout names (never the marker, the lock, or foreign files)."""
+        for entry in self.root.iterdir():
+            if entry.name in (MARKER, LOCK):
+                continue
+            if entry.is_dir() and not entry.is_symlink() and entry.name in LAYOUT_DIRS:
+                _clear_folder(entry, LAYOUT_DIRS[entry.name])
+            elif not entry.is_dir() and _layout_name(entry.name, False):
+                entry.unlink()
+        return "cleared"
+
+    def foreign_entries(self) -> list[str]:
+        """Files in the folder that the run layout does not name (left alone, reported)."""
+        out = []
+        for entry in sorted(self.root.iterdir()):
+            if entry.is_dir() and entry.name in LAYOUT_DIRS:
+                out += [f"{entry.name}/{p.name}" for p in sorted(entry.iterdir())
+                        if not any(fnmatch.fnmatch(p.name, pat) for pat in LAYOUT_DIRS[entry.name])]
+            elif not _layout_name(entry.name, entry.is_dir()):
+                out.append(entry.name)
+        return out
+
+    # -- status
     def set_state(self, state: str, **extra: Any) -> None:
-        atomic_write_json(self.root / STATUS, {"state": state, "time": time.strftime("%Y-%m-%dT%H:%M:%S"), **extra})
+        atomic_write_json(self.root / STATUS, {"state": state, "time": _now(), **extra})
+
+    def set_running(self, **extra: Any) -> None:
+        now = time.time()
+        self.set_state("running", pid=os.getpid(), host=socket.gethostname(), started=_now(),
+                       heartbeat=_now(), heartbeat_epoch=now, **extra)
+
+    def heartbeat(self, **fields: Any) -> None:
+        st = read_status(self.root) or {}
+        if st.get("state") != "running" or st.get("pid") != os.getpid():
+            return
+        st.update(fields, heartbeat=_now(), heartbeat_epoch=time.time())
+        atomic_write_json(self.root / STATUS, st)
 
 
+def _layout_name(name: str, is_dir: bool) -> bool:
+    if is_dir:
+        return name in LAYOUT_DIRS
+    if any(fnmatch.fnmatch(name, pat) for pat in LAYOUT_FILES):
+        return True
+    # a temporary file of an atomic write of a layout file, left by a crash: .NAME.xxxxxx
+    return name.startswith(".") and any(name[1:].startswith(f + ".") for f in LAYOUT_FILES if "*" not in f)
+
+
+def _clear_folder(folder: Path, patterns: tuple[str, ...]) -> None:
+    """Remove the files of `folder` that match the layout's patterns; the folder itself only
+    when nothing else is left in it."""
+    for p in folder.iterdir():
+        if any(fnmatch.fnmatch(p.name, pat) for pat in patterns):
+            if p.is_dir() and not p.is_symlink():
+                shutil.rmtree(p)
+            else:
+                p.unlink()
+    if not any(folder.iterdir()):
+        folder.rmdir()
+
+
+# --------------------------------------------------------------------------- provenance
 def git_commit() -> str | None:
     """Commit of the package's checkout (None when installed from a wheel)."""
     src = Path(driver.__file__).resolve().parent.parent

@@ -91,3 +91,57 @@ def test_cli_refuses_and_writes_nothing(tmp_path, text, field):
         assert proc.returncode == 2, proc.stderr
         assert field in proc.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["input.yaml"]
+
+
+# ------------------------------------------------------------------ non-finite numbers, name, output.dir
+@pytest.mark.parametrize("fragment,field", [
+    ("model: {kind: bpm, gamma: .inf}", "model.gamma"),
+    ("model: {kind: bpm, L: .nan}", "model.L"),
+    ("model: {kind: bpm, packing_fraction: .nan}", "model.packing_fraction"),
+    ("model: {kind: bpm, bond_max_length: .inf}", "model.bond_max_length"),
+    ("model: {kind: bcm, diameter: .inf}\nscenario: {kind: impact}", "model.diameter"),
+    ("model: {kind: bcm, interface: {G_c: .inf}}\nscenario: {kind: impact}", "model.interface.G_c"),
+    ("model: {kind: bcm, contact: {mu: .inf}}\nscenario: {kind: impact}", "model.contact.mu"),
+    ("model: {kind: bcm}\nscenario: {kind: impact, max_time: .inf}", "scenario.max_time"),
+    ("model: {kind: bcm, n_cells: .inf}\nscenario: {kind: impact}", "model.n_cells"),
+    ("scenario: {kind: shear, measure_strains: [0.1, .nan]}", "scenario.measure_strains.1"),
+    ("output: {count_above: [10, .inf]}", "output.count_above.1"),
+    ("model: {kind: bpm, gamma: 1.0e400}", "model.gamma"),  # overflows to inf
+    ("model: {kind: bpm, gamma: '-inf'}", "model.gamma"),
+])
+def test_non_finite_refused_with_field(tmp_path, fragment, field):
+    with pytest.raises(ConfigError) as info:
+        load_config(_write(tmp_path, fragment))
+    msg = str(info.value)
+    assert f"{field}:" in msg and "finite" in msg, msg
+
+
+@pytest.mark.parametrize("name", [".", "..", "a/b", "../x", "/abs", "a\\b", ".hidden", "-rf", "a b", ""])
+def test_name_must_be_plain_file_name(name):
+    with pytest.raises(ConfigError, match="name"):
+        parse_config({"name": name})
+
+
+@pytest.mark.parametrize("name", ["run", "bcm_impact_1728", "_x", "3d.v2-final"])
+def test_plain_names_accepted(name):
+    assert parse_config({"name": name}).name == name
+
+
+def test_output_dir_expands_home_and_variables(monkeypatch, tmp_path):
+    monkeypatch.setenv("HOME", str(tmp_path))
+    monkeypatch.setenv("BRITTLE_TEST_RUNS", "/scratch/runs")
+    assert parse_config({"output": {"dir": "~/runs/a"}}).run_dir() == tmp_path / "runs" / "a"
+    assert parse_config({"output": {"dir": "$BRITTLE_TEST_RUNS/a"}}).run_dir() == Path("/scratch/runs/a")
+    assert parse_config({"output": {"dir": "${BRITTLE_TEST_RUNS}/b"}}).run_dir() == Path("/scratch/runs/b")
+    assert parse_config({"output": {"dir": "plain/rel"}}).run_dir() == Path("plain/rel")
+
+
+def test_output_dir_unset_variable_refused(monkeypatch):
+    monkeypatch.delenv("BRITTLE_TEST_UNSET", raising=False)
+    with pytest.raises(ConfigError, match="output.dir: environment variable BRITTLE_TEST_UNSET is not set"):
+        parse_config({"output": {"dir": "$BRITTLE_TEST_UNSET/a"}})
+
+
+def test_output_dir_empty_refused():
+    with pytest.raises(ConfigError, match="output.dir: must not be empty"):
+        parse_config({"output": {"dir": ""}})

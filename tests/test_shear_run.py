@@ -69,7 +69,7 @@ def test_generated_input_runs_standalone_with_lmp(finished_run, tmp_path, plugin
 
     from driver.engine import venv_bin
 
-    for name in ("in.lammps", "system.data"):
+    for name in ("in.lammps", "setup.lammps", "system.data"):
         shutil.copy(finished_run / name, tmp_path / name)
     (tmp_path / "dumps").mkdir()
     proc = subprocess.run([venv_bin("lmp"), "-in", "in.lammps", "-var", "plugin", plugin_path, "-screen", "none"],
@@ -129,13 +129,17 @@ def test_finished_run_not_overwritten(finished_run):
 
 
 def test_unfinished_run_starts_clean(tmp_path, plugin_path):
+    """A run of this tool that stopped without a checkpoint is started again; only the files of
+    the run layout are removed, a file the user put beside them stays."""
     out = tmp_path / "tiny"
-    out.mkdir()
-    (out / "status.json").write_text(json.dumps({"state": "running"}))
-    (out / "stale.txt").write_text("from a killed run")
     cfg = parse_config(small_config(out, scenario={"max_strain": 0.1, "measure_strains": [0.1]}))
     execute(cfg, show_progress=False)
-    assert not (out / "stale.txt").exists()
+    (out / "status.json").write_text(json.dumps({"state": "failed", "error": "pretend"}))
+    (out / "notes.txt").write_text("mine")
+    (out / "dumps" / "atoms.99999.lammpstrj").write_text("left by the failed run")
+    execute(cfg, show_progress=False)
+    assert not (out / "dumps" / "atoms.99999.lammpstrj").exists()
+    assert (out / "notes.txt").read_text() == "mine"
     assert read_status(out)["state"] == "finished"
 
 

@@ -15,8 +15,9 @@ from driver.bcm.lammps_files import write_cell_data, write_cells, write_interfac
 from driver.bcm.particle import build_particle, contact_timestep, particle_tessellation
 from driver.config import RunConfig
 from driver.plugin_build import cache_base
-from driver.rundir import RunDir, atomic_write_json, atomic_write_text
-from driver.runner import ProgressSpec, run_input
+from driver.rundir import RunDir, atomic_write_json
+from driver.runner import ProgressSpec
+from driver.schedule import chunk_steps, settle, settle_windows, write_session
 from driver.templates import render
 
 CELL_COLUMNS = ("id mass x y z vx vy vz omegax omegay omegaz "
@@ -64,47 +65,94 @@ def build_system(cfg: RunConfig, rd: RunDir) -> dict:
     }
 
 
-def plan_and_input(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[dict, str]:
+SYSTEM_FRESH = """units           si
+dimension       3
+boundary        m m m
+atom_style      hybrid bond sphere
+atom_modify     map array
+# newton bond off: both ranks holding an interface's cells evaluate it identically.
+newton          on off
+# bonded cells interact only through their interface (intact or broken), never as a pair.
+special_bonds   lj 0 1 1 coul 1 1 1
+fix             cellprops all property/atom d2_bcm_quat 4 d2_bcm_inertia 3 d2_bcm_angmom 3 ghost yes
+read_data       system.data fix cellprops NULL BcmProps"""
+# A checkpoint holds the box, atoms, topology, the bond style with its interface table and
+# reference state, the pair style with its counters, and the wall's counters; the per-atom
+# arrays come back when their fix is defined again with the same id.
+SYSTEM_RESUME = """read_restart    ${checkpoint}
+fix             cellprops all property/atom d2_bcm_quat 4 d2_bcm_inertia 3 d2_bcm_angmom 3 ghost yes"""
+RECORD_TITLE = ('title "# step time ke_trans ke_rot intact broken broken_area W_f E_interfaces W_damp W_friction '
+                'W_switch wall_contacts wall_force W_wall E_wall W_wall_damp W_wall_friction W_wall_npoints work_wall '
+                'E_contacts W_contact_damp W_contact_friction W_contact_npoints work_contacts"')
+
+
+def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str, str, dict]:
+    """(setup.lammps, resume.lammps, schedule) of an impact run."""
     m, sc = cfg.model, cfg.scenario
     dt = system["timestep"]
-    window = max(1, math.ceil(sc.settle_window / dt))
+    chunk = chunk_steps("bcm", system["n_cells"], cfg.execution.chunk_steps)
+    window, chunk = settle_windows(max(1, math.ceil(sc.settle_window / dt)), chunk)
     max_windows = max(1, math.ceil(sc.max_time / (window * dt)))
-    periodic = ""
+    periodic = ("compute         ifc all property/local batom1 batom2\n"
+                "compute         ifs all bond/local b1 b2 b3 b4 b5 b6")
     if sc.dump_every > 0:
-        periodic = (f"compute         ifc all property/local batom1 batom2\n"
-                    f"compute         ifs all bond/local b1 b2 b3 b4 b5 b6\n"
-                    f"dump            cells all custom {sc.dump_every} dumps/cells.*.lammpstrj {CELL_COLUMNS}\n"
-                    f"dump_modify     cells sort id\n"
-                    f"dump            ifaces all local {sc.dump_every} dumps/interfaces.*.lammpstrj "
-                    f"{INTERFACE_COLUMNS}")
-    else:
-        periodic = ("compute         ifc all property/local batom1 batom2\n"
-                    "compute         ifs all bond/local b1 b2 b3 b4 b5 b6")
+        periodic += (f"\ndump            cells all custom {sc.dump_every} dumps/cells.*.lammpstrj {CELL_COLUMNS}\n"
+                     f"dump_modify     cells sort id\n"
+                     f"dump            ifaces all local {sc.dump_every} dumps/interfaces.*.lammpstrj "
+                     f"{INTERFACE_COLUMNS}")
     skin = 0.1 * system["mean_cell_size"]
     # ghosts must hold every bonded partner: two bounding radii plus the skin
     comm_cutoff = 2.0 * system["max_bound_radius"] * 1.05 + skin
-    text = render(
-        "bcm_impact.in", package_version=driver.__version__, config_name=cfg.name, plugin_path=plugin_path,
+    common = dict(
+        package_version=driver.__version__, config_name=cfg.name, plugin_path=plugin_path,
         comm_cutoff=f"{comm_cutoff:.9g}", r_m=f"{system['r_m']:.12g}",
-        kn=m.interface.kn, kt=m.interface.kt, en2=m.interface.en2, G_c=m.interface.G_c,
         kn_c=m.contact.kn, kt_c=m.contact.kt, en2_c=m.contact.en2, mu=m.contact.mu,
-        griffith_energy=m.griffith_energy, skin=f"{skin:.9g}", steps_per_period=f"{sc.steps_per_period:g}",
-        period=f"{system['shortest_period']:.6g}", timestep=f"{dt:.12g}", velocity=sc.velocity,
-        thermo_every=sc.thermo_every, periodic_dumps=periodic, dump_start=_dump_commands("start"),
-        window_steps=window, max_windows=max_windows, ke_tolerance=sc.ke_tolerance,
-        dump_end=_dump_commands("end"),
-    )
-    return {"window_steps": window, "max_windows": max_windows, "max_steps": window * max_windows}, text
+        skin=f"{skin:.9g}", steps_per_period=f"{sc.steps_per_period:g}",
+        period=f"{system['shortest_period']:.6g}", timestep=f"{dt:.12g}",
+        thermo_every=sc.thermo_every, periodic_dumps=periodic, record_title=RECORD_TITLE,
+        window_steps=window, max_windows=max_windows, ke_tolerance=sc.ke_tolerance)
+    setup = render(
+        "bcm_impact.in", role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).",
+        system=SYSTEM_FRESH,
+        pair_setup=f"pair_style      bcm/contact cells cells.txt rm {system['r_m']:.12g}\n"
+                   f"pair_coeff      * * {m.contact.kn} {m.contact.kt} {m.contact.en2} {m.contact.mu}",
+        bond_setup=f"bond_style      bcm/griffith geometry interfaces.txt energy {m.griffith_energy}\n"
+                   f"bond_coeff      1 {m.interface.kn} {m.interface.kt} {m.interface.en2} {m.interface.G_c} "
+                   f"{m.contact.kn} {m.contact.kt} {m.contact.en2} {m.contact.mu}",
+        velocity=f"velocity        all set 0.0 0.0 -{sc.velocity} units box",
+        record_target="file thermo.dat",
+        start=("run             0\n" + _dump_commands("start") +
+               "\nvariable        nb_prev equal ${nb}\nvariable        ke_prev equal ${kin}"),
+        **common)
+    resume = render(
+        "bcm_impact.in", role="Start from a checkpoint (resume.lammps: -var checkpoint FILE).",
+        system=SYSTEM_RESUME, pair_setup="# pair style, coefficients and counters: from the checkpoint",
+        bond_setup="# bond style, interface table and reference state: from the checkpoint",
+        velocity="# velocities: from the checkpoint", record_target="append thermo.dat",
+        start="# the settle rule's last values (nb_prev, ke_prev): from the checkpoint's record", **common)
+    schedule = settle(
+        window, chunk, max_windows,
+        check=["variable        nb_now equal ${nb}", "variable        ke_now equal ${kin}",
+               f'variable        settled equal "(v_nb_now == v_nb_prev) && (abs(v_ke_now - v_ke_prev) <= '
+               f'{sc.ke_tolerance}*v_ke_prev) && (v_wall_energy <= {sc.ke_tolerance}*v_ke_now) && (v_touched > 0)"'],
+        settled_variable="settled",
+        advance=["variable        nb_prev equal ${nb_now}", "variable        ke_prev equal ${ke_now}"],
+        end=_dump_commands("end").splitlines())
+    return setup, resume, schedule
 
 
-def run_impact(cfg: RunConfig, rd: RunDir, plugin_path: Path, np_ranks: int, show_progress: bool) -> dict:
+def run_impact(cfg: RunConfig, rd: RunDir, plugin_path: Path) -> tuple[dict, dict]:
+    """Build the particle and write the run's inputs; returns (system facts, progress spec)."""
     system = build_system(cfg, rd)
-    plan, text = plan_and_input(cfg, plugin_path, system)
-    system.update(plan)
+    setup, resume, schedule = render_inputs(cfg, plugin_path, system)
+    system.update(window_steps=schedule["window"], chunk_steps=schedule["chunk"],
+                  max_windows=schedule["max_windows"], max_steps=schedule["window"] * schedule["max_windows"])
     atomic_write_json(rd.root / "system.json", system)
-    atomic_write_text(rd.root / "in.lammps", text)
-    spec = ProgressSpec(file="thermo.dat", total_steps=plan["max_steps"], label=cfg.name,
+    write_session(rd.root, setup, resume, schedule, cfg.execution.checkpoint_steps(),
+                  checkpoint_variables=["nb_prev", "ke_prev"])
+    return system, progress_spec(cfg, system)
+
+
+def progress_spec(cfg: RunConfig, system: dict) -> ProgressSpec:
+    return ProgressSpec(file="thermo.dat", total_steps=system["max_steps"], label=cfg.name,
                         columns={"time": 1, "broken": 5})
-    t0 = time.perf_counter()
-    run_input(rd.root, np=np_ranks, progress=spec, show_progress=show_progress)
-    return {"system": system, "lammps_wall_seconds": time.perf_counter() - t0}

@@ -14,8 +14,9 @@ from driver.bpm.network import MAX_BOND_LENGTH_3D, delaunay_network
 from driver.bpm.packing import cached_packing
 from driver.config import RunConfig, steps_for_strain
 from driver.plugin_build import cache_base
-from driver.rundir import RunDir, atomic_write_json, atomic_write_text
-from driver.runner import ProgressSpec, run_input
+from driver.rundir import RunDir, atomic_write_json
+from driver.runner import ProgressSpec
+from driver.schedule import chunk_steps, segments, write_session
 from driver.templates import render
 
 @dataclass
@@ -59,25 +60,35 @@ def snapshot_commands(snap: Snapshot) -> str:
             f"write_dump      all local {snap.bonds} c_bl[1] c_bl[2] c_bl[3]\n")
 
 
+SYSTEM_FRESH = """units           lj
+dimension       {dimension}
+boundary        p p p
+atom_style      angle
+# newton bond off: every atom holds all its bonds and angles, so each rank decides a break
+# identically; special lj 0 keeps bonded pairs out of the repulsion, coul 1 keeps them in
+# the neighbour list so a broken bond's repulsion switches on without a rebuild.
+newton          on off
+special_bonds   lj 0 1 1 coul 1 1 1
+read_data       system.data"""
+# A checkpoint holds the box, atoms, topology with broken bonds and angles (type 0), the
+# styles with their coefficients and the reference lengths and angles (per atom).
+SYSTEM_RESUME = "read_restart    ${checkpoint}"
+
+
 def plan_and_input(cfg: RunConfig, plugin_path: Path, type_diameters: dict[int, float],
-                   max_r0: float) -> tuple[ShearPlan, str]:
-    """The LAMMPS input text for this config, and its schedule."""
+                   max_r0: float, n_particles: int) -> tuple[ShearPlan, str, str, dict]:
+    """The schedule of this config and its LAMMPS inputs: (plan, setup, resume, schedule)."""
     m, sc = cfg.model, cfg.scenario
     strains = list(sc.measure_strains)
     if not strains or strains[-1] < sc.max_strain:
         strains.append(sc.max_strain)
     snaps = [Snapshot(0.0, 0, "dumps/atoms.0.lammpstrj", "dumps/bonds.0.lammpstrj")]
-    seg_lines = ["run             0", snapshot_commands(snaps[0])]
-    done = 0
     for eps in strains:
         step = steps_for_strain(eps, sc.strain_rate, m.timestep)
-        if step <= done:
+        if step <= snaps[-1].step:
             continue
-        seg_lines.append(f"run             {step - done}")
-        snap = Snapshot(eps, step, f"dumps/atoms.{step}.lammpstrj", f"dumps/bonds.{step}.lammpstrj")
-        seg_lines.append(snapshot_commands(snap))
-        snaps.append(snap)
-        done = step
+        snaps.append(Snapshot(eps, step, f"dumps/atoms.{step}.lammpstrj", f"dumps/bonds.{step}.lammpstrj"))
+    total = snaps[-1].step
     periodic = ""
     if sc.dump_every > 0:
         periodic = (f"dump            atoms all custom {sc.dump_every} dumps/atoms.*.lammpstrj id type x y z vx vy vz\n"
@@ -86,17 +97,26 @@ def plan_and_input(cfg: RunConfig, plugin_path: Path, type_diameters: dict[int, 
     pair_lines, max_abar = pair_coeff_lines(type_diameters, m.gamma)
     # Ghosts must reach both arms of every angle: two stretched bonds plus the skin.
     comm_cutoff = max(2.0 * m.lambda_c * max_r0, max_abar) + m.skin
-    text = render(
-        "bpm_shear.in",
+    common = dict(
         package_version=driver.__version__, config_name=cfg.name, plugin_path=plugin_path,
-        dimension=m.dimension, comm_cutoff=f"{comm_cutoff:.6g}",
-        pair_coeffs=pair_lines, lambda_c=m.lambda_c, gamma=m.gamma, k_A=m.k_A,
-        theta_c_deg=m.theta_c_deg, skin=m.skin, timestep=m.timestep,
+        comm_cutoff=f"{comm_cutoff:.6g}", skin=m.skin, timestep=m.timestep,
         enforce2d="fix             planar all enforce2d" if m.dimension == 2 else "",
         deform_args=deform_args(m.dimension, sc.strain_rate), strain_rate=sc.strain_rate,
-        thermo_every=sc.thermo_every, periodic_dumps=periodic, segments="\n".join(seg_lines),
-    )
-    return ShearPlan(total_steps=done, snapshots=snaps), text
+        thermo_every=sc.thermo_every, periodic_dumps=periodic)
+    setup = render(
+        "bpm_shear.in", role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).",
+        system=SYSTEM_FRESH.format(dimension=m.dimension),
+        styles=(f"pair_style      cr/repulsion\n{pair_lines}\n\n"
+                f"bond_style      breakable/cr\nbond_coeff      1 {m.lambda_c} {m.gamma}\n"
+                f"angle_style     breakable/cr\nangle_coeff     1 {m.k_A} {m.theta_c_deg} {m.lambda_c}"),
+        record_target="file thermo.dat", start="run             0\n" + snapshot_commands(snaps[0]), **common)
+    resume = render(
+        "bpm_shear.in", role="Start from a checkpoint (resume.lammps: -var checkpoint FILE).",
+        system=SYSTEM_RESUME, styles="# pair, bond and angle styles with their coefficients: from the checkpoint",
+        record_target="append thermo.dat", start="", **common)
+    chunk = chunk_steps("bpm", n_particles, cfg.execution.chunk_steps)
+    schedule = segments(total, chunk, {s.step: snapshot_commands(s).splitlines() for s in snaps[1:]})
+    return ShearPlan(total_steps=total, snapshots=snaps), setup, resume, schedule
 
 
 def build_system(cfg: RunConfig, rd: RunDir) -> dict:
@@ -123,18 +143,20 @@ def build_system(cfg: RunConfig, rd: RunDir) -> dict:
     }
 
 
-def run_shear(cfg: RunConfig, rd: RunDir, plugin_path: Path, np_ranks: int, show_progress: bool) -> dict:
-    """Build, run and measure; returns the facts recorded in the summary."""
+def run_shear(cfg: RunConfig, rd: RunDir, plugin_path: Path) -> tuple[dict, ProgressSpec]:
+    """Build the solid and write the run's inputs and schedule; returns (system facts, progress)."""
     system = build_system(cfg, rd)
+    plan, setup, resume, schedule = plan_and_input(
+        cfg, plugin_path, {int(k): v for k, v in system["type_diameters"].items()}, system["max_r0"],
+        system["n_particles"])
+    system.update(total_steps=plan.total_steps, chunk_steps=schedule["chunk"])
     atomic_write_json(rd.root / "system.json", system)
-    plan, text = plan_and_input(cfg, plugin_path, {int(k): v for k, v in system["type_diameters"].items()},
-                                system["max_r0"])
-    atomic_write_text(rd.root / "in.lammps", text)
-    spec = ProgressSpec(file="thermo.dat", total_steps=plan.total_steps, label=cfg.name,
-                        columns={"strain": 1, "broken": 11})
-    t0 = time.perf_counter()
-    run_input(rd.root, np=np_ranks, progress=spec, show_progress=show_progress)
-    wall = time.perf_counter() - t0
+    # the snapshot plan is written before the run, so a run cut short can still be analysed
     atomic_write_json(rd.root / "snapshots.json", [s.__dict__ for s in plan.snapshots])
-    return {"system": system, "total_steps": plan.total_steps, "lammps_wall_seconds": wall,
-            "snapshots": [s.__dict__ for s in plan.snapshots]}
+    write_session(rd.root, setup, resume, schedule, cfg.execution.checkpoint_steps())
+    return system, progress_spec(cfg, system)
+
+
+def progress_spec(cfg: RunConfig, system: dict) -> ProgressSpec:
+    return ProgressSpec(file="thermo.dat", total_steps=system["total_steps"], label=cfg.name,
+                        columns={"strain": 1, "broken": 11})

@@ -24,24 +24,27 @@ double BcmKickWork::power(LAMMPS *lmp, const Entry &e, int ia, int ib)
   return p;
 }
 
+double BcmKickWork::kicks(LAMMPS *lmp, const char *style, int nkicks) const
+{
+  double w = 0.0;
+  for (const Entry &e : entries) {
+    const int ia = lmp->atom->map(e.a);
+    const int ib = e.b > 0 ? lmp->atom->map(e.b) : -1;
+    if (ia < 0 || (e.b > 0 && ib < 0))
+      lmp->error->one(FLERR, "{}: cell {} touched at the last force evaluation is neither "
+                      "owned nor a ghost here: the work of its force cannot be settled",
+                      style, ia < 0 ? e.a : e.b);
+    w += e.p + power(lmp, e, ia, ib);
+  }
+  return 0.25 * nkicks * last_dt * w;
+}
+
 void BcmKickWork::begin(LAMMPS *lmp, const char *style)
 {
   const int kind = evaluation_kind(lmp);
   if (last_kind != NONE && kind != NONE) {
     const int nkicks = (last_kind == STEP) + (kind == STEP);
-    if (nkicks) {
-      double w = 0.0;
-      for (const Entry &e : entries) {
-        const int ia = lmp->atom->map(e.a);
-        const int ib = e.b > 0 ? lmp->atom->map(e.b) : -1;
-        if (ia < 0 || (e.b > 0 && ib < 0))
-          lmp->error->one(FLERR, "{}: cell {} touched at the last force evaluation is neither "
-                          "owned nor a ghost here: the work of its force cannot be settled",
-                          style, ia < 0 ? e.a : e.b);
-        w += e.p + power(lmp, e, ia, ib);
-      }
-      settled += 0.25 * nkicks * last_dt * w;
-    }
+    if (nkicks) settled += kicks(lmp, style, nkicks);
   }
   entries.clear();
   pending_power = 0.0;
@@ -68,6 +71,13 @@ void BcmKickWork::add(LAMMPS *lmp, int i, int j, const double *F, const double *
 double BcmKickWork::work() const
 {
   return settled + (last_kind == STEP ? 0.5 * last_dt * pending_power : 0.0);
+}
+
+double BcmKickWork::work_closed(LAMMPS *lmp, const char *style) const
+{
+  // the same sum as begin() at a run's setup (one kick), so that a run resumed from a
+  // restart file carries on with the very number the uninterrupted run would have
+  return last_kind == STEP ? settled + kicks(lmp, style, 1) : settled;
 }
 
 void BcmKickWork::restore(double w)

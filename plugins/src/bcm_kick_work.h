@@ -49,6 +49,12 @@ class BcmKickWork {
   // last step's forces estimated as (h/2) P_k (settled exactly at the next evaluation)
   double work() const;
 
+  // work done on the cells since the start with the last step's forces settled over the
+  // half kick that closed that step, at the current velocities: once the step is complete
+  // (between runs, at write_restart), what begin() settles at the setup of the next run;
+  // right after a force evaluation (velocities unchanged since), equal to work()
+  double work_closed(LAMMPS *lmp, const char *style) const;
+
   // start again from a work w (read from a restart file), nothing pending
   void restore(double w);
 
@@ -65,6 +71,8 @@ class BcmKickWork {
   double pending_power = 0.0;    // sum of P over the entries
 
   static double power(LAMMPS *lmp, const Entry &e, int ia, int ib);
+  // work of the listed forces over nkicks half kicks at the current velocities
+  double kicks(LAMMPS *lmp, const char *style, int nkicks) const;
 };
 
 }    // namespace LAMMPS_NS

@@ -135,9 +135,14 @@ void FixBcmRigid::init()
   if (global[2] != MAXTAGINT)
     error->all(FLERR, "Fix bcm/rigid: atom {} has no positive mass", global[2]);
 
+  // Orientations from a data file are normalised here; one already of unit length (the
+  // integrator keeps them so) is left bit for bit as it is, so that an extra init() (a
+  // write_restart between two runs) does not change a run's trajectory in the last bit.
   for (int i = 0; i < nlocal; i++)
     if (mask[i] & groupbit) {
-      BcmRigid::normalize_quat(quat[i]);
+      const double *q = quat[i];
+      const double qq = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+      if (std::fabs(qq - 1.0) > 1e-14) BcmRigid::normalize_quat(quat[i]);
       set_omega(i);
     }
 }

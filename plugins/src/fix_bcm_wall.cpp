@@ -376,30 +376,35 @@ double FixBcmWall::compute_vector(int n)
 }
 
 /* ----------------------------------------------------------------------
-   the dissipated energies carry on across restarts (kept on rank 0): damping (with the
-   pending half kick of the last step), friction, change of N
+   the dissipated energies and the work of the wall's forces carry on across restarts
+   (kept on rank 0): damping, friction, change of N, work. The kick works are closed as the
+   next run's setup would close them (BcmKickWork::work_closed), so a resumed run carries
+   on with the very numbers of an uninterrupted one. Called on every rank (the sums need
+   them all); only rank 0 has a file.
 ------------------------------------------------------------------------- */
 
 void FixBcmWall::write_restart(FILE *fp)
 {
-  const double mine[3] = {-damp_work.work(), w_fric, w_npoints};
-  double total[3] = {0.0, 0.0, 0.0};
-  MPI_Reduce(mine, total, 3, MPI_DOUBLE, MPI_SUM, 0, world);
+  const double mine[4] = {-damp_work.work_closed(lmp, "fix bcm/wall"), w_fric, w_npoints,
+                          all_work.work_closed(lmp, "fix bcm/wall")};
+  double total[4] = {0.0, 0.0, 0.0, 0.0};
+  MPI_Reduce(mine, total, 4, MPI_DOUBLE, MPI_SUM, 0, world);
   if (comm->me == 0) {
-    const int size = 3 * sizeof(double);
+    const int size = 4 * sizeof(double);
     fwrite(&size, sizeof(int), 1, fp);
-    fwrite(total, sizeof(double), 3, fp);
+    fwrite(total, sizeof(double), 4, fp);
   }
 }
 
 void FixBcmWall::restart(char *buf)
 {
-  double total[3];
+  double total[4];
   std::memcpy(total, buf, sizeof(total));
   const bool root = comm->me == 0;
   damp_work.restore(root ? -total[0] : 0.0);
   w_fric = root ? total[1] : 0.0;
   w_npoints = root ? total[2] : 0.0;
+  all_work.restore(root ? total[3] : 0.0);
 }
 
 /* ---------------------------------------------------------------------- */

@@ -37,8 +37,10 @@
 #include "memory.h"
 #include "neigh_list.h"
 #include "neighbor.h"
+#include "output.h"
 #include "update.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <mpi.h>
@@ -60,10 +62,13 @@ enum { S_PARTNER, S_KEY, S_STEP, S_U, S_FT = 6, S_NPTS, S_EWHOLE };
 PairBcmContact::PairBcmContact(LAMMPS *_lmp) :
     Pair(_lmp), rm(0.0), nslots(64), kn(nullptr), kt(nullptr), en2(nullptr), mu(nullptr),
     alpha(nullptr), iquat(-1), ihist(-1), maxrad(0.0), warned_slots(false), w_fric(0.0),
-    w_npoints(0.0)
+    w_npoints(0.0), nevals(0), saved_at(-1), saved{0.0, 0.0, 0.0, 0.0}
 {
   single_enable = 0;
-  restartinfo = 0;
+  // settings, coefficients and the cumulative [4]-[7] go to restart files; the tangential
+  // history is the per-atom store's (a fix property/atom: restored when init_style
+  // re-creates it, before LAMMPS discards the file's per-atom fix data)
+  restartinfo = 1;
   finitecutflag = 1;
   born_matrix_enable = 0;
   // extra values for compute pair (see pair_bcm_contact.h)
@@ -222,6 +227,9 @@ void PairBcmContact::init_style()
                "plus rm (the neighbour lists would miss contacts)",
                all_[1]);
   MPI_Allreduce(&rad, &maxrad, 1, MPI_DOUBLE, MPI_MAX, world);
+
+  // write_restart initialises LAMMPS right before writing the file
+  save_totals();
 }
 
 /* ---------------------------------------------------------------------- */
@@ -502,6 +510,10 @@ void PairBcmContact::compute(int eflag, int vflag)
   pvector[4] = w_fric;
   pvector[5] = w_npoints;
   pvector[6] = all_work.work();
+  nevals++;
+  // a restart file is written at the end of this step (restart command): the totals as of
+  // this evaluation, with the last step's pending half kick estimated
+  if (comm->nprocs > 1 && output->restart_flag && output->next_restart == step) save_totals();
   if (nlost && !warned_slots) {
     warned_slots = true;
     error->warning(FLERR,
@@ -509,6 +521,116 @@ void PairBcmContact::compute(int eflag, int vflag)
                    "(slots {}): their friction restarts from zero; raise slots",
                    nlost, nslots);
   }
+}
+
+/* ----------------------------------------------------------------------
+   cumulative [4]-[7] of this rank, the last step's forces settled over the half kick that
+   closed it (exact once the step is complete: what the next run's setup settles)
+------------------------------------------------------------------------- */
+
+void PairBcmContact::local_totals(double *out)
+{
+  out[0] = -damp_work.work_closed(lmp, "pair_style bcm/contact");
+  out[1] = w_fric;
+  out[2] = w_npoints;
+  out[3] = all_work.work_closed(lmp, "pair_style bcm/contact");
+}
+
+void PairBcmContact::save_totals()
+{
+  double mine[4];
+  local_totals(mine);
+  MPI_Reduce(mine, saved, 4, MPI_DOUBLE, MPI_SUM, 0, world);
+  saved_at = nevals;
+}
+
+/* ----------------------------------------------------------------------
+   per type pair coefficients (rank 0 writes; all ranks read)
+------------------------------------------------------------------------- */
+
+void PairBcmContact::write_restart(FILE *fp)
+{
+  write_restart_settings(fp);
+  for (int i = 1; i <= atom->ntypes; i++)
+    for (int j = i; j <= atom->ntypes; j++) {
+      fwrite(&setflag[i][j], sizeof(int), 1, fp);
+      if (setflag[i][j])
+        for (double **a : {kn, kt, en2, mu}) fwrite(&a[i][j], sizeof(double), 1, fp);
+    }
+}
+
+void PairBcmContact::read_restart(FILE *fp)
+{
+  read_restart_settings(fp);
+  allocate();
+  const bool root = comm->me == 0;
+  for (int i = 1; i <= atom->ntypes; i++)
+    for (int j = i; j <= atom->ntypes; j++) {
+      if (root) utils::sfread(FLERR, &setflag[i][j], sizeof(int), 1, fp, nullptr, error);
+      MPI_Bcast(&setflag[i][j], 1, MPI_INT, 0, world);
+      if (!setflag[i][j]) continue;
+      for (double **a : {kn, kt, en2, mu}) {
+        if (root) utils::sfread(FLERR, &a[i][j], sizeof(double), 1, fp, nullptr, error);
+        MPI_Bcast(&a[i][j], 1, MPI_DOUBLE, 0, world);
+      }
+      alpha[i][j] = bcm_damping_alpha(en2[i][j]);
+    }
+}
+
+/* ----------------------------------------------------------------------
+   the cells file name (re-read when the restart file is read, relative to the working
+   directory then), rm, slots, and the cumulative [4]-[7] summed over ranks
+------------------------------------------------------------------------- */
+
+void PairBcmContact::write_restart_settings(FILE *fp)
+{
+  // rank 0 only: with one rank the totals are this rank's, current at any time
+  if (comm->nprocs == 1) {
+    local_totals(saved);
+    saved_at = nevals;
+  } else if (saved_at != nevals) {
+    error->warning(FLERR, "pair_style bcm/contact: restart file written at a step without a "
+                          "sum of the cumulative energies [4]-[7] over the ranks: they are "
+                          "saved as of {} force evaluations earlier (use write_restart or the "
+                          "restart command)",
+                   nevals - std::max<bigint>(saved_at, 0));
+  }
+  const int n = static_cast<int>(cells_file.size());
+  fwrite(&n, sizeof(int), 1, fp);
+  fwrite(cells_file.data(), sizeof(char), n, fp);
+  fwrite(&rm, sizeof(double), 1, fp);
+  fwrite(&nslots, sizeof(int), 1, fp);
+  fwrite(saved, sizeof(double), 4, fp);
+}
+
+void PairBcmContact::read_restart_settings(FILE *fp)
+{
+  const bool root = comm->me == 0;
+  int n = 0;
+  double totals[4] = {0.0, 0.0, 0.0, 0.0};
+  if (root) {
+    utils::sfread(FLERR, &n, sizeof(int), 1, fp, nullptr, error);
+    cells_file.resize(n);
+    if (n) utils::sfread(FLERR, &cells_file[0], sizeof(char), n, fp, nullptr, error);
+    utils::sfread(FLERR, &rm, sizeof(double), 1, fp, nullptr, error);
+    utils::sfread(FLERR, &nslots, sizeof(int), 1, fp, nullptr, error);
+    utils::sfread(FLERR, totals, sizeof(double), 4, fp, nullptr, error);
+  }
+  MPI_Bcast(&n, 1, MPI_INT, 0, world);
+  cells_file.resize(n);
+  if (n) MPI_Bcast(&cells_file[0], n, MPI_CHAR, 0, world);
+  MPI_Bcast(&rm, 1, MPI_DOUBLE, 0, world);
+  MPI_Bcast(&nslots, 1, MPI_INT, 0, world);
+  table = BcmCells::load(lmp, cells_file);
+
+  // the totals carry on from rank 0 (compute pair sums the ranks); nothing pending: the
+  // last step's forces were settled when the file was written
+  damp_work.restore(-totals[0]);
+  w_fric = totals[1];
+  w_npoints = totals[2];
+  all_work.restore(totals[3]);
+  for (int k = 0; k < nextra; k++) pvector[k] = 0.0;
+  for (int k = 0; k < 4; k++) pvector[3 + k] = totals[k];
 }
 
 /* ---------------------------------------------------------------------- */

@@ -1,8 +1,9 @@
 /* pair_style bcm/contact: frictional contacts between BCM cells that are not bonded (never
    bonded cells, and cells of different fragments), as rounded convex polyhedra (SPEC 1.2,
    last bullets; Eq. 1, 2, 7). Geometry from a cells file (bcm_cells.h); contact points from
-   bcm_find_contacts(); the stiffness of a pair is shared by its contact points. See
-   plugins/doc/pair_bcm_contact.md. */
+   bcm_find_contacts(); the stiffness of a pair is shared by its contact points. Restart
+   files carry the settings, the coefficients and the cumulative energies; the tangential
+   history is a per-atom store. See plugins/doc/pair_bcm_contact.md. */
 
 #ifndef BRITTLE_PAIR_BCM_CONTACT_H
 #define BRITTLE_PAIR_BCM_CONTACT_H
@@ -27,6 +28,10 @@ class PairBcmContact : public Pair {
   void coeff(int, char **) override;
   void init_style() override;
   double init_one(int, int) override;
+  void write_restart(FILE *) override;
+  void read_restart(FILE *) override;
+  void write_restart_settings(FILE *) override;
+  void read_restart_settings(FILE *) override;
   double memory_usage() override;
 
  private:
@@ -50,6 +55,15 @@ class PairBcmContact : public Pair {
   static constexpr int NEXTRA = 7;
   BcmKickWork damp_work, all_work;
   double w_fric, w_npoints;
+
+  // restart files: LAMMPS calls the pair's write_restart on rank 0 only, so the cumulative
+  // [4]-[7] of all ranks are reduced to rank 0 beforehand (collectively: in init_style,
+  // which write_restart calls, and at a step that writes a restart file), into saved
+  bigint nevals;          // force evaluations so far
+  bigint saved_at;        // nevals when saved was taken (-1: never)
+  double saved[4];        // [4]-[7] summed over ranks (rank 0)
+  void local_totals(double *out);
+  void save_totals();
 
   // per force evaluation: each local cell placed in space once, on first use
   std::vector<const BcmCells::Cell *> cell_of;

@@ -1,0 +1,209 @@
+"""How big a run is, before anything is built: elements, bonds, peak memory and time per step.
+
+The counts follow the builders' own rules without running them (BPM: `particle_count` of
+driver/bpm/packing.py and the bond/angle counts per particle of driver/bpm/network.py; BCM:
+`n_cells` and the interfaces and contact points per cell of a centroidal Voronoi
+tessellation). Memory and time are linear fits to runs measured on the development machine
+(the measured figures and commands are written beside each constant): peak resident memory
+of `driver run` with one rank, and LAMMPS loop time per 1000 steps. They are estimates to
+within a factor of about 2, meant to refuse a run that cannot fit before it starts filling
+memory, not to plan a cluster allocation.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from driver.config import ConfigError, RunConfig, steps_for_strain
+
+GIB = 1024**3
+MIB = 1024**2
+
+# Measured with the HEAD tree of 2025-xx on 2 shared cores, one rank, `/usr/bin/time -v`:
+#   /usr/bin/time -v python -m driver.cli run CASE.yaml --quiet     (plots: false)
+# where CASE.yaml is the named example with `output: {dir: /tmp/est/run_<tag>, plots: false}`
+# and the overrides listed; peak = "Maximum resident set size", loop = the LAMMPS log's
+# "Loop time of ... for N steps" of the main run.
+
+# --- BCM (examples/bcm_impact*.yaml) ------------------------------------------------------
+#: Interfaces per cell of a CVT Voronoi tessellation of the parent: I/N = a (1 - b N^(-1/3))
+#: (cells at the surface have fewer neighbours); least squares over the measured counts
+#: (system.json n_interfaces / n_cells): 300 cells 1716 (5.72), 1728 cells 10854 (6.28),
+#: 8000 cells 52652 (6.58); the fit reproduces each within 0.4 %.
+BCM_INTERFACES_BULK = 7.01
+BCM_INTERFACES_SURFACE = 1.233
+#: Contact points (interface polygon vertices) per interface: 8775/1716 = 5.11 (300 cells),
+#: 55242/10854 = 5.09 (1728), 268731/52652 = 5.10 (8000).
+BCM_POINTS_PER_INTERFACE = 5.1
+#: Lightest over mean cell mass after Lloyd iterations, which sets the time step (from
+#: system.json shortest_period): 0.852 (300 cells), 0.816 (1728), 0.769 (8000). The smallest
+#: is kept, so that the step count is an upper bound.
+BCM_MIN_MASS_RATIO = 0.77
+#: Peak RSS = base + per cell * N, least squares over 549,124 kB at 300 cells
+#: (bcm_impact_quick.yaml as it is), 603,968 kB at 1728 (bcm_impact.yaml, scenario.max_time
+#: 5e-5) and 766,932 kB at 8000 (bcm_impact.yaml, model.n_cells 8000, scenario.max_time 1e-6,
+#: settle_window 1e-6; Lloyd tessellation included, 48 s): 535 MiB + 27.6 kB per cell.
+BCM_MEMORY_BASE = 535 * MIB
+BCM_MEMORY_PER_CELL = 27.6 * 1024
+#: Loop time per cell per 1000 steps (LAMMPS log): 0.475 s / 2158 steps at 300 cells
+#: (7.3e-4), 9.5 s / 5292 steps at 1728 cells during impact (1.04e-3), 24.4 s / 2345 steps at
+#: 8000 cells (1.30e-3); the largest is kept.
+BCM_SECONDS_PER_CELL = 1.3e-3
+
+# --- BPM ----------------------------------------------------------------------------------
+#: Bonds and angles per particle (driver/bpm/network.py: exact 3 and 6 on a periodic 2D
+#: triangulation; about 11.3/2 and 25.6 in 3D with the 5/4 a cut).
+BPM_BONDS_PER_PARTICLE = {2: 3.0, 3: 5.65}
+BPM_ANGLES_PER_PARTICLE = {2: 6.0, 3: 25.6}
+#: Peak RSS = base + per particle * N. PENDING.
+BPM_MEMORY_BASE = {2: 540 * MIB, 3: 540 * MIB}
+BPM_MEMORY_PER_PARTICLE = {2: 4 * 1024, 3: 10 * 1024}
+#: Loop time per particle per 1000 steps. PENDING.
+BPM_SECONDS_PER_PARTICLE = {2: 1e-4, 3: 3e-4}
+
+#: Extra resident memory per additional MPI rank (an `lmp` process with the plugins loaded).
+RANK_MEMORY = 100 * MIB
+
+
+@dataclass(frozen=True)
+class SizeEstimate:
+    """What a configuration will cost.
+
+    elements: cells (BCM) or particles (BPM). bonds: interfaces (BCM) or bonds + angles (BPM).
+    memory_bytes: peak resident memory of `driver run` over all ranks.
+    seconds_per_1000_steps: LAMMPS time per 1000 steps on the given ranks (ideal scaling).
+    steps: steps of the main run (BCM: the `max_time` bound; a run that settles stops earlier).
+    """
+
+    model: str
+    elements: int
+    element_name: str
+    bonds: int
+    bond_name: str
+    memory_bytes: int
+    seconds_per_1000_steps: float
+    steps: int
+    ranks: int = 1
+
+    @property
+    def seconds(self) -> float:
+        """Estimated LAMMPS time of the whole main run (an upper bound for BCM)."""
+        return self.seconds_per_1000_steps * self.steps / 1000.0
+
+    def describe(self) -> str:
+        """One line, e.g. 'BPM 2D: ~980 particles, ~8,800 bonds + angles; ~0.55 GiB; ...'."""
+        bound = "at most " if self.model == "BCM" else ""
+        return (f"{self.model}: ~{self.elements:,} {self.element_name}, ~{self.bonds:,} {self.bond_name}; "
+                f"~{self.memory_bytes / GIB:.2f} GiB memory; ~{_duration(self.seconds_per_1000_steps)} per "
+                f"1000 steps on {self.ranks} rank{'s' if self.ranks > 1 else ''}, {bound}{self.steps:,} steps "
+                f"(~{_duration(self.seconds)})")
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 60:
+        return f"{seconds:.2g} s"
+    if seconds < 3600:
+        return f"{seconds / 60:.2g} min"
+    if seconds < 86400 * 2:
+        return f"{seconds / 3600:.2g} h"
+    return f"{seconds / 86400:.3g} days"
+
+
+def bcm_interfaces(n_cells: int) -> int:
+    """Expected interfaces of a CVT tessellation of n_cells (see BCM_INTERFACES_*)."""
+    per_cell = BCM_INTERFACES_BULK * (1.0 - BCM_INTERFACES_SURFACE * n_cells ** (-1.0 / 3.0))
+    return int(round(max(per_cell, 0.5) * n_cells))
+
+
+def _bcm(cfg: RunConfig, ranks: int) -> SizeEstimate:
+    from driver.bcm.particle import parent_shape  # noqa: PLC0415 (geometry; not needed to validate)
+
+    m, sc = cfg.model, cfg.scenario
+    n = m.n_cells
+    interfaces = bcm_interfaces(n)
+    points = int(round(interfaces * BCM_POINTS_PER_INTERFACE))
+    # SPEC 1.4 time step, as driver/bcm/particle.py contact_timestep, with m_min from the mean
+    volume = parent_shape(m.shape, m.diameter, m.diameter_kind).volume
+    m_min = BCM_MIN_MASS_RATIO * m.density * volume / n
+    k_max = max(m.contact.kn, m.interface.kn)
+    dt = 2.0 * math.pi * math.sqrt(0.5 * m_min / k_max) / sc.steps_per_period
+    return SizeEstimate(
+        model="BCM", elements=n, element_name="cells", bonds=interfaces,
+        bond_name=f"interfaces ({points:,} contact points)",
+        memory_bytes=int(BCM_MEMORY_BASE + (ranks - 1) * RANK_MEMORY + BCM_MEMORY_PER_CELL * n),
+        seconds_per_1000_steps=BCM_SECONDS_PER_CELL * n / ranks,
+        steps=int(math.ceil(sc.max_time / dt)), ranks=ranks)
+
+
+def _bpm(cfg: RunConfig, ranks: int) -> SizeEstimate:
+    from driver.bpm.packing import DEFAULT_PHI, particle_count  # noqa: PLC0415 (imports scipy)
+
+    m, sc = cfg.model, cfg.scenario
+    d = m.dimension
+    phi = m.packing_fraction if m.packing_fraction is not None else DEFAULT_PHI[d]
+    n = particle_count(d, m.L, phi)
+    bonds = int(round(BPM_BONDS_PER_PARTICLE[d] * n))
+    angles = int(round(BPM_ANGLES_PER_PARTICLE[d] * n))
+    return SizeEstimate(
+        model=f"BPM {d}D", elements=n, element_name="particles", bonds=bonds + angles,
+        bond_name=f"bonds + angles ({bonds:,} + {angles:,})",
+        memory_bytes=int(BPM_MEMORY_BASE[d] + (ranks - 1) * RANK_MEMORY + BPM_MEMORY_PER_PARTICLE[d] * n),
+        seconds_per_1000_steps=BPM_SECONDS_PER_PARTICLE[d] * n / ranks,
+        steps=steps_for_strain(sc.max_strain, sc.strain_rate, m.timestep), ranks=ranks)
+
+
+def estimate(cfg: RunConfig, np_ranks: int | None = None) -> SizeEstimate:
+    """Size, memory and time of the run `cfg` describes, without building it.
+
+    np_ranks: MPI ranks (`--np`); default cfg.execution.np.
+    """
+    ranks = np_ranks if np_ranks is not None else cfg.execution.np
+    if cfg.model.kind == "bcm":
+        return _bcm(cfg, ranks)
+    return _bpm(cfg, ranks)
+
+
+def available_memory_bytes(meminfo: str | Path = "/proc/meminfo",
+                           cgroup: str | Path = "/sys/fs/cgroup") -> int | None:
+    """MemAvailable of /proc/meminfo in bytes, lowered to what the cgroup (v2) memory limit
+    leaves (memory.max - memory.current; a container is killed there, whatever the host has).
+    None where MemAvailable cannot be read (not Linux)."""
+    try:
+        text = Path(meminfo).read_text()
+    except OSError:
+        return None
+    available = None
+    for line in text.splitlines():
+        if line.startswith("MemAvailable:"):
+            fields = line.split()
+            try:
+                available = int(fields[1]) * (1024 if fields[-1].lower() == "kb" else 1)
+            except (IndexError, ValueError):
+                return None
+    if available is None:
+        return None
+    try:
+        limit = Path(cgroup, "memory.max").read_text().strip()
+        used = int(Path(cgroup, "memory.current").read_text())
+        if limit != "max":
+            available = min(available, max(int(limit) - used, 0))
+    except (OSError, ValueError):
+        pass
+    return available
+
+
+def check_size(cfg: RunConfig, allow_large: bool = False, np_ranks: int | None = None,
+               available: int | None = None, source: str | None = None) -> SizeEstimate:
+    """The estimate of `cfg`; ConfigError when it needs more memory than is available, unless
+    allow_large (`--yes`). available: bytes, default available_memory_bytes() (no check where
+    that is unknown). source: the input file, named in the message."""
+    est = estimate(cfg, np_ranks)
+    if available is None:
+        available = available_memory_bytes()
+    if available is not None and est.memory_bytes > available and not allow_large:
+        where = f"{source}: " if source else ""
+        raise ConfigError(f"{where}this run needs about {est.memory_bytes / GIB:.3g} GiB, "
+                          f"{available / GIB:.3g} GiB available; use --yes to run anyway\n  {est.describe()}")
+    return est

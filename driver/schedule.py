@@ -1,0 +1,111 @@
+"""Run schedules: how a scenario's steps are cut into chunks, and the files that carry them.
+
+A scenario renders its LAMMPS input twice from one template (a fresh start from the data file,
+`setup.lammps`, and a start from a checkpoint, `resume.lammps`) and describes the rest of the
+run as a schedule (session.json) that driver/session.py executes chunk by chunk. `in.lammps`
+is the same run as one standalone LAMMPS script (`include setup.lammps` and the schedule as
+LAMMPS loops), so `lmp -in in.lammps -var plugin PATH` repeats it without the driver.
+
+Chunk boundaries depend on the config alone (a whole `run` each, with its own setup), so an
+interrupted and resumed run makes exactly the operations of an uninterrupted one.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+from driver.rundir import atomic_write_json, atomic_write_text
+
+# Element-steps per chunk when execution.chunk_steps is not set: about a second of one core
+# (BCM ~0.9e6 cell-steps/s, BPM 2D ~7e6 particle-steps/s, 3D ~1.5e6; bench/), so a stop
+# request is answered within about a second and a chunk's setup costs well under 1 %.
+ELEMENT_STEPS_PER_CHUNK = {"bcm": 1.0e6, "bpm": 3.0e6}
+
+
+def chunk_steps(model_kind: str, n_elements: int, configured: int | None, minimum: int = 50) -> int:
+    """Steps per chunk: the configured value, or about a second of work on one core."""
+    if configured:
+        return int(configured)
+    return max(minimum, int(ELEMENT_STEPS_PER_CHUNK[model_kind] / max(1, n_elements)))
+
+
+def _loop(name: str, count: int, body: str) -> str:
+    """LAMMPS text running `body` `count` times (a loop variable is deleted when exhausted)."""
+    if count <= 0:
+        return ""
+    if count == 1:
+        return body + "\n"
+    return (f"variable        {name} loop {count}\nlabel           {name}_top\n{body}\n"
+            f"next            {name}\njump            SELF {name}_top\n")
+
+
+# ------------------------------------------------------------------------- segments
+def segments(total_steps: int, chunk: int, snapshots: dict[int, list[str]]) -> dict[str, Any]:
+    """Run to total_steps in chunks; after each step listed in snapshots, its commands."""
+    return {"kind": "segments", "total_steps": int(total_steps), "chunk": int(chunk),
+            "snapshots": {str(k): v for k, v in sorted(snapshots.items()) if 0 < k <= total_steps}}
+
+
+def segments_script(sched: dict[str, Any]) -> str:
+    chunk = sched["chunk"]
+    snapshots = {int(k): v for k, v in sched["snapshots"].items()}
+    out, step = [], 0
+    for n, target in enumerate(sorted({*snapshots, sched["total_steps"]})):
+        first = min(target, (step // chunk + 1) * chunk)
+        if first > step:
+            out.append(f"run             {first - step}")
+            step = first
+        full = (target - step) // chunk
+        out.append(_loop(f"c{n}", full, f"run             {chunk}").rstrip())
+        step += full * chunk
+        if target > step:
+            out.append(f"run             {target - step}")
+            step = target
+        out += snapshots.get(target, [])
+    return "\n".join(line for line in out if line) + "\n"
+
+
+# --------------------------------------------------------------------------- settle
+def settle_windows(window_steps: int, chunk: int) -> tuple[int, int]:
+    """(window, chunk) with the window a whole number of chunks: the window is rounded up by
+    less than one chunk's share, so windows and chunks share boundaries."""
+    k = max(1, math.ceil(window_steps / chunk))
+    chunk = math.ceil(window_steps / k)
+    return k * chunk, chunk
+
+
+def settle(window: int, chunk: int, max_windows: int, check: list[str], settled_variable: str,
+           advance: list[str], end: list[str]) -> dict[str, Any]:
+    """Windows of `window` steps (a multiple of `chunk`); after each, `check`, then stop if the
+    equal-style variable `settled_variable` is > 0, else `advance`; `end` after the last."""
+    if window % chunk:
+        raise ValueError(f"window {window} is not a multiple of the chunk {chunk}")
+    return {"kind": "settle", "window": int(window), "chunk": int(chunk), "max_windows": int(max_windows),
+            "check": check, "settled_variable": settled_variable, "advance": advance, "end": end}
+
+
+def settle_script(sched: dict[str, Any]) -> str:
+    inner = _loop("k", sched["window"] // sched["chunk"], f"run             {sched['chunk']}").rstrip()
+    lines = ["label           settle", f"variable        w loop {sched['max_windows']}", inner, *sched["check"],
+             'if              "${' + sched["settled_variable"] + '} > 0" then "jump SELF finished"',
+             *sched["advance"], "next            w", "jump            SELF settle", "label           finished",
+             *sched["end"]]
+    return "\n".join(lines) + "\n"
+
+
+# ---------------------------------------------------------------------------- files
+def write_session(root: Path, setup: str, resume: str, schedule: dict[str, Any], checkpoint_every_steps: int | None,
+                  checkpoint_variables: list[str] = ()) -> None:
+    """setup.lammps, resume.lammps, in.lammps (standalone) and session.json of a run."""
+    atomic_write_text(root / "setup.lammps", setup)
+    atomic_write_text(root / "resume.lammps", resume)
+    body = segments_script(schedule) if schedule["kind"] == "segments" else settle_script(schedule)
+    atomic_write_text(root / "in.lammps", "# The whole run as one LAMMPS script (the driver runs the same steps in\n"
+                                          "# checkpointed chunks):  lmp -in in.lammps -var plugin /path/to/plugin.so\n"
+                                          "include         setup.lammps\n\n" + body)
+    atomic_write_json(root / "session.json", {
+        "setup": "setup.lammps", "resume": "resume.lammps", "checkpoints": "checkpoints",
+        "schedule": schedule, "checkpoint_every_steps": checkpoint_every_steps,
+        "checkpoint_variables": list(checkpoint_variables)})

@@ -1,0 +1,233 @@
+"""Stopping and resuming runs: SIGINT/SIGTERM stop a run at a chunk boundary with a checkpoint,
+SIGKILL leaves a stale run that `driver status` names, `--resume` carries a run on and gives
+the results of an uninterrupted run (identical on 1 rank), `driver post` analyses a partial
+run, and a failed re-analysis keeps the previous summary."""
+
+from __future__ import annotations
+
+import filecmp
+import io
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+import yaml
+from rich.console import Console
+
+from driver.config import ConfigError, parse_config
+from driver.pipeline import execute
+from driver.rundir import latest_checkpoint, read_status, run_state
+
+# 2D shear of ~430 particles to strain 0.5: 100,000 steps in chunks of 1000 (~3 s of LAMMPS)
+SHEAR = {"name": "shear", "seed": 3, "model": {"kind": "bpm", "dimension": 2, "L": 16},
+         "scenario": {"kind": "shear", "strain_rate": 0.001, "max_strain": 0.5,
+                      "measure_strains": [0.1, 0.25, 0.5], "thermo_every": 100},
+         "execution": {"chunk_steps": 1000}, "output": {"plots": False}}
+SHEAR_STEPS = 100_000
+# BCM impact of 300 cells at 4.5 m/s, chunks of ~430 steps, settled near step 8,700
+IMPACT = {"name": "impact", "seed": 1, "model": {"kind": "bcm", "n_cells": 300},
+          "scenario": {"kind": "impact", "velocity": 4.5, "max_time": 4e-4, "thermo_every": 100},
+          "execution": {"chunk_steps": 500}, "output": {"plots": False}}
+IMPACT_STEPS = 8000
+
+
+def config_file(tmp_path: Path, base: dict, name: str, **execution) -> Path:
+    cfg = json.loads(json.dumps(base))
+    cfg["execution"].update(execution)
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    return path
+
+
+def driver(*args: str) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "driver.cli", *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def last_step(out: Path) -> int:
+    try:
+        lines = [ln for ln in (out / "thermo.dat").read_text().splitlines() if ln.strip() and ln[0] != "#"]
+    except OSError:
+        return -1
+    return int(float(lines[-1].split()[0])) if lines else -1
+
+
+def run_and_signal(cfg: Path, out: Path, at_step: int, sig: int, *extra: str,
+                   wait_for_checkpoint: bool = False) -> tuple[int, float, str]:
+    """Start `driver run`, send `sig` once the record passes `at_step`; (exit code, seconds from
+    the signal to the exit, stderr)."""
+    proc = driver("run", str(cfg), "-o", str(out), "--quiet", *extra)
+    deadline = time.time() + 240
+    while proc.poll() is None and time.time() < deadline:
+        if last_step(out) > at_step and (not wait_for_checkpoint or latest_checkpoint(out) is not None):
+            break
+        time.sleep(0.02)
+    assert proc.poll() is None, f"the run ended before step {at_step}: {proc.stderr.read()[-2000:]}"
+    t0 = time.time()
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    return proc.returncode, time.time() - t0, err
+
+
+def assert_same_results(a: Path, b: Path) -> None:
+    """Tables, summary and dumps of two runs are identical."""
+    tables = sorted(p.name for p in (a / "results").glob("*.parquet"))
+    assert tables and tables == sorted(p.name for p in (b / "results").glob("*.parquet"))
+    for name in tables:
+        pd.testing.assert_frame_equal(pd.read_parquet(a / "results" / name), pd.read_parquet(b / "results" / name),
+                                      check_exact=True)
+    assert json.loads((a / "results/summary.json").read_text()) == json.loads((b / "results/summary.json").read_text())
+    dumps = sorted(p.name for p in (a / "dumps").iterdir())
+    assert dumps == sorted(p.name for p in (b / "dumps").iterdir())
+    for name in dumps:
+        assert filecmp.cmp(a / "dumps" / name, b / "dumps" / name, shallow=False), name
+
+
+@pytest.fixture(scope="module")
+def shear_reference(tmp_path_factory, plugin_path) -> Path:
+    out = tmp_path_factory.mktemp("ref") / "shear"
+    execute(parse_config({**SHEAR, "output": {**SHEAR["output"], "dir": str(out)}}), show_progress=False)
+    return out
+
+
+# ---------------------------------------------------------------------- SIGINT/TERM
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_signal_stops_one_rank_shear_and_resume_is_identical(tmp_path, shear_reference, sig):
+    cfg = config_file(tmp_path, SHEAR, "shear")
+    out = tmp_path / "run"
+    code, seconds, err = run_and_signal(cfg, out, SHEAR_STEPS // 2, sig)
+    assert code == 128 + sig, err
+    assert seconds < 10
+    st = read_status(out)
+    assert st["state"] == "interrupted" and st["phase"] == "lammps"
+    ckpt = latest_checkpoint(out)
+    assert ckpt is not None and ckpt["step"] == st["checkpoint_step"] and 0 < ckpt["step"] < SHEAR_STEPS
+    assert "--resume" in err
+    # a plain re-run does not throw the checkpoint away
+    again = subprocess.run([sys.executable, "-m", "driver.cli", "run", str(cfg), "-o", str(out), "--quiet"],
+                           capture_output=True, text=True)
+    assert again.returncode == 2 and "--resume" in again.stderr
+    resumed = subprocess.run([sys.executable, "-m", "driver.cli", "run", str(cfg), "-o", str(out), "--resume",
+                              "--quiet"], capture_output=True, text=True)
+    assert resumed.returncode == 0, resumed.stderr[-3000:]
+    assert read_status(out)["state"] == "finished"
+    assert_same_results(shear_reference, out)
+    prov = json.loads((out / "provenance.json").read_text())
+    assert prov["resumed"][0]["from_step"] == ckpt["step"]
+
+
+def test_sigint_stops_bcm_impact_and_resume_is_identical(tmp_path, plugin_path):
+    cfg = config_file(tmp_path, IMPACT, "impact")
+    ref = tmp_path / "ref"
+    assert subprocess.run([sys.executable, "-m", "driver.cli", "run", str(cfg), "-o", str(ref), "--quiet"],
+                          capture_output=True).returncode == 0
+    out = tmp_path / "run"
+    code, seconds, err = run_and_signal(cfg, out, IMPACT_STEPS // 2, signal.SIGINT)
+    assert code == 130 and seconds < 10, err
+    assert read_status(out)["state"] == "interrupted" and latest_checkpoint(out) is not None
+    resumed = subprocess.run([sys.executable, "-m", "driver.cli", "run", str(out), "--resume", "--quiet"],
+                             capture_output=True, text=True)
+    assert resumed.returncode == 0, resumed.stderr[-3000:]
+    assert_same_results(ref, out)
+
+
+@pytest.mark.mpi
+def test_sigint_stops_two_rank_run_and_resume_completes(tmp_path, plugin_path):
+    """2 ranks: the stop request reaches every rank through rank 0 (include control.lmp); the
+    resumed run matches an uninterrupted 2-rank run."""
+    cfg = config_file(tmp_path, SHEAR, "shear2", np=2)
+    ref = tmp_path / "ref"
+    assert subprocess.run([sys.executable, "-m", "driver.cli", "run", str(cfg), "-o", str(ref), "--quiet"],
+                          capture_output=True).returncode == 0
+    out = tmp_path / "run"
+    code, seconds, err = run_and_signal(cfg, out, SHEAR_STEPS // 2, signal.SIGINT)
+    assert code == 130 and seconds < 10, err
+    assert read_status(out)["state"] == "interrupted" and latest_checkpoint(out) is not None
+    resumed = subprocess.run([sys.executable, "-m", "driver.cli", "run", str(cfg), "-o", str(out), "--resume",
+                              "--quiet"], capture_output=True, text=True)
+    assert resumed.returncode == 0, resumed.stderr[-3000:]
+    one = json.loads((ref / "results/summary.json").read_text())
+    two = json.loads((out / "results/summary.json").read_text())
+    assert two["bonds_broken"] == one["bonds_broken"] and two["grains_at_strain"] == one["grains_at_strain"]
+
+
+# -------------------------------------------------------------------------- SIGKILL
+def test_sigkill_leaves_a_stale_run_that_post_reads_and_resume_completes(tmp_path, shear_reference):
+    cfg = config_file(tmp_path, SHEAR, "shear", checkpoint_every="20000steps")
+    out = tmp_path / "run"
+    code, _, _ = run_and_signal(cfg, out, int(SHEAR_STEPS * 0.6), signal.SIGKILL, wait_for_checkpoint=True)
+    assert code == -signal.SIGKILL
+    assert read_status(out)["state"] == "running"  # what the killed process left
+    assert run_state(out)["state"] == "stale"
+    status = subprocess.run([sys.executable, "-m", "driver.cli", "status", str(out)], capture_output=True, text=True)
+    assert status.returncode == 0 and "stale" in status.stdout
+    kept = sorted(p.name for p in (out / "checkpoints").glob("step*.json"))
+    assert 1 <= len(kept) <= 2
+    # the snapshots it dumped are data: post analyses them and says what is missing
+    post = subprocess.run([sys.executable, "-m", "driver.cli", "post", str(out), "--no-plots"], capture_output=True,
+                          text=True)
+    assert post.returncode == 0, post.stderr[-3000:]
+    assert "did not finish" in post.stderr
+    summary = json.loads((out / "results/summary.json").read_text())
+    assert "0.1" in summary["grains_at_strain"] and "0.5" not in summary["grains_at_strain"]
+    resumed = subprocess.run([sys.executable, "-m", "driver.cli", "run", str(cfg), "-o", str(out), "--resume",
+                              "--quiet"], capture_output=True, text=True)
+    assert resumed.returncode == 0, resumed.stderr[-3000:]
+    assert_same_results(shear_reference, out)
+
+
+def test_resume_refused_when_the_config_changed(tmp_path, plugin_path):
+    cfg = config_file(tmp_path, SHEAR, "shear")
+    out = tmp_path / "run"
+    run_and_signal(cfg, out, SHEAR_STEPS // 4, signal.SIGINT)
+    changed = {**SHEAR, "model": {**SHEAR["model"], "k_A": 2.0}, "output": {"dir": str(out)}}
+    with pytest.raises(ConfigError, match=r"model.k_A: 4.0 -> 2.0"):
+        execute(parse_config(changed), resume=True, show_progress=False)
+    assert read_status(out)["state"] == "interrupted"
+
+
+# ------------------------------------------------------------------ progress, post
+def test_progress_follows_a_relative_output_dir(tmp_path, monkeypatch, plugin_path):
+    """Observed: with a relative output.dir on 1 rank the bar stayed at step 0 (the monitor
+    polled a relative path after the run changed directory)."""
+    monkeypatch.chdir(tmp_path)
+    buf = io.StringIO()
+    cfg = {**SHEAR, "scenario": {**SHEAR["scenario"], "max_strain": 0.1, "measure_strains": [0.1]},
+           "output": {"plots": False, "dir": "rel/run"}}
+    execute(parse_config(cfg), console=Console(file=buf, width=200), show_progress=True)
+    assert "step 20,000/20,000" in buf.getvalue()
+
+
+def test_failed_reanalysis_keeps_the_previous_summary(shear_reference, tmp_path):
+    import shutil
+
+    run = tmp_path / "copy"
+    shutil.copytree(shear_reference, run)
+    summary = (run / "results/summary.json").read_bytes()
+    tables = {p.name: p.read_bytes() for p in (run / "results").iterdir()}
+    last = sorted((run / "dumps").glob("bonds.*.lammpstrj"), key=lambda p: int(p.name.split(".")[1]))[-1]
+    last.write_text(last.read_text()[:200])  # truncated: the analysis fails on it
+    post = subprocess.run([sys.executable, "-m", "driver.cli", "post", str(run), "--no-plots"], capture_output=True,
+                          text=True)
+    assert post.returncode == 2
+    assert (run / "results/summary.json").read_bytes() == summary
+    assert {p.name: p.read_bytes() for p in (run / "results").iterdir()} == tables
+    assert read_status(run)["state"] == "finished" and not (run / ".post-staging").exists()
+
+
+def test_checkpoints_every_steps_keep_the_last_two(tmp_path, plugin_path):
+    out = tmp_path / "run"
+    cfg = {**SHEAR, "scenario": {**SHEAR["scenario"], "max_strain": 0.2, "measure_strains": [0.2]},
+           "execution": {"chunk_steps": 1000, "checkpoint_every": "5000steps"}, "output": {"dir": str(out)}}
+    execute(parse_config(cfg), show_progress=False)
+    records = sorted(p.name for p in (out / "checkpoints").glob("step*.json"))
+    assert records == ["step000000030000.json", "step000000035000.json"]
+    assert sorted(p.name for p in (out / "checkpoints").glob("*.restart")) == [
+        "step000000030000.restart", "step000000035000.restart"]
+    assert os.path.getsize(out / "checkpoints" / "step000000035000.restart") > 0
