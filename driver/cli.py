@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
 from pathlib import Path
@@ -162,15 +163,17 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
             if given:
                 _fail(f"{' '.join(given)}: options for dump files named on the command line, not for a run "
                       f"directory ({run_dir}); its results are rewritten in place from its resolved config", 2)
+            from driver.rundir import read_status, run_state  # noqa: PLC0415
+
+            if run_state(run_dir)["state"] == "running":
+                _fail(f"{run_dir}: a run is in progress there; analyse it when it has stopped", 2)
             cfg = load_resolved(run_dir)
             cfg["output"]["plots"] = plots
             if thresholds is not None:
                 cfg["output"]["count_above"] = thresholds
             animate = animate or cfg["output"].get("animation", False)
             cfg["output"]["animation"] = False  # made below, with a message
-            from driver.rundir import is_finished  # noqa: PLC0415
-
-            unfinished = not is_finished(run_dir)
+            unfinished = (read_status(run_dir) or {}).get("state") != "finished"
             if unfinished:
                 err.print(f"[yellow]{run_dir} did not finish (status.json): analysing the snapshots it has")
             summary = analyse_run(run_dir, cfg, partial=unfinished)
@@ -222,9 +225,17 @@ def scaling(paths: list[Path] = typer.Argument(..., help="run directories and/or
     from driver.rundir import SET_MARKER, SWEEP_MARKER, claim_dir  # noqa: PLC0415
 
     try:
+        existed = out.exists()
         out = claim_dir(out, SET_MARKER, "set-analysis directory", accept=(SWEEP_MARKER,))
+    except RunDirError as exc:
+        _fail(str(exc), 2)
+    try:
         result = analyse_set(paths, out, plots=plots, strain=strain, n_bootstrap=bootstrap)
-    except (RunSetError, RunDirError) as exc:
+    except RunSetError as exc:
+        if not existed:  # a set refused leaves no folder behind
+            (out / SET_MARKER).unlink(missing_ok=True)
+            with contextlib.suppress(OSError):
+                out.rmdir()
         _fail(str(exc), 2)
     err.print(f"[green]set analysed:[/] {out}/report.html")
     typer.echo(json.dumps(result, indent=2, default=str))

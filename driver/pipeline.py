@@ -213,10 +213,12 @@ def analyse_run(run_dir: Path, cfg: dict, partial: bool = False) -> dict:
             (staging / entry.name).symlink_to(entry)
         for name in _STAGED:
             (staging / name).mkdir()
-            if (run_dir / name).is_dir():
+            if (run_dir / name).is_dir():  # earlier results, and anything a user put there
                 for f in (run_dir / name).iterdir():
-                    if f.is_file() and f.name != "summary.json":
-                        shutil.copy2(f, staging / name / f.name)
+                    if f.is_dir() and not f.is_symlink():
+                        shutil.copytree(f, staging / name / f.name, symlinks=True)
+                    elif f.name != "summary.json":
+                        shutil.copy2(f, staging / name / f.name, follow_symlinks=False)
         summary = _analyse(staging, cfg, partial)
         atomic_write_json(staging / "results" / "summary.json", {"name": cfg["name"], **summary})
         # swap in: plots and reports first, the results (holding summary.json) last

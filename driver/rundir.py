@@ -304,8 +304,10 @@ class RunDir:
                                   "another output directory")
             elif state is not None and state != "finished" and not force \
                     and latest_checkpoint(self.root) is not None:
-                raise RunDirError(f"{self.root}: holds an {state if state != 'running' else 'interrupted'} run with "
-                                  "checkpoints; use --resume to continue it, or --force to start it again")
+                what = (f"a stale run (its process {st.get('pid', '?')} on {st.get('host', '?')} is gone)"
+                        if state == "running" else f"an {state} run")
+                raise RunDirError(f"{self.root}: holds {what} with checkpoints; use --resume to continue it, or "
+                                  "--force to start it again")
             else:
                 action = self.clear() if state is not None or self._has_layout_entries() else "new"
             for d in (self.dumps, self.results, self.plots):

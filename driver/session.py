@@ -86,8 +86,7 @@ class Session:
         self.state = dict(checkpoint.get("state", {}))
         for name, value in checkpoint.get("variables", {}).items():
             self.lmp.command(f"variable {name} equal {float(value)!r}")
-        self.last_checkpoint_step = self.step
-        self.checkpoint_requests_done = int(checkpoint.get("checkpoint_requests", 0))
+        self.last_checkpoint_step = self.step  # the driver's request counter starts again at 0
 
     # ------------------------------------------------------------ schedule
     def run(self) -> None:
@@ -166,7 +165,7 @@ class Session:
         atomic_write_json(folder / f"step{self.step:012d}.json", {
             "step": self.step, "restart": name, "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
             "simulated_time": self.lmp.extract_global("atime"), "state": self.state,
-            "variables": variables, "checkpoint_requests": self.checkpoint_requests_done})
+            "variables": variables})
         records = sorted(folder.glob("step*.json"))
         for old in records[:-KEEP_CHECKPOINTS]:
             old.unlink(missing_ok=True)
