@@ -39,6 +39,7 @@ def run(input_yaml: Path = typer.Argument(..., help="run configuration (YAML), o
     """Build the system, run it in LAMMPS, and write results to the run directory."""
     from driver.pipeline import execute  # noqa: PLC0415
     from driver.runner import RunInterrupted  # noqa: PLC0415
+    from driver.session import SessionError  # noqa: PLC0415
 
     if force and resume:
         _fail("--force and --resume exclude each other: --force starts again, --resume carries on", 2)
@@ -63,6 +64,8 @@ def run(input_yaml: Path = typer.Argument(..., help="run configuration (YAML), o
         _fail(str(exc), 2)
     except PluginBuildError as exc:
         _fail(str(exc), 3)
+    except SessionError as exc:
+        _fail(f"{cfg.run_dir()}: {exc}", 1)
     except LammpsError as exc:
         _fail(f"LAMMPS: {exc}", 1)
     except RunInterrupted as exc:

@@ -21,11 +21,12 @@ from driver.config import ConfigError, RunConfig, steps_for_strain
 GIB = 1024**3
 MIB = 1024**2
 
-# Measured with the HEAD tree of 2025-xx on 2 shared cores, one rank, `/usr/bin/time -v`:
-#   /usr/bin/time -v python -m driver.cli run CASE.yaml --quiet     (plots: false)
-# where CASE.yaml is the named example with `output: {dir: /tmp/est/run_<tag>, plots: false}`
-# and the overrides listed; peak = "Maximum resident set size", loop = the LAMMPS log's
-# "Loop time of ... for N steps" of the main run.
+# Measured on the development machine (2 shared cores, other jobs running; the HEAD tree of
+# this repository), one rank, plots off:
+#   /usr/bin/time -v python -m driver.cli run CASE.yaml --quiet
+# CASE.yaml: the named example with `output: {dir: /tmp/est/run_<tag>, plots: false}` and the
+# overrides listed. Memory: "Maximum resident set size" (the whole run: build, LAMMPS,
+# analysis). Time: the LAMMPS log's "Loop time of T on 1 procs for S steps" of the main run.
 
 # --- BCM (examples/bcm_impact*.yaml) ------------------------------------------------------
 #: Interfaces per cell of a CVT Voronoi tessellation of the parent: I/N = a (1 - b N^(-1/3))
@@ -52,19 +53,31 @@ BCM_MEMORY_PER_CELL = 27.6 * 1024
 #: 8000 cells (1.30e-3); the largest is kept.
 BCM_SECONDS_PER_CELL = 1.3e-3
 
-# --- BPM ----------------------------------------------------------------------------------
-#: Bonds and angles per particle (driver/bpm/network.py: exact 3 and 6 on a periodic 2D
-#: triangulation; about 11.3/2 and 25.6 in 3D with the 5/4 a cut).
+# --- BPM (examples/bpm_shear_2d.yaml, scenario.max_strain and measure_strains shortened) ---
+#: Bonds and angles per particle (driver/bpm/network.py: exactly 3 and 6 on a periodic 2D
+#: triangulation; in 3D with the 5/4 a cut, measured 5.63-5.66 bonds and 25.4-25.7 angles per
+#: particle at L = 8, 16, 24, 32).
 BPM_BONDS_PER_PARTICLE = {2: 3.0, 3: 5.65}
 BPM_ANGLES_PER_PARTICLE = {2: 6.0, 3: 25.6}
-#: Peak RSS = base + per particle * N. PENDING.
-BPM_MEMORY_BASE = {2: 540 * MIB, 3: 540 * MIB}
-BPM_MEMORY_PER_PARTICLE = {2: 4 * 1024, 3: 10 * 1024}
-#: Loop time per particle per 1000 steps. PENDING.
-BPM_SECONDS_PER_PARTICLE = {2: 1e-4, 3: 3e-4}
+#: Peak RSS = base + per particle * N, least squares.
+#: 2D: L 24 (976 particles) 248,564 kB; L 96 (15,616) 278,180 kB; L 192 (62,464) 372,208 kB
+#:     -> 241 MiB + 2.01 kB per particle (within 0.1 MB of each).
+#: 3D (model.dimension 3): L 8 (645) 246,444 kB; L 16 (5,163) 271,484 kB; L 24 (17,425)
+#:     488,728 kB; L 32 (41,304) 725,148 kB -> 231 MiB + 12.1 kB per particle (within 40 MB).
+BPM_MEMORY_BASE = {2: 241 * MIB, 3: 231 * MIB}
+BPM_MEMORY_PER_PARTICLE = {2: 2.01 * 1024, 3: 12.1 * 1024}
+#: Loop time per particle per 1000 steps.
+#: 2D: 2.86 s / 20,000 steps at 976 (1.47e-4), 5.36 s / 2000 at 15,616 (1.72e-4; 2.15e-4 in
+#:     a second run), 4.31 s / 400 at 62,464 (1.72e-4).
+#: 3D: 1.91 s / 4000 at 645 (7.4e-4), 3.87 s / 1000 at 5,163 (7.5e-4), 2.21 s / 200 at 17,425
+#:     (6.3e-4), 5.22 s / 100 at 41,304 (1.26e-3).
+BPM_SECONDS_PER_PARTICLE = {2: 1.8e-4, 3: 1.0e-3}
 
-#: Extra resident memory per additional MPI rank (an `lmp` process with the plugins loaded).
-RANK_MEMORY = 100 * MIB
+#: With --np N > 1 LAMMPS runs as N `lmp` processes beside the driver: summed RSS of the
+#: process tree (polled every 0.1 s) 549,168 kB with 1 rank, 949,276 kB with 2
+#: (bcm_impact_quick.yaml, execution.np 2), i.e. about 195 MiB per rank. Time is divided by
+#: N (ideal; that run's loop took 0.307 s instead of 0.475 s, a speed-up of 1.55).
+RANK_MEMORY = 195 * MIB
 
 
 @dataclass(frozen=True)
@@ -111,6 +124,11 @@ def _duration(seconds: float) -> str:
     return f"{seconds / 86400:.3g} days"
 
 
+def _ranks_memory(ranks: int) -> float:
+    """One rank runs inside the driver; N > 1 ranks are N extra processes (see RANK_MEMORY)."""
+    return RANK_MEMORY * ranks if ranks > 1 else 0.0
+
+
 def bcm_interfaces(n_cells: int) -> int:
     """Expected interfaces of a CVT tessellation of n_cells (see BCM_INTERFACES_*)."""
     per_cell = BCM_INTERFACES_BULK * (1.0 - BCM_INTERFACES_SURFACE * n_cells ** (-1.0 / 3.0))
@@ -132,7 +150,7 @@ def _bcm(cfg: RunConfig, ranks: int) -> SizeEstimate:
     return SizeEstimate(
         model="BCM", elements=n, element_name="cells", bonds=interfaces,
         bond_name=f"interfaces ({points:,} contact points)",
-        memory_bytes=int(BCM_MEMORY_BASE + (ranks - 1) * RANK_MEMORY + BCM_MEMORY_PER_CELL * n),
+        memory_bytes=int(BCM_MEMORY_BASE + _ranks_memory(ranks) + BCM_MEMORY_PER_CELL * n),
         seconds_per_1000_steps=BCM_SECONDS_PER_CELL * n / ranks,
         steps=int(math.ceil(sc.max_time / dt)), ranks=ranks)
 
@@ -149,7 +167,7 @@ def _bpm(cfg: RunConfig, ranks: int) -> SizeEstimate:
     return SizeEstimate(
         model=f"BPM {d}D", elements=n, element_name="particles", bonds=bonds + angles,
         bond_name=f"bonds + angles ({bonds:,} + {angles:,})",
-        memory_bytes=int(BPM_MEMORY_BASE[d] + (ranks - 1) * RANK_MEMORY + BPM_MEMORY_PER_PARTICLE[d] * n),
+        memory_bytes=int(BPM_MEMORY_BASE[d] + _ranks_memory(ranks) + BPM_MEMORY_PER_PARTICLE[d] * n),
         seconds_per_1000_steps=BPM_SECONDS_PER_PARTICLE[d] * n / ranks,
         steps=steps_for_strain(sc.max_strain, sc.strain_rate, m.timestep), ranks=ranks)
 

@@ -49,7 +49,8 @@ os.umask(_UMASK)
 LAYOUT_FILES = (STATUS, MARKER, LOCK, "input.yaml", "config.resolved.yaml", "provenance.json", "system.json",
                 "system.data", "in.lammps", "setup.lammps", "resume.lammps", "session.json", "control.lmp",
                 "log.lammps", "log.*.lammps", "thermo.dat", "interfaces.txt", "cells.txt", "voronoi_cells.txt",
-                "snapshots.json", "report.md", "report.html", ".session_error.json", ".*.tmp*")
+                "snapshots.json", "outcome.json", "log.session.txt", "report.md", "report.html", ".session_error.json",
+                ".*.tmp*")
 LAYOUT_DIRS = {
     "dumps": ("*.lammpstrj", "*.lammpstrj.gz", ".*.tmp*"),
     "results": ("*.parquet", "*.csv", "*.json", ".*.tmp*"),

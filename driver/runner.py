@@ -33,7 +33,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from driver.engine import Lammps, LammpsError, venv_bin
-from driver.session import ERROR_FILE, EXIT_STOPPED, StopRequested, run_plan, write_control
+from driver.session import ERROR_FILE, EXIT_STOPPED, SessionError, StopRequested, run_plan, write_control
 
 HEARTBEAT_S = 10.0
 STOP_GRACE_S = 60.0
@@ -282,6 +282,9 @@ def _session_mpi(run_dir: Path, np: int, checkpoint: dict[str, Any] | None, cont
         last = latest_checkpoint(run_dir)
         raise RunInterrupted(control.signum or signal.SIGINT, last["step"] if last else None)
     if code != 0:
+        with contextlib.suppress(OSError, ValueError):
+            if json.loads((run_dir / ERROR_FILE).read_text()).get("type") == "SessionError":
+                raise SessionError(json.loads((run_dir / ERROR_FILE).read_text())["message"])
         raise LammpsError(_mpi_error(run_dir, np, code))
 
 

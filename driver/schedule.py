@@ -77,13 +77,16 @@ def settle_windows(window_steps: int, chunk: int) -> tuple[int, int]:
 
 
 def settle(window: int, chunk: int, max_windows: int, check: list[str], settled_variable: str,
-           advance: list[str], end: list[str]) -> dict[str, Any]:
+           advance: list[str], end: list[str], never: tuple[str, str] | None = None) -> dict[str, Any]:
     """Windows of `window` steps (a multiple of `chunk`); after each, `check`, then stop if the
-    equal-style variable `settled_variable` is > 0, else `advance`; `end` after the last."""
+    equal-style variable `settled_variable` is > 0, else `advance`; `end` after the last.
+    never = (variable, message): a run that never settled and whose variable is still 0 at the
+    end is an error with that message, not a result."""
     if window % chunk:
         raise ValueError(f"window {window} is not a multiple of the chunk {chunk}")
     return {"kind": "settle", "window": int(window), "chunk": int(chunk), "max_windows": int(max_windows),
-            "check": check, "settled_variable": settled_variable, "advance": advance, "end": end}
+            "check": check, "settled_variable": settled_variable, "advance": advance, "end": end,
+            "never": list(never) if never else None}
 
 
 def settle_script(sched: dict[str, Any]) -> str:

@@ -31,8 +31,13 @@ from driver.engine import Lammps, LammpsError
 SESSION = "session.json"
 CONTROL = "control.lmp"
 ERROR_FILE = ".session_error.json"
+OUTCOME = "outcome.json"
 EXIT_STOPPED = 75  # the run stopped on request after writing a checkpoint
 KEEP_CHECKPOINTS = 2
+
+
+class SessionError(LammpsError):
+    """The schedule cannot give a result (e.g. the particle never reached the plane)."""
 
 
 class StopRequested(Exception):
@@ -132,7 +137,19 @@ class Session:
                 break
             self._commands(sched["advance"])
             self._boundary()
+        if not self.state.get("settled") and sched.get("never") \
+                and self.lmp.extract_variable(sched["never"][0]) <= 0:
+            raise SessionError(sched["never"][1])
         self._commands(sched["end"])
+        self._outcome(settled=bool(self.state.get("settled")), windows=int(self.state.get("windows_done", 0)),
+                      max_windows=int(sched["max_windows"]))
+
+    def _outcome(self, **facts: Any) -> None:
+        """What the schedule ended with (outcome.json), for the analysis."""
+        if self.rank == 0:
+            from driver.rundir import atomic_write_json  # noqa: PLC0415
+
+            atomic_write_json(self.run_dir / OUTCOME, {"end_step": self.step, **facts})
 
     # ------------------------------------------------------------ boundaries
     def _boundary(self) -> None:

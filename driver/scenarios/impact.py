@@ -22,6 +22,8 @@ from driver.templates import render
 
 CELL_COLUMNS = ("id mass x y z vx vy vz omegax omegay omegaz "
                 "d2_bcm_quat[1] d2_bcm_quat[2] d2_bcm_quat[3] d2_bcm_quat[4]")
+# the plane has "loaded" the particle once it has given back this fraction of the incoming momentum
+LOADED_FRACTION = 0.5
 INTERFACE_COLUMNS = "c_ifc[1] c_ifc[2] c_ifs[1] c_ifs[2] c_ifs[3] c_ifs[4] c_ifs[5] c_ifs[6]"
 
 
@@ -122,22 +124,37 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
         velocity=f"velocity        all set 0.0 0.0 -{sc.velocity} units box",
         record_target="file thermo.dat",
         start=("run             0\n" + _dump_commands("start") +
-               "\nvariable        nb_prev equal ${nb}\nvariable        ke_prev equal ${kin}"),
+               "\nvariable        nb_prev equal ${nb}\nvariable        ke_prev equal ${kin}"
+               "\nvariable        loaded_prev equal 0"),
         **common)
     resume = render(
         "bcm_impact.in", role="Start from a checkpoint (resume.lammps: -var checkpoint FILE).",
         system=SYSTEM_RESUME, pair_setup="# pair style, coefficients and counters: from the checkpoint",
         bond_setup="# bond style, interface table and reference state: from the checkpoint",
         velocity="# velocities: from the checkpoint", record_target="append thermo.dat",
-        start="# the settle rule's last values (nb_prev, ke_prev): from the checkpoint's record", **common)
+        start="# the settle rule's last values (nb_prev, ke_prev, loaded_prev): from the checkpoint's record",
+        **common)
+    # Stop rule (SPEC 1.4), latched: the plane must first have loaded the particle (given back
+    # LOADED_FRACTION of its incoming momentum: the centre of mass has slowed from -v0 to at
+    # least -(1 - LOADED_FRACTION) v0; nothing else acts on it), and only then a window with
+    # no break, a steady kinetic energy and the plane unloaded ends the run. First contact
+    # at the end of a window (the plane barely touched) therefore never stops a run.
     schedule = settle(
         window, chunk, max_windows,
         check=["variable        nb_now equal ${nb}", "variable        ke_now equal ${kin}",
-               f'variable        settled equal "(v_nb_now == v_nb_prev) && (abs(v_ke_now - v_ke_prev) <= '
-               f'{sc.ke_tolerance}*v_ke_prev) && (v_wall_energy <= {sc.ke_tolerance}*v_ke_now) && (v_touched > 0)"'],
+               f"variable        loaded_now equal \"v_loaded_prev || (vcm(all,z) >= "
+               f"{-(1.0 - LOADED_FRACTION) * sc.velocity!r})\"",
+               "variable        loaded_now equal ${loaded_now}",
+               f'variable        settled equal "(v_loaded_now > 0) && (v_nb_now == v_nb_prev) && '
+               f'(abs(v_ke_now - v_ke_prev) <= {sc.ke_tolerance}*v_ke_prev) && '
+               f'(v_wall_energy <= {sc.ke_tolerance}*v_ke_now)"'],
         settled_variable="settled",
-        advance=["variable        nb_prev equal ${nb_now}", "variable        ke_prev equal ${ke_now}"],
-        end=_dump_commands("end").splitlines())
+        advance=["variable        nb_prev equal ${nb_now}", "variable        ke_prev equal ${ke_now}",
+                 "variable        loaded_prev equal ${loaded_now}"],
+        end=_dump_commands("end").splitlines(),
+        never=("touched", f"the particle did not reach the plane within max_time = {sc.max_time:g} s (gap "
+                          f"{sc.gap * m.diameter:g} m at {sc.velocity:g} m/s needs {sc.gap * m.diameter / sc.velocity:g} s "
+                          "of flight): raise scenario.max_time"))
     return setup, resume, schedule
 
 
@@ -149,7 +166,7 @@ def run_impact(cfg: RunConfig, rd: RunDir, plugin_path: Path) -> tuple[dict, dic
                   max_windows=schedule["max_windows"], max_steps=schedule["window"] * schedule["max_windows"])
     atomic_write_json(rd.root / "system.json", system)
     write_session(rd.root, setup, resume, schedule, cfg.execution.checkpoint_steps(),
-                  checkpoint_variables=["nb_prev", "ke_prev"])
+                  checkpoint_variables=["nb_prev", "ke_prev", "loaded_prev"])
     return system, progress_spec(cfg, system)
 
 
