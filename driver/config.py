@@ -106,6 +106,14 @@ class BCMModel(_Strict):
     griffith_energy: Literal["stored", "rockable", "literal"] = Field(
         "stored", description="energy in the Griffith criterion (SPEC 1.2): what the springs store (default), "
                               "Rockable's N_p-fold sum, or Eq. 5 read literally (1/N_p)")
+    interface_stiffness: Literal["per_interface", "per_area"] = Field(
+        "per_interface", description="per_interface: every interface has the configured k_n, k_t (the published "
+                                     "model); per_area: k_n, k_t times S / <S>, the interface's area over the mean "
+                                     "bonded area, so the Griffith threshold is a stress criterion")
+    min_interface_area: float = Field(
+        0.0, ge=0.0, lt=1.0, description="shared faces smaller than this fraction of the median face area are not "
+                                         "bonded (their cells only touch as contacts); 0 = every face bonded, the "
+                                         "published model. A_0 and D_w count bonded interfaces only")
     lloyd_tol: float = Field(2e-3, gt=0.0, lt=0.1, description="Lloyd stop: RMS seed step / h")
     lloyd_max_iter: int = Field(400, ge=0, le=10_000)
 

@@ -32,6 +32,12 @@ def _dump_commands(name: str) -> str:
             f"write_dump      all local dumps/interfaces.{name}.lammpstrj {INTERFACE_COLUMNS}")
 
 
+def bonded_interfaces(areas: np.ndarray, min_fraction: float) -> np.ndarray:
+    """Which shared faces are glued: those of at least `min_fraction` of the median face area
+    (model.min_interface_area; 0 glues every face, the published model)."""
+    return areas >= min_fraction * float(np.median(areas)) if min_fraction > 0 else np.ones(len(areas), bool)
+
+
 def build_system(cfg: RunConfig, rd: RunDir) -> dict:
     """Tessellation (cached) -> rounded cells -> placement -> data, interfaces and cells files."""
     m, sc = cfg.model, cfg.scenario
@@ -44,19 +50,28 @@ def build_system(cfg: RunConfig, rd: RunDir) -> dict:
     rng = np.random.default_rng([cfg.seed, 1])  # orientation stream, apart from the tessellation's
     particle = build_particle(tess, m.density, m.rounding, rng, plane_z=0.0, gap=sc.gap * m.diameter)
     root = rd.root
+    bonded = bonded_interfaces(tess.iface_area, m.min_interface_area)
+    polygons = [p for p, keep in zip(particle.interface_polygons, bonded) if keep]
     write_cell_data(root / "system.data", particle.centroids, particle.quats, particle.masses, particle.moments,
-                    2 * particle.bound_radius, tess.iface_cells, margin=m.diameter)
-    write_interfaces(root / "interfaces.txt", tess.iface_cells, tess.iface_area,
-                     tess.iface_normal @ particle.placement.rotation.T, particle.interface_polygons)
+                    2 * particle.bound_radius, tess.iface_cells[bonded], margin=m.diameter)
+    write_interfaces(root / "interfaces.txt", tess.iface_cells[bonded], tess.iface_area[bonded],
+                     tess.iface_normal[bonded] @ particle.placement.rotation.T, polygons)
     write_cells(root / "cells.txt", particle.core_vertices, particle.core_faces)
     # the Voronoi cells themselves, for the analysis: fragment boxes from the cells' own vertices
     write_cells(root / "voronoi_cells.txt", particle.cell_vertices, particle.cell_faces)
-    k_max = max(m.contact.kn, m.interface.kn)
+    areas = tess.iface_area[bonded]
+    # per_area: the stiffest interface is the largest, k_n S_max / <S>
+    k_iface = m.interface.kn * (areas.max() / areas.mean() if m.interface_stiffness == "per_area" else 1.0)
+    k_max = max(m.contact.kn, k_iface)
     dt, period = contact_timestep(particle.masses, k_max, sc.steps_per_period)
     return {
-        "n_cells": tess.n_cells, "n_interfaces": tess.n_interfaces,
-        "contact_points": int(np.diff(tess.iface_ptr).sum()),
-        "A0": float(tess.total_interface_area), "mass": float(particle.masses.sum()),
+        "n_cells": tess.n_cells, "n_interfaces": int(bonded.sum()),
+        "n_faces_unbonded": int((~bonded).sum()),
+        "contact_points": int(np.diff(tess.iface_ptr)[bonded].sum()),
+        # A_0: the bonded interfaces only (faces below min_interface_area are never glued)
+        "A0": float(areas.sum()), "mean_interface_area": float(areas.mean()),
+        "interface_stiffness": m.interface_stiffness,
+        "mass": float(particle.masses.sum()),
         "volume": float(tess.volume.sum()), "mean_cell_size": float(tess.mean_cell_size),
         "r_m": float(particle.r_m), "lloyd_iterations": int(tess.n_iter), "lloyd_residual": float(tess.residual),
         "lloyd_converged": bool(tess.converged), "tessellation_key": tess.key,
@@ -118,7 +133,8 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
         system=SYSTEM_FRESH,
         pair_setup=f"pair_style      bcm/contact cells cells.txt rm {system['r_m']:.12g}\n"
                    f"pair_coeff      * * {m.contact.kn} {m.contact.kt} {m.contact.en2} {m.contact.mu}",
-        bond_setup=f"bond_style      bcm/griffith geometry interfaces.txt energy {m.griffith_energy}\n"
+        bond_setup=f"bond_style      bcm/griffith geometry interfaces.txt energy {m.griffith_energy} "
+                   f"stiffness {m.interface_stiffness}\n"
                    f"bond_coeff      1 {m.interface.kn} {m.interface.kt} {m.interface.en2} {m.interface.G_c} "
                    f"{m.contact.kn} {m.contact.kt} {m.contact.en2} {m.contact.mu}",
         velocity=f"velocity        all set 0.0 0.0 -{sc.velocity} units box",

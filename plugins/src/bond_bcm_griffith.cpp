@@ -117,7 +117,7 @@ bool parse_double(const std::string &s, double &out)
 BondBcmGriffith::BondBcmGriffith(LAMMPS *_lmp) :
     Bond(_lmp), kn(nullptr), kt(nullptr), en2(nullptr), gc(nullptr), kn_c(nullptr),
     kt_c(nullptr), en2_c(nullptr), mu(nullptr), alpha(nullptr), alpha_c(nullptr),
-    convention(STORED), maxpts(0), reference_taken(0), span_max(0.0), cache_store(nullptr),
+    convention(STORED), stiffness(PER_INTERFACE), mean_area(0.0), maxpts(0), reference_taken(0), span_max(0.0), cache_store(nullptr),
     cache_valid(false), dirty(false),
     store_index(-1), slot_size(0), iquat(-1), nevaluations(0)
 {
@@ -172,17 +172,27 @@ void BondBcmGriffith::allocate()
 
 /* ----------------------------------------------------------------------
    bond_style bcm/griffith geometry FILE [energy stored|rockable|literal]
+                           [stiffness per_interface|per_area]
 ------------------------------------------------------------------------- */
 
 void BondBcmGriffith::settings(int narg, char **arg)
 {
   std::string file;
   convention = STORED;
+  stiffness = PER_INTERFACE;
   for (int iarg = 0; iarg < narg; iarg += 2) {
     if (iarg + 1 >= narg)
       error->all(FLERR, "bond_style bcm/griffith: keyword {} needs a value", arg[iarg]);
     if (strcmp(arg[iarg], "geometry") == 0) {
       file = arg[iarg + 1];
+    } else if (strcmp(arg[iarg], "stiffness") == 0) {
+      if (strcmp(arg[iarg + 1], "per_interface") == 0)
+        stiffness = PER_INTERFACE;
+      else if (strcmp(arg[iarg + 1], "per_area") == 0)
+        stiffness = PER_AREA;
+      else
+        error->all(FLERR, "bond_style bcm/griffith: unknown stiffness {} (known: per_interface, per_area)",
+                   arg[iarg + 1]);
     } else if (strcmp(arg[iarg], "energy") == 0) {
       if (strcmp(arg[iarg + 1], "stored") == 0)
         convention = STORED;
@@ -194,7 +204,7 @@ void BondBcmGriffith::settings(int narg, char **arg)
         error->all(FLERR, "bond_style bcm/griffith: unknown energy convention {} "
                    "(known: stored, rockable, literal)", arg[iarg + 1]);
     } else {
-      error->all(FLERR, "bond_style bcm/griffith: unknown keyword {} (known: geometry, energy)",
+      error->all(FLERR, "bond_style bcm/griffith: unknown keyword {} (known: geometry, energy, stiffness)",
                  arg[iarg]);
     }
   }
@@ -342,6 +352,9 @@ void BondBcmGriffith::index_geometry()
   lookup.clear();
   long soff = 0, boff = 0;
   maxpts = 0;
+  mean_area = 0.0;
+  for (const Interface &itf : interfaces) mean_area += itf.area;
+  if (!interfaces.empty()) mean_area /= (double) interfaces.size();
   for (int i = 0; i < (int) interfaces.size(); i++) {
     Interface &itf = interfaces[i];
     itf.soff = soff;
@@ -677,9 +690,12 @@ void BondBcmGriffith::set_constants(const Entry &e, int type, double *rec) const
   const int np = e.npts;
   const double m1 = atom->rmass[e.c1], m2 = atom->rmass[e.c2];
   const double mred = m1 * m2 / (m1 + m2);
-  rec[K_KP] = kn[type] / np;
-  rec[K_KTP] = kt[type] / np;
-  rec[K_CP] = 2.0 * alpha[type] * std::sqrt(kn[type] * mred) / np;
+  // stiffness per_area: the interface's k_n, k_t are the configured ones times S / <S> (its
+  // area over the mean), so the Griffith threshold is a stress, whatever the face's size
+  const double f = stiffness == PER_AREA ? rec[K_AREA] / mean_area : 1.0;
+  rec[K_KP] = f * kn[type] / np;
+  rec[K_KTP] = f * kt[type] / np;
+  rec[K_CP] = 2.0 * alpha[type] * std::sqrt(f * kn[type] * mred) / np;
   rec[K_KC] = kn_c[type] / np;
   rec[K_KTC] = kt_c[type] / np;
   rec[K_CC] = 2.0 * alpha_c[type] * std::sqrt(kn_c[type] * mred) / np;
@@ -1155,6 +1171,7 @@ void BondBcmGriffith::write_restart_settings(FILE *fp)
   const int nif = (int) interfaces.size();
   const long nspace = (long) space.size(), nbody = (long) body.size();
   fwrite(&convention, sizeof(int), 1, fp);
+  fwrite(&stiffness, sizeof(int), 1, fp);
   fwrite(&reference_taken, sizeof(int), 1, fp);
   fwrite(&span_max, sizeof(double), 1, fp);
   fwrite(&nif, sizeof(int), 1, fp);
@@ -1181,6 +1198,7 @@ void BondBcmGriffith::read_restart_settings(FILE *fp)
   long nspace = 0, nbody = 0;
   if (comm->me == 0) {
     utils::sfread(FLERR, &convention, sizeof(int), 1, fp, nullptr, error);
+    utils::sfread(FLERR, &stiffness, sizeof(int), 1, fp, nullptr, error);
     utils::sfread(FLERR, &reference_taken, sizeof(int), 1, fp, nullptr, error);
     utils::sfread(FLERR, &span_max, sizeof(double), 1, fp, nullptr, error);
     utils::sfread(FLERR, &nif, sizeof(int), 1, fp, nullptr, error);
@@ -1202,6 +1220,7 @@ void BondBcmGriffith::read_restart_settings(FILE *fp)
     if (nname) utils::sfread(FLERR, &geometry_file[0], sizeof(char), nname, fp, nullptr, error);
   }
   MPI_Bcast(&convention, 1, MPI_INT, 0, world);
+  MPI_Bcast(&stiffness, 1, MPI_INT, 0, world);
   MPI_Bcast(&reference_taken, 1, MPI_INT, 0, world);
   MPI_Bcast(&span_max, 1, MPI_DOUBLE, 0, world);
   MPI_Bcast(&nbody, 1, MPI_LONG, 0, world);

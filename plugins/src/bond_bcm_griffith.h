@@ -48,6 +48,7 @@ class BondBcmGriffith : public Bond {
 
  private:
   enum Convention { STORED, ROCKABLE, LITERAL };
+  enum Stiffness { PER_INTERFACE, PER_AREA };
 
   // per type: bond_coeff values and derived damping ratios (SPEC Eq. 2)
   double *kn, *kt, *en2, *gc, *kn_c, *kt_c, *en2_c, *mu;
@@ -67,6 +68,8 @@ class BondBcmGriffith : public Bond {
   std::unordered_map<long long, int> lookup;    // (tag1, tag2) -> interface
   std::string geometry_file;
   int convention;
+  int stiffness;          // PER_INTERFACE (the published model) or PER_AREA (k times S / <S>)
+  double mean_area;       // <S>, the mean area of the interfaces of the geometry file
   int maxpts;             // largest npts of the geometry: sets the per-slot store size
   int reference_taken;    // body-frame geometry computed (first init after the file was read)
   double span_max;        // largest distance between bonded centres, reference state
