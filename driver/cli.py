@@ -55,7 +55,7 @@ def run(input_yaml: Path = typer.Argument(..., help="run configuration (YAML), o
             cfg = load_config(input_yaml)
         if output is not None:
             cfg = with_output_dir(cfg, output)
-        _size_check(cfg, yes)
+        _size_check(cfg, yes, np_ranks=np, source=str(input_yaml))
         out = execute(cfg, source=source, force=force, np_ranks=np, show_progress=not quiet, console=err,
                       resume=resume)
     except ConfigError as exc:
@@ -83,13 +83,11 @@ def with_output_dir(cfg, output: Path):
     return cfg.model_copy(update={"output": cfg.output.model_copy(update={"dir": expand_path(output)})})
 
 
-def _size_check(cfg, yes: bool) -> None:
+def _size_check(cfg, yes: bool, np_ranks: int | None = None, source: str | None = None) -> None:
     """Print the size estimate; refuse above the available memory unless --yes."""
-    try:
-        from driver.estimate import check_size  # noqa: PLC0415
-    except ImportError:  # pragma: no cover
-        return
-    est = check_size(cfg, allow_large=yes)
+    from driver.estimate import check_size  # noqa: PLC0415
+
+    est = check_size(cfg, allow_large=yes, np_ranks=np_ranks, source=source)
     err.print(f"size: {est.describe()}", highlight=False)
 
 
@@ -116,11 +114,16 @@ def status(paths: list[Path] = typer.Argument(..., help="run directories, or a s
 
 
 @app.command()
-def validate(input_yaml: Path = typer.Argument(..., help="run configuration (YAML)")) -> None:
-    """Check a configuration without running or writing anything."""
+def validate(input_yaml: Path = typer.Argument(..., help="run configuration (YAML)"),
+             yes: bool = typer.Option(False, "--yes", help="accept a size estimate above available memory")) -> None:
+    """Check a configuration without running or writing anything; print its size estimate."""
     try:
         cfg = load_config(input_yaml)
-    except ConfigError as exc:
+        from driver.rundir import check_location  # noqa: PLC0415
+
+        check_location(cfg.run_dir())
+        _size_check(cfg, yes, source=str(input_yaml))
+    except (ConfigError, RunDirError) as exc:
         _fail(str(exc), 2)
     err.print(f"[green]valid:[/] {input_yaml} (model {cfg.model.kind}, scenario {cfg.scenario.kind}, "
               f"run directory {cfg.run_dir()})")
@@ -216,9 +219,18 @@ def scaling(paths: list[Path] = typer.Argument(..., help="run directories and/or
             strain: Optional[float] = typer.Option(None, "--strain", help="shear runs: the strain of N(M) "
                                                                           "(default: the largest shared one)"),
             bootstrap: int = typer.Option(100, "--bootstrap", min=0, help="bootstrap replicates for uncertainties"),
+            breakup_fraction: float = typer.Option(0.9, "--breakup-fraction",
+                                                   help="impact runs: a particle has broken up when its largest "
+                                                        "fragment holds less than this fraction of its mass (SPEC "
+                                                        "1.5); omega_1 is also reported by the chip-based count"),
             plots: bool = typer.Option(True, "--plots/--no-plots")) -> None:
-    """Scaling analysis of a set of finished runs: exponents, collapses, crossovers, report."""
+    """Scaling analysis of a set of finished runs: exponents, collapses, crossovers, report.
+    Runs that did not finish are left out and listed, with the reason, in the runs table and
+    the report."""
     from analysis.runset import RunSetError, analyse_set  # noqa: PLC0415
+
+    if not 0 < breakup_fraction <= 1:
+        _fail(f"--breakup-fraction {breakup_fraction:g}: must be in (0, 1]", 2)
 
     if out is None:
         if len(paths) == 1 and not (paths[0] / "config.resolved.yaml").exists():
@@ -233,13 +245,19 @@ def scaling(paths: list[Path] = typer.Argument(..., help="run directories and/or
     except RunDirError as exc:
         _fail(str(exc), 2)
     try:
-        result = analyse_set(paths, out, plots=plots, strain=strain, n_bootstrap=bootstrap)
+        result = analyse_set(paths, out, plots=plots, strain=strain, n_bootstrap=bootstrap,
+                             breakup_fraction=breakup_fraction)
     except RunSetError as exc:
         if not existed:  # a set refused leaves no folder behind
             (out / SET_MARKER).unlink(missing_ok=True)
             with contextlib.suppress(OSError):
                 out.rmdir()
         _fail(str(exc), 2)
+    from rich.markup import escape  # noqa: PLC0415
+
+    for r in result.get("left_out", []):
+        err.print(f"[yellow]left out:[/] {escape(str(r['run_dir']))}: {escape(r['reason'])}", highlight=False,
+                  soft_wrap=True)
     err.print(f"[green]set analysed:[/] {out}/report.html")
     typer.echo(json.dumps(result, indent=2, default=str))
 

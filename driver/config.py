@@ -130,7 +130,8 @@ class ImpactScenario(_Strict):
     ke_tolerance: float = Field(1e-3, gt=0.0, lt=1.0,
                                 description="settled when kinetic energy changes by less than this fraction "
                                             "over a window with no break and the plane unloaded")
-    thermo_every: int = Field(100, ge=1, description="steps between energy records")
+    thermo_every: int = Field(10, ge=1, description="steps between energy records: 10 samples a 2 µs contact "
+                                                   "at 50 points or more for time steps up to 4e-9 s")
     dump_every: int = Field(0, ge=0, description="steps between cell dumps; 0 = start and end only")
 
 

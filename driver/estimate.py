@@ -32,22 +32,26 @@ MIB = 1024**2
 #: Interfaces per cell of a CVT Voronoi tessellation of the parent: I/N = a (1 - b N^(-1/3))
 #: (cells at the surface have fewer neighbours); least squares over the measured counts
 #: (system.json n_interfaces / n_cells): 300 cells 1716 (5.72), 1728 cells 10854 (6.28),
-#: 8000 cells 52652 (6.58); the fit reproduces each within 0.4 %.
+#: 8000 cells 52652 (6.58); the fit reproduces each within 0.4 %, and 27000 cells (181436,
+#: measured afterwards) within 0.03 %.
 BCM_INTERFACES_BULK = 7.01
 BCM_INTERFACES_SURFACE = 1.233
 #: Contact points (interface polygon vertices) per interface: 8775/1716 = 5.11 (300 cells),
-#: 55242/10854 = 5.09 (1728), 268731/52652 = 5.10 (8000).
+#: 55242/10854 = 5.09 (1728), 268731/52652 = 5.10 (8000), 927843/181436 = 5.11 (27000).
 BCM_POINTS_PER_INTERFACE = 5.1
 #: Lightest over mean cell mass after Lloyd iterations, which sets the time step (from
-#: system.json shortest_period): 0.852 (300 cells), 0.816 (1728), 0.769 (8000). The smallest
-#: is kept, so that the step count is an upper bound.
+#: system.json shortest_period): 0.852 (300 cells), 0.816 (1728), 0.769 (8000), 0.804
+#: (27000). The smallest is kept, so that the step count is an upper bound.
 BCM_MIN_MASS_RATIO = 0.77
-#: Peak RSS = base + per cell * N, least squares over 549,124 kB at 300 cells
-#: (bcm_impact_quick.yaml as it is), 603,968 kB at 1728 (bcm_impact.yaml, scenario.max_time
-#: 5e-5) and 766,932 kB at 8000 (bcm_impact.yaml, model.n_cells 8000, scenario.max_time 1e-6,
-#: settle_window 1e-6; Lloyd tessellation included, 48 s): 535 MiB + 27.6 kB per cell.
-BCM_MEMORY_BASE = 535 * MIB
-BCM_MEMORY_PER_CELL = 27.6 * 1024
+#: Peak RSS, kB: 549,124 at 300 cells (bcm_impact_quick.yaml as it is); 603,968 at 1728
+#: (bcm_impact.yaml, scenario.max_time 5e-5); 766,932 at 8000 (bcm_impact.yaml, model.n_cells
+#: 8000, scenario.max_time and settle_window 1e-6; Lloyd tessellation included, 48 s);
+#: 1,768,540 at 27000 (same, n_cells 27000, max_time and settle_window 1e-7; Lloyd 266 s; that
+#: run stopped at `pair_style bcm/contact` on a non-planar core face, after the whole build).
+#: The growth is faster than linear, so the estimate is the larger of two lines: the least
+#: squares line of the three small runs (535 MiB + 27.6 kB per cell) and the line through the
+#: 8000 and 27000 runs (337 MiB + 52.7 kB per cell), which takes over above ~8000 cells.
+BCM_MEMORY_LINES = ((535 * MIB, 27.6 * 1024), (337 * MIB, 52.7 * 1024))
 #: Loop time per cell per 1000 steps (LAMMPS log): 0.475 s / 2158 steps at 300 cells
 #: (7.3e-4), 9.5 s / 5292 steps at 1728 cells during impact (1.04e-3), 24.4 s / 2345 steps at
 #: 8000 cells (1.30e-3); the largest is kept.
@@ -150,7 +154,7 @@ def _bcm(cfg: RunConfig, ranks: int) -> SizeEstimate:
     return SizeEstimate(
         model="BCM", elements=n, element_name="cells", bonds=interfaces,
         bond_name=f"interfaces ({points:,} contact points)",
-        memory_bytes=int(BCM_MEMORY_BASE + _ranks_memory(ranks) + BCM_MEMORY_PER_CELL * n),
+        memory_bytes=int(max(base + per_cell * n for base, per_cell in BCM_MEMORY_LINES) + _ranks_memory(ranks)),
         seconds_per_1000_steps=BCM_SECONDS_PER_CELL * n / ranks,
         steps=int(math.ceil(sc.max_time / dt)), ranks=ranks)
 

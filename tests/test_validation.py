@@ -9,7 +9,6 @@ from pathlib import Path
 import pytest
 
 from driver import estimate as est
-
 from driver.config import MAX_CONFIG_BYTES, ConfigError, RunConfig, load_config, parse_config
 
 HEAD = "name: t\nmodel: {kind: bpm}\nscenario:\n  kind: shear\n"
@@ -152,6 +151,19 @@ def test_bcm_steps_bound_the_measured_run():
     # examples/bcm_impact.yaml: dt = 9.449e-10 s measured, so max_time 4e-4 s is 423,320 steps
     e = est.estimate(_bcm(1728, max_time=4e-4))
     assert 423_320 <= e.steps < 1.15 * 423_320
+
+
+# peak RSS of `driver run` measured for driver/estimate.py (kB); the fits stay within 15 %
+MEASURED_PEAK_KB = [
+    (lambda: _bcm(300), 549_124), (lambda: _bcm(1728), 603_968), (lambda: _bcm(8000), 766_932),
+    (lambda: _bcm(27000), 1_768_540), (lambda: _bpm(24), 248_564), (lambda: _bpm(192), 372_208),
+    (lambda: _bpm(16, 3), 271_484), (lambda: _bpm(32, 3), 725_148),
+]
+
+
+@pytest.mark.parametrize("make,peak_kb", MEASURED_PEAK_KB)
+def test_memory_fits_the_measured_runs(make, peak_kb):
+    assert est.estimate(make()).memory_bytes == pytest.approx(peak_kb * 1024, rel=0.15)
 
 
 def test_estimate_does_not_build_the_system():
