@@ -3,6 +3,15 @@
 Every expectation is computed here from the geometry (closest points of the cores written out
 with numpy) and the SPEC force law; the styles are only run and read. Cells are cubes of core
 half-side A with rounding radius RM; forces in N, lengths in m (units si).
+
+The law is the per-point one of plugins/src/bcm_contact_law.h: k_n and k_t are the stiffnesses
+of ONE contact point, so a contact of N points at equal overlaps carries N k_n delta (a face
+of a cube: 4 points), and each point's damping is 2 alpha sqrt(k_n m / N) (the contact's
+reduced mass shared by its points, so that N points moving together have the damping ratio
+alpha). The expectations below that count points were written for the former law, which
+shared k_n, k_t and the damping over the N points (k_n delta in total whatever N), and were
+changed to the per-point law (see each test). Energy conservation when N changes:
+tests/test_bcm_contact_energy.py.
 """
 
 from __future__ import annotations
@@ -234,11 +243,12 @@ def stacked(gap, dx=0.0, dy=0.0, qb=IDENTITY):
 
 
 @pytest.mark.parametrize("dx,dy", [(0.0, 0.0), (0.3 * A, -0.2 * A)])
-def test_face_face_four_points_share_kn(lmp, tmp_path, dx, dy):
+def test_face_face_four_points_kn_each(lmp, tmp_path, dx, dy):
     setup_cells(lmp, tmp_path, stacked(2 * RM - DELTA, dx, dy))
     lmp.command("run 0")
     f, tq = per_tag(lmp, "f"), per_tag(lmp, "torque")
-    fz = KN * DELTA  # SPEC Eq. 1: the contact's k_n shared by its points
+    # SPEC Eq. 1, k_n per point: 4 corners at overlap delta (was k_n delta, k_n shared by 4)
+    fz = 4 * KN * DELTA
     assert_vec(f[1], [0, 0, fz], fz)
     assert_vec(f[0], [0, 0, -fz], fz)
     assert contact_counts(lmp) == (4, 1)
@@ -249,8 +259,8 @@ def test_face_face_four_points_share_kn(lmp, tmp_path, dx, dy):
     assert_vec(tq[1], np.cross(centre - [dx, dy, 2 * A + 2 * RM - DELTA], f[1]), fz * A)
     if dx == dy == 0:
         assert_vec(tq[0], [0, 0, 0], fz * A)
-    # stored energy: 4 springs k_n/4 at overlap delta
-    assert lmp.lmp.last_thermo()["PotEng"] == pytest.approx(0.5 * KN * DELTA**2, rel=1e-9)
+    # stored energy: 4 springs k_n at overlap delta (was 4 springs k_n/4)
+    assert lmp.lmp.last_thermo()["PotEng"] == pytest.approx(4 * 0.5 * KN * DELTA**2, rel=1e-9)
 
 
 def test_face_face_turned_square_gives_octagon(lmp, tmp_path):
@@ -259,23 +269,25 @@ def test_face_face_turned_square_gives_octagon(lmp, tmp_path):
     lmp.command("run 0")
     f, tq = per_tag(lmp, "f"), per_tag(lmp, "torque")
     assert contact_counts(lmp) == (8, 1)
-    assert_vec(f[1], [0, 0, KN * DELTA], KN * DELTA)
-    assert_vec(tq[0], [0, 0, 0], KN * DELTA * A)
+    # the 8 corners of the octagon, k_n each (was k_n delta in total)
+    assert_vec(f[1], [0, 0, 8 * KN * DELTA], 8 * KN * DELTA)
+    assert_vec(tq[0], [0, 0, 0], 8 * KN * DELTA * A)
 
 
 @pytest.mark.parametrize("theta", [1e-7, 5e-4, 2e-3, 0.05])
 def test_face_face_nearly_aligned_keeps_its_patch(lmp, tmp_path, theta):
     """B turned by a small angle about the common normal: the overlap polygon has its corners
-    near the squares' corners and edges that cross at a grazing angle; whatever the points,
-    the patch carries k_n delta without torque."""
+    near the squares' corners and edges that cross at a grazing angle (two crossings closer
+    than the merge distance are one point); each point carries k_n delta (was: the patch
+    carried k_n delta in total, whatever the points), without torque."""
     qb = quat_axis_angle([0, 0, 1], theta)
     setup_cells(lmp, tmp_path, stacked(2 * RM - DELTA, qb=qb))
     lmp.command("run 0")
     f, tq = per_tag(lmp, "f"), per_tag(lmp, "torque")
     npts, npairs = contact_counts(lmp)
     assert npairs == 1 and 4 <= npts <= 8
-    assert_vec(f[1], [0, 0, KN * DELTA], KN * DELTA, rel=1e-6)
-    assert_vec(tq[0], [0, 0, 0], KN * DELTA * A, rel=1e-3)
+    assert_vec(f[1], [0, 0, npts * KN * DELTA], npts * KN * DELTA, rel=1e-6)
+    assert_vec(tq[0], [0, 0, 0], npts * KN * DELTA * A, rel=1e-3)
 
 
 @pytest.mark.parametrize("theta", [0.0, 1e-4])
@@ -288,12 +300,14 @@ def test_parallel_ridges_two_points(lmp, tmp_path, theta):
     lmp.command("run 0")
     f, tq = per_tag(lmp, "f"), per_tag(lmp, "torque")
     assert contact_counts(lmp) == (2, 1)
-    # turned ridges: the end points' normals lean by (lateral offset) / (2 r_m), < 1e-3 here
+    # turned ridges: the end points' normals lean by (lateral offset) / (2 r_m), < 1e-3 here;
+    # two points k_n each (was k_n delta in total)
     rel = 1e-9 if theta == 0 else 1e-3
-    assert_vec(f[1], [0, 0, KN * DELTA], KN * DELTA, rel=rel)
+    fz = 2 * KN * DELTA
+    assert_vec(f[1], [0, 0, fz], fz, rel=rel)
     # the ends of the overlap of the ridges: x = dx - A and x = A, at mid-gap
     centre = np.array([dx / 2, 0.0, math.sqrt(2) * A + (2 * RM - DELTA) / 2])
-    assert_vec(tq[0], np.cross(centre, f[0]), KN * DELTA * A, rel=rel)
+    assert_vec(tq[0], np.cross(centre, f[0]), fz * A, rel=rel)
 
 
 def test_rounding_contact_starts_at_two_rm(lmp, tmp_path):
@@ -305,7 +319,8 @@ def test_rounding_contact_starts_at_two_rm(lmp, tmp_path):
     x[np.array(lmp.numpy.extract_atom("id")) == 2, 2] = 2 * A + 2 * RM * (1 - 1e-6)
     rerun(lmp)
     assert contact_counts(lmp) == (4, 1)
-    assert per_tag(lmp, "f")[1, 2] == pytest.approx(KN * 2 * RM * 1e-6, rel=1e-6)
+    # 4 corners, k_n each (was k_n in total)
+    assert per_tag(lmp, "f")[1, 2] == pytest.approx(4 * KN * 2 * RM * 1e-6, rel=1e-6)
 
 
 def test_vertex_face_force_at_vertex(lmp, tmp_path):
@@ -398,11 +413,16 @@ def test_normal_damping_and_clamp(lmp, tmp_path):
     setup_cells(lmp, tmp_path, cells)
     lmp.command("run 0")
     meff = MASS / 2
-    expected = KN * DELTA + 2 * alpha(EN2) * math.sqrt(KN * meff) * w  # SPEC Eq. 1
+    # SPEC Eq. 1 at each of the 4 corners: k_n delta + 2 alpha sqrt(k_n meff / 4) w (the
+    # reduced mass shared by the points); in total the face contact 4 k_n with the damping
+    # ratio alpha (was k_n delta + 2 alpha sqrt(k_n meff) w in total: k_n shared by the 4)
+    expected = 4 * (KN * DELTA + 2 * alpha(EN2) * math.sqrt(KN * meff / 4) * w)
     assert per_tag(lmp, "f")[1, 2] == pytest.approx(expected, rel=1e-9)
-    # separating fast: the damping would pull, the force is clamped at zero (per point)
+    # separating fast: the damping would pull, the force is clamped at zero (per point);
+    # 2 alpha sqrt(k_n meff / 4) v > k_n delta from v = 80 m/s (was from 40 m/s with the
+    # damping shared by the 4 points, twice the stiffness's share)
     v = lmp.numpy.extract_atom("v")
-    v[np.array(lmp.numpy.extract_atom("id")) == 2, 2] = 50.0
+    v[np.array(lmp.numpy.extract_atom("id")) == 2, 2] = 200.0
     rerun(lmp)
     assert np.all(per_tag(lmp, "f") == 0)
 
@@ -414,12 +434,13 @@ def test_coulomb_friction_pair(lmp, tmp_path):
     setup_cells(lmp, tmp_path, cells, dt=dt)
     lmp.command("run 3")
     fb = per_tag(lmp, "f")[1]
-    # below the Coulomb limit: the tangential spring k_t (shared) stretched by 3 v dt
-    assert fb[0] == pytest.approx(-KT * 3 * vs * dt, rel=1e-9)
-    assert fb[2] == pytest.approx(KN * DELTA, rel=1e-9)
-    lmp.command("run 60")  # the spring would exceed mu f_n: sliding
+    # below the Coulomb limit: the 4 corners' tangential springs k_t stretched by 3 v dt
+    # (was one spring k_t shared by the 4)
+    assert fb[0] == pytest.approx(-4 * KT * 3 * vs * dt, rel=1e-9)
+    assert fb[2] == pytest.approx(4 * KN * DELTA, rel=1e-9)
+    lmp.command("run 60")  # the springs would exceed mu f_n: sliding
     fb = per_tag(lmp, "f")[1]
-    assert fb[0] == pytest.approx(-MU * KN * DELTA, rel=1e-9)
+    assert fb[0] == pytest.approx(-MU * 4 * KN * DELTA, rel=1e-9)
     assert abs(fb[1]) < 1e-12
 
 
@@ -482,12 +503,14 @@ def test_wall_resting_cube(lmp, tmp_path, q, npts):
     setup_cells(lmp, tmp_path, [dict(x=xc, q=q)], pair=False, extra=WALL)
     lmp.command("run 0")
     f, tq = per_tag(lmp, "f")[0], per_tag(lmp, "torque")[0]
-    assert_vec(f, [0, 0, KN * d], KN * d)  # the cell's k_n shared by its touching vertices
-    assert_vec(tq, [0, 0, 0], KN * d * A)
+    # k_n per touching vertex (was the cell's k_n shared by its touching vertices: k_n d)
+    fz = npts * KN * d
+    assert_vec(f, [0, 0, fz], fz)
+    assert_vec(tq, [0, 0, 0], fz * A)
     n, fn, diss, stored = wall_values(lmp)
     assert (n, touching(lmp)[0]) == (1, npts)
-    assert fn == pytest.approx(KN * d, rel=1e-9)
-    assert stored == pytest.approx(0.5 * KN * d * d, rel=1e-9)
+    assert fn == pytest.approx(fz, rel=1e-9)
+    assert stored == pytest.approx(npts * 0.5 * KN * d * d, rel=1e-9)
     assert lmp.lmp.last_thermo()["PotEng"] == pytest.approx(stored, rel=1e-12)  # fix_modify energy
     assert diss == 0
 
@@ -515,20 +538,25 @@ def test_wall_coulomb_sliding_and_dissipation(lmp, tmp_path):
     setup_cells(lmp, tmp_path, cells, pair=False, dt=dt, extra=WALL)
     lmp.command("run 50")
     f = per_tag(lmp, "f")[0]
-    fn = KN * d
+    # 4 touching vertices, each with k_n, k_t and its own Coulomb limit mu f_n,point (were k_n,
+    # k_t shared by the 4, the same limit in total): the point's values, then the cell's
+    fp = KN * d
+    fn = 4 * fp
     assert f[0] == pytest.approx(-MU * fn, rel=1e-9)  # SPEC Eq. 7, opposing the slip
     assert f[2] == pytest.approx(fn, rel=1e-9)
-    # the spring saturates at u = mu f_n / k_t; the slip beyond it dissipates mu f_n per length
-    u_sat = MU * fn / KT
+    # each spring saturates at u = mu f_n,point / k_t; the slip beyond it dissipates mu f_n
+    # per length
+    u_sat = MU * fp / KT
     slip = 50 * vs * dt - u_sat
     n, fnw, diss, stored = wall_values(lmp)
     assert diss == pytest.approx(MU * fn * slip, rel=1e-3)
-    # exactly: the force f_k = min(k_t k v dt, mu f_n) does work (f_k-1 + f_k) v dt / 2 over
-    # step k (the half kicks of velocity Verlet); what the saturated spring keeps is not lost
-    f_t = np.minimum(KT * vs * dt * np.arange(51), MU * fn)
+    # exactly: the force f_k = min(k_t k v dt, mu f_n) of a point does work
+    # (f_k-1 + f_k) v dt / 2 over step k (the half kicks of velocity Verlet); what the
+    # saturated spring keeps is not lost
+    f_t = np.minimum(KT * vs * dt * np.arange(51), MU * fp)
     work = np.sum(0.5 * (f_t[1:] + f_t[:-1])) * vs * dt
-    assert diss == pytest.approx(work - 0.5 * KT * u_sat**2, rel=1e-9)
-    assert stored == pytest.approx(0.5 * fn * d + 0.5 * KT * u_sat**2, rel=1e-9)
+    assert diss == pytest.approx(4 * (work - 0.5 * KT * u_sat**2), rel=1e-9)
+    assert stored == pytest.approx(4 * (0.5 * fp * d + 0.5 * KT * u_sat**2), rel=1e-9)
 
 
 def rigid_props(lmp, cells):
@@ -545,8 +573,13 @@ def rigid_props(lmp, cells):
 
 
 def test_wall_drop_restitution(lmp, tmp_path):
+    """A cube dropped flat: its 4 corners touch together, a contact of stiffness 4 k_n whose
+    points' damping 4 x 2 alpha sqrt(k_n m / 4) = 2 alpha sqrt(4 k_n m) gives it the damping
+    ratio alpha (was k_n and 2 alpha sqrt(k_n m) shared by the 4: the same ratio, so the same
+    rebound, at half the contact's duration now)."""
     v0 = 1.0
-    period = math.pi * math.sqrt(MASS / KN)
+    kface = 4 * KN
+    period = math.pi * math.sqrt(MASS / kface)
     dt = period / 1000
     cells = [dict(x=(0, 0, A + RM + 5 * v0 * dt), q=IDENTITY, v=(0.0, 0.0, -v0))]
     setup_cells(lmp, tmp_path, cells, pair=False, dt=dt,
@@ -558,14 +591,14 @@ def test_wall_drop_restitution(lmp, tmp_path):
 
     # expectation: the 1D spring-dashpot of SPEC Eq. 1 with the clamp f_n >= 0
     from scipy.integrate import solve_ivp  # noqa: PLC0415
-    gam = 2 * alpha(0.25) * math.sqrt(KN * MASS)
+    gam = 2 * alpha(0.25) * math.sqrt(kface * MASS)
 
     def rhs(_, y):
         s, sdot = y  # overlap and its rate
-        return [sdot, -max(0.0, KN * s + gam * sdot) / MASS]
+        return [sdot, -max(0.0, kface * s + gam * sdot) / MASS]
 
     def leave(_, y):
-        return KN * y[0] + gam * y[1] if y[0] > 0 else y[0]
+        return kface * y[0] + gam * y[1] if y[0] > 0 else y[0]
     leave.terminal, leave.direction = True, -1
     sol = solve_ivp(rhs, (0, 10 * period), [0.0, v0], events=leave, rtol=1e-11, atol=1e-16,
                     max_step=period / 1000)
@@ -712,7 +745,8 @@ def test_history_follows_cells_across_ranks(plugin_path, tmp_path, newton, layou
     (fix bcm/wall xlo and xhi), glide along y, reneighboring every step; cell 2 starts with
     a small velocity along z relative to cell 1, taken up by static friction. 'split': one
     rank per cell (processors 2 1 1) and the cells pulled apart along z with a quarter of
-    the Coulomb limit (applied at once, the undamped springs overshoot to half of it); with
+    the Coulomb limit of the face contact, 4 points of mu k_n d each (applied at once, the
+    undamped springs overshoot to half of it); with
     newton on, the rank of the cell lower in z computes the pair, so the sign of the load
     picks whether the ghost is the cell of smaller tag. 'migrate': both cells cross from one
     rank to the other (processors 1 2 1). The springs must carry on (the cells stick) and
@@ -722,7 +756,7 @@ def test_history_follows_cells_across_ranks(plugin_path, tmp_path, newton, layou
     d, vrel = 1e-8, 0.01 * sign        # overlap of each contact, relative velocity
     xc = A + RM - d / 2                 # centres at -xc, +xc: cell-cell overlap d
     xwall = 2 * A + 2 * RM - 1.5 * d    # walls: overlap d with the outer faces
-    fz = 0.25 * MU * KN * d * sign if layout == "split" else 0.0
+    fz = 0.25 * MU * 4 * KN * d * sign if layout == "split" else 0.0
     period = math.pi * math.sqrt(MASS / 2 / KN)
     moment = MASS * (2 * (A + RM)) ** 2 / 6
     steps = 8000

@@ -231,3 +231,20 @@ def test_checkpoints_every_steps_keep_the_last_two(tmp_path, plugin_path):
     assert sorted(p.name for p in (out / "checkpoints").glob("*.restart")) == [
         "step000000030000.restart", "step000000035000.restart"]
     assert os.path.getsize(out / "checkpoints" / "step000000035000.restart") > 0
+
+
+def test_resume_after_an_interrupted_analysis_only_analyses(shear_reference, tmp_path):
+    """A run stopped after its LAMMPS part (during the analysis) resumes with the analysis
+    alone: LAMMPS is not run again."""
+    import shutil
+
+    run = tmp_path / "copy"
+    shutil.copytree(shear_reference, run)
+    log = (run / "log.lammps").read_bytes()
+    (run / "results" / "summary.json").unlink()
+    (run / "status.json").write_text(json.dumps({"state": "interrupted", "phase": "analysis", "lammps_done": True}))
+    cfg = {**SHEAR, "output": {**SHEAR["output"], "dir": str(run)}}
+    execute(parse_config(cfg), resume=True, show_progress=False)
+    assert read_status(run)["state"] == "finished"
+    assert (run / "log.lammps").read_bytes() == log
+    assert_same_results(shear_reference, run)

@@ -389,7 +389,8 @@ int LAMMPS_NS::bcm_peratom_array(LAMMPS *lmp, const std::string &fix_id, const s
   if (index < 0 || flag != 1 || cols != ncols || (ghost && !ghostflag))
     lmp->error->all(FLERR,
                     "Per-atom store {} (fix {}) has {} columns{}, {} needed: the style's slot "
-                    "count changed after the store was created",
+                    "count changed after the store was created, or the store comes from a "
+                    "restart file of another slot layout",
                     name, fix_id, cols, ghost && !ghostflag ? " without ghost" : "", ncols);
   return index;
 }

@@ -3,26 +3,26 @@
    Plane x[axis] = coord with unit normal n_w = side e_axis pointing to the cells' side.
    A cell with N vertices at heights h_k < r_m over the plane has N contact points, each
    with overlap delta_k = h_k - r_m < 0, at the midpoint between the plane and the bottom
-   of the vertex's sphere, and (SPEC 1.2 Eq. 1, 2, 7; m = the cell's mass, wall at rest)
-     f_n = k_n/N (-delta) + (2 alpha sqrt(k_n m)/N) (-d delta/dt),   clamped at f_n >= 0
-     f_t = -k_t/N u_t,  |f_t| <= mu f_n  (at the limit u_t = -f_t N / k_t)
+   of the vertex's sphere, under the per-point law of bcm_contact_law.h (SPEC 1.2 Eq. 1, 2,
+   7; m = the cell's mass, wall at rest):
+     f_n = k_n (-delta) + 2 alpha sqrt(k_n m / N) (-d delta/dt),   clamped at f_n >= 0
+     f_t = -k_t u_t,  |f_t| <= mu f_n  (at the limit u_t = -f_t / k_t)
    u_t = tangential displacement of the vertex's material point along the plane since the
    contact began, kept per (cell, vertex) in slots of a hidden per-atom array
-   (vertex + 1, step, u_t[3], |f_t|, N); a slot is current when written at this step or the
+   (vertex + 1, step, u_t[3], |f_t|); a slot is current when written at this step or the
    previous one. The setup force evaluation reads the history without advancing it.
    Energy accounting (the same as pair_style bcm/contact and bond_style bcm/griffith):
-   stored = k_n/N delta^2/2 + k_t/N |u_t|^2/2; damping: the exact work of the damping force
-   (f_n - k_n/N (-delta)) n_w (the energy a clamped f_n lets go included) over the half kicks
-   of velocity Verlet (bcm_kick_work.h); friction: per Coulomb cap, the mean of the previous
-   and the capped |f_t| times the slip, and when a vertex stops touching, its spring's
-   energy (it slips free); a change of N: (1/N - 1/N_before) times the cell's springs' energy
-   at the whole-contact stiffnesses, mean of the last and this step (< 0 when energy is
-   gained). */
+   stored = k_n delta^2/2 + k_t |u_t|^2/2 per vertex; damping: the exact work of the damping
+   force (f_n - k_n (-delta)) n_w (the energy a clamped f_n lets go included) over the half
+   kicks of velocity Verlet (bcm_kick_work.h); friction: per Coulomb cap, the mean of the
+   previous and the capped |f_t| times the slip, and when a vertex stops touching, its
+   spring's energy (it slips free). A vertex starts and stops touching at zero overlap, so
+   a change of N moves no energy: vector value [7] is identically zero. */
 
 #include "fix_bcm_wall.h"
 
 #include "atom.h"
-#include "bcm_friction.h"
+#include "bcm_contact_law.h"
 #include "bcm_rigid.h"
 #include "comm.h"
 #include "error.h"
@@ -38,11 +38,9 @@ using namespace FixConst;
 using BcmRigid::cross;
 using BcmRigid::dot;
 
-// slot: vertex + 1, step written, u_t[3], |f_t|, and the cell's number of touching vertices
-// N and its springs' energy at the whole-contact stiffnesses at that step (friction work and
-// the energy of a change of N)
-static constexpr int SLOT = 8;
-enum { S_VERTEX, S_STEP, S_U, S_FT = 5, S_NPTS, S_EWHOLE };
+// slot: vertex + 1, step written, u_t[3], and |f_t| (the trapezoidal friction work)
+static constexpr int SLOT = 6;
+enum { S_VERTEX, S_STEP, S_U, S_FT = 5 };
 
 /* ----------------------------------------------------------------------
    fix ID group bcm/wall cells FILE rm R plane FACE VALUE kn kt en2 mu [slots N]
@@ -51,7 +49,7 @@ enum { S_VERTEX, S_STEP, S_U, S_FT = 5, S_NPTS, S_EWHOLE };
 FixBcmWall::FixBcmWall(LAMMPS *_lmp, int narg, char **arg) :
     Fix(_lmp, narg, arg), rm(0.0), axis(2), side(1.0), coord(0.0), kn(0.0), kt(0.0), en2(0.0),
     mu(0.0), alpha(1.0), nslots(16), iquat(-1), ihist(-1), local_now{0.0, 0.0, 0.0},
-    w_fric(0.0), w_npoints(0.0), totals{}, totals_valid(false), warned_slots(false),
+    w_fric(0.0), totals{}, totals_valid(false), warned_slots(false),
     nmax_touch(0), touch(nullptr)
 {
   const char *usage =
@@ -193,7 +191,7 @@ void FixBcmWall::wall_forces(bool advance)
   damp_work.begin(lmp, "fix bcm/wall");
   all_work.begin(lmp, "fix bcm/wall");
 
-  double ncells = 0.0, fnsum = 0.0, stored = 0.0, fric = 0.0, npoints = 0.0;
+  double ncells = 0.0, fnsum = 0.0, stored = 0.0, fric = 0.0;
   double nw[3] = {0.0, 0.0, 0.0};
   nw[axis] = side;
 
@@ -211,7 +209,6 @@ void FixBcmWall::wall_forces(bool advance)
     BcmRigid::quat_to_mat(q, R);
     const double *bv = &table->vert[3 * c->v0];
     touching.clear();
-    slots_used.clear();
     for (int k = 0; k < c->nv; k++) {
       const double *b = bv + 3 * k;
       const double off = R[axis][0] * b[0] + R[axis][1] * b[1] + R[axis][2] * b[2];
@@ -222,14 +219,10 @@ void FixBcmWall::wall_forces(bool advance)
     touch[i] = np;
     ncells += 1.0;
 
-    const double knp = kn / np, ktp = kt / np;
-    // SPEC 1.2 Eq. 1: damping 2 alpha sqrt(k_n m) of the cell's contact, shared like k_n
-    const double gamma = 2.0 * alpha * std::sqrt(kn * rmass[i]) / np;
+    // SPEC 1.2 Eq. 1, 2: the cell's mass shared by its touching vertices (bcm_contact_law.h)
+    const double gamma = BcmContactLaw::damping(alpha, kn, rmass[i], np);
     double fcell[3] = {0.0, 0.0, 0.0}, tcell[3] = {0.0, 0.0, 0.0};
     double fdamp[3] = {0.0, 0.0, 0.0}, tdamp[3] = {0.0, 0.0, 0.0};
-    // for the energy of a change of N (see pair_bcm_contact.cpp)
-    double e_whole = 0.0, e_whole_before = 0.0;
-    int np_before = 0;
 
     for (const int k : touching) {
       double r[3];
@@ -242,15 +235,11 @@ void FixBcmWall::wall_forces(bool advance)
       for (int d = 0; d < 3; d++) vp[d] = v[i][d] + w[d];
       const double vn = dot(vp, nw);
 
-      const double fel = knp * overlap;
-      double fn = fel - gamma * vn;
-      if (fn < 0.0) fn = 0.0;
-      e_whole += 0.5 * kn * overlap * overlap;
-
-      double ft[3] = {0.0, 0.0, 0.0}, u[3] = {0.0, 0.0, 0.0};
-      if (ktp > 0.0) {
-        double *h = hist[i];
-        int slot = -1, freeslot = -1;
+      // the vertex's tangential spring: from its slot, advanced along the plane
+      double u[3] = {0.0, 0.0, 0.0}, ft_before = 0.0;
+      int slot = -1, freeslot = -1;
+      double *h = hist[i];
+      if (kt > 0.0) {
         for (int m = 0; m < nslots; m++) {
           const double *s = h + SLOT * m;
           const bool current = s[S_VERTEX] != 0.0 && (s[S_STEP] == now || s[S_STEP] == before);
@@ -260,41 +249,38 @@ void FixBcmWall::wall_forces(bool advance)
           }
           if (!current && freeslot < 0) freeslot = m;
         }
-        double ft_before = 0.0;
         if (slot >= 0) {
           const double *s = h + SLOT * slot;
           for (int d = 0; d < 3; d++) u[d] = s[S_U + d];
           ft_before = s[S_FT];
-          np_before = static_cast<int>(s[S_NPTS]);
-          e_whole_before = s[S_EWHOLE];
         }
         u[axis] = 0.0;    // the plane does not turn: u_t stays in it
         if (advance)
           for (int d = 0; d < 3; d++)
             if (d != axis) u[d] += vp[d] * dt;
-        const double slipped = BcmFriction::coulomb(u, ft, ktp, mu * fn, ft_before);
-        if (advance) fric += slipped;
-        e_whole += 0.5 * kt * dot(u, u);
-        if (advance) {
-          if (slot < 0) slot = freeslot;
-          if (slot >= 0) {
-            double *s = h + SLOT * slot;
-            s[S_VERTEX] = k + 1;
-            s[S_STEP] = now;
-            for (int d = 0; d < 3; d++) s[S_U + d] = u[d];
-            s[S_FT] = ktp * std::sqrt(dot(u, u));
-            s[S_NPTS] = np;
-            slots_used.push_back(slot);
-          } else if (!warned_slots) {
-            warned_slots = true;
-            error->warning(FLERR, "fix bcm/wall: cell {} touches with more than {} vertices: "
-                                  "raise slots", tag[i], nslots);
-          }
+      }
+
+      const BcmContactLaw::Point pt =
+          BcmContactLaw::point(kn, kt, gamma, mu, overlap, vn, u, ft_before);
+
+      if (kt > 0.0 && advance) {
+        fric += pt.slip;
+        if (slot < 0) slot = freeslot;
+        if (slot >= 0) {
+          double *s = h + SLOT * slot;
+          s[S_VERTEX] = k + 1;
+          s[S_STEP] = now;
+          for (int d = 0; d < 3; d++) s[S_U + d] = u[d];
+          s[S_FT] = std::sqrt(dot(pt.ft, pt.ft));
+        } else if (!warned_slots) {
+          warned_slots = true;
+          error->warning(FLERR, "fix bcm/wall: cell {} touches with more than {} vertices: "
+                                "raise slots", tag[i], nslots);
         }
       }
 
       double F[3], tq[3];
-      for (int d = 0; d < 3; d++) F[d] = fn * nw[d] + ft[d];
+      for (int d = 0; d < 3; d++) F[d] = pt.fn * nw[d] + pt.ft[d];
       cross(r, F, tq);
       for (int d = 0; d < 3; d++) {
         fcell[d] += F[d];
@@ -302,14 +288,14 @@ void FixBcmWall::wall_forces(bool advance)
       }
       // the damping part of the normal force (with the clamp: what it lets go)
       double Fd[3];
-      for (int d = 0; d < 3; d++) Fd[d] = (fn - fel) * nw[d];
+      for (int d = 0; d < 3; d++) Fd[d] = (pt.fn - pt.fel) * nw[d];
       cross(r, Fd, tq);
       for (int d = 0; d < 3; d++) {
         fdamp[d] += Fd[d];
         tdamp[d] += tq[d];
       }
-      fnsum += fn;
-      stored += 0.5 * knp * overlap * overlap + 0.5 * ktp * dot(u, u);
+      fnsum += pt.fn;
+      stored += pt.stored;
     }
     for (int d = 0; d < 3; d++) {
       f[i][d] += fcell[d];
@@ -317,13 +303,6 @@ void FixBcmWall::wall_forces(bool advance)
     }
     damp_work.add(lmp, i, -1, fdamp, tdamp, nullptr);
     all_work.add(lmp, i, -1, fcell, tcell, nullptr);
-    if (advance) {
-      // the jump of the springs' energy when N changes falls between the last step and this
-      // one; velocity Verlet's trapezoid places it at the middle: the mean of the energies
-      if (np_before > 0 && np_before != np)
-        npoints -= (1.0 / np - 1.0 / np_before) * 0.5 * (e_whole + e_whole_before);
-      for (const int m : slots_used) hist[i][SLOT * m + S_EWHOLE] = e_whole;
-    }
   }
 
   // vertices that touched at the last step and no longer do: the spring slips free, its
@@ -347,7 +326,6 @@ void FixBcmWall::wall_forces(bool advance)
   local_now[1] = fnsum;
   local_now[2] = stored;
   w_fric += fric;
-  w_npoints += npoints;
   totals_valid = false;
 }
 
@@ -357,8 +335,10 @@ void FixBcmWall::sum_totals()
 {
   if (totals_valid) return;
   const double damp = -damp_work.work();
-  const double mine[NVECTOR] = {local_now[0], local_now[1], damp + w_fric + w_npoints,
-                                local_now[2], damp, w_fric, w_npoints, all_work.work()};
+  // [7], the energy of changes of N under a shared stiffness, is identically zero under the
+  // per-point law: kept so that the vector keeps its positions
+  const double mine[NVECTOR] = {local_now[0], local_now[1], damp + w_fric, local_now[2],
+                                damp, w_fric, 0.0, all_work.work()};
   MPI_Allreduce(mine, totals, NVECTOR, MPI_DOUBLE, MPI_SUM, world);
   totals_valid = true;
 }
@@ -377,7 +357,8 @@ double FixBcmWall::compute_vector(int n)
 
 /* ----------------------------------------------------------------------
    the dissipated energies and the work of the wall's forces carry on across restarts
-   (kept on rank 0): damping, friction, change of N, work. The kick works are closed as the
+   (kept on rank 0): damping, friction, 0 (the place of [7], identically zero: the record
+   keeps its layout), work. The kick works are closed as the
    next run's setup would close them (BcmKickWork::work_closed), so a resumed run carries
    on with the very numbers of an uninterrupted one. Called on every rank (the sums need
    them all); only rank 0 has a file.
@@ -385,7 +366,7 @@ double FixBcmWall::compute_vector(int n)
 
 void FixBcmWall::write_restart(FILE *fp)
 {
-  const double mine[4] = {-damp_work.work_closed(lmp, "fix bcm/wall"), w_fric, w_npoints,
+  const double mine[4] = {-damp_work.work_closed(lmp, "fix bcm/wall"), w_fric, 0.0,
                           all_work.work_closed(lmp, "fix bcm/wall")};
   double total[4] = {0.0, 0.0, 0.0, 0.0};
   MPI_Reduce(mine, total, 4, MPI_DOUBLE, MPI_SUM, 0, world);
@@ -403,7 +384,6 @@ void FixBcmWall::restart(char *buf)
   const bool root = comm->me == 0;
   damp_work.restore(root ? -total[0] : 0.0);
   w_fric = root ? total[1] : 0.0;
-  w_npoints = root ? total[2] : 0.0;
   all_work.restore(root ? total[3] : 0.0);
 }
 

@@ -1,7 +1,7 @@
 /* fix bcm/wall: a rigid plane against the rounded BCM cells (SPEC 1.2 last bullet): each
    vertex of a cell's core closer than r_m to the plane is a contact point, with the
-   frictional-contact law of pair_style bcm/contact (Eq. 1, 2, 7); the stiffness of one
-   cell's contact is shared by its touching vertices. See plugins/doc/fix_bcm_wall.md. */
+   frictional-contact law of pair_style bcm/contact (Eq. 1, 2, 7; bcm_contact_law.h): a
+   fixed stiffness per touching vertex. See plugins/doc/fix_bcm_wall.md. */
 
 #ifndef BRITTLE_FIX_BCM_WALL_H
 #define BRITTLE_FIX_BCM_WALL_H
@@ -48,12 +48,12 @@ class FixBcmWall : public Fix {
   // this rank's part of the last evaluation: cells touching, sum of f_n, stored energy
   double local_now[3];
   // this rank's energy accounting since the fix began: work of the damping forces and of
-  // all the wall's forces on the cells, energy dissipated by friction, energy lost at
-  // changes of a cell's number of touching vertices (< 0: gained)
+  // all the wall's forces on the cells, energy dissipated by friction
   BcmKickWork damp_work, all_work;
-  double w_fric, w_npoints;
+  double w_fric;
   // the global vector: [1] cells touching, [2] sum of f_n, [3] dissipated ([5] + [6] + [7]),
-  // [4] stored, [5] damping, [6] friction, [7] change of N, [8] work of the wall's forces
+  // [4] stored, [5] damping, [6] friction, [7] change of N (identically zero under the
+  // per-point law: kept for the positions), [8] work of the wall's forces
   static constexpr int NVECTOR = 8;
   double totals[NVECTOR];
   bool totals_valid;
@@ -62,7 +62,6 @@ class FixBcmWall : public Fix {
   int nmax_touch;
   double *touch;             // per atom: touching vertices (vector_atom)
   std::vector<int> touching;
-  std::vector<int> slots_used;    // history slots written for the current cell
 
   void wall_forces(bool advance);
   void sum_totals();

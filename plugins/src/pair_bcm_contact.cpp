@@ -1,35 +1,38 @@
 /* pair_style bcm/contact (SPEC 1.2 last bullets, Eq. 1, 2, 7; see pair_bcm_contact.h).
 
    For a pair of cells A (smaller tag) and B with N contact points (bcm_find_contacts), at
-   each point of overlap delta = h - 2 r_m < 0 (h = core distance), normal n from B to A:
-     f_n = k_n/N (-delta) + (2 alpha sqrt(k_n m) / N) (-d delta/dt),   clamped at f_n >= 0
-     f_t = -k_t/N u_t, |f_t| <= mu f_n (Coulomb; at the limit u_t = -f_t N / k_t)
+   each point of overlap delta = h - 2 r_m < 0 (h = core distance), normal n from B to A,
+   the per-point law of bcm_contact_law.h:
+     f_n = k_n (-delta) + 2 alpha sqrt(k_n m / N) (-d delta/dt),   clamped at f_n >= 0
+     f_t = -k_t u_t, |f_t| <= mu f_n (Coulomb; at the limit u_t = -f_t / k_t)
    with m = m_A m_B / (m_A + m_B), alpha from e_n (Eq. 2), u_t the tangential spring of the
    point: the tangential displacement of A's material point relative to B's, rotated into
    the current tangent plane (its length kept) and advanced by v_t dt each step. k_n and k_t
-   are the stiffnesses of the whole contact, shared by its N points: N equal overlaps of a
-   face-face contact give k_n delta in total, as one vertex-face point does. The force acts
-   at the point on both cells, with torques (p - x) x F, so that linear and angular momentum
-   are conserved. Energy (eng_vdwl): the springs' energy, k_n/N delta^2/2 + k_t/N |u_t|^2/2
-   per point. Dissipated (compute pair extra values, cumulative, each pair counted once):
-   the exact work of the normal damping over velocity Verlet's half kicks (bcm_kick_work.h),
-   Coulomb slip (mean of the last and the capped |f_t| times the slip), and the jump of the
-   springs' energy when N changes (their stiffness is shared by the N points).
+   are the stiffnesses of one point: a point enters and leaves at zero overlap, so a change
+   of N moves no energy (an aligned face-face contact of N points is N times as stiff as a
+   vertex-face point). The force acts at the point on both cells, with torques
+   (p - x) x F, so that linear and angular momentum are conserved. Energy (eng_vdwl): the
+   springs' energy, k_n delta^2/2 + k_t |u_t|^2/2 per point. Dissipated (compute pair extra
+   values, cumulative, each pair counted once): the exact work of the normal damping over
+   velocity Verlet's half kicks (bcm_kick_work.h) and Coulomb slip (mean of the last and the
+   capped |f_t| times the slip); extra value [6], the energy of changes of N under the
+   former shared stiffness, is identically zero (kept for the positions of [7]).
 
    History: u_t is kept per (pair, contact feature) in slots of a hidden per-atom array
-   (fix property/atom, ghost yes): slot = (partner tag, feature key, step, u_t[3]), written
-   into one cell of the pair owned by the computing rank (one of them is: the list's i; when
-   both are, A if tag_A + tag_B is even, else B), always with the orientation A -> B. A slot is current when its step is this step or the
-   previous one; a lookup takes the newer of the current copies in A and B. The written copy
-   sits in an owned cell, migrates with it, and at reneighboring ghost cells get their
-   owner's copies: whichever rank computes the pair next finds it. A copy left behind in the
+   (fix property/atom, ghost yes): slot = (partner tag, feature key, step, u_t[3], |f_t|),
+   written into one cell of the pair owned by the computing rank (one of them is: the list's
+   i; when both are, A if tag_A + tag_B is even, else B), always with the orientation
+   A -> B. A slot is current when its step is this step or the previous one; a lookup
+   takes the newer of the current copies in A and B. The written copy sits in an owned
+   cell, migrates with it, and at reneighboring ghost cells get their owner's copies:
+   whichever rank computes the pair next finds it. A copy left behind in the
    other cell is stale after one step and its slot free again. During setup (run 0, the first
    force evaluation of a run) the history is read, not advanced. */
 
 #include "pair_bcm_contact.h"
 
 #include "atom.h"
-#include "bcm_friction.h"
+#include "bcm_contact_law.h"
 #include "bcm_rigid.h"
 #include "comm.h"
 #include "error.h"
@@ -51,18 +54,17 @@ using BcmRigid::dot;
 
 static const char *const HIST_FIX_ID = "BCM_CONTACT_HISTORY";
 static const char *const HIST_NAME = "bcm_contact_history";
-// slot: partner tag, feature key, step written, u_t[3], |f_t|, and the contact's number of
-// points N and its springs' energy at the whole-contact stiffnesses at that step (friction
-// work and the energy of a change of N)
-static constexpr int SLOT = 9;
-enum { S_PARTNER, S_KEY, S_STEP, S_U, S_FT = 6, S_NPTS, S_EWHOLE };
+// slot: partner tag, feature key, step written, u_t[3], and |f_t| (the trapezoidal friction
+// work)
+static constexpr int SLOT = 7;
+enum { S_PARTNER, S_KEY, S_STEP, S_U, S_FT = 6 };
 
 /* ---------------------------------------------------------------------- */
 
 PairBcmContact::PairBcmContact(LAMMPS *_lmp) :
     Pair(_lmp), rm(0.0), nslots(64), kn(nullptr), kt(nullptr), en2(nullptr), mu(nullptr),
     alpha(nullptr), iquat(-1), ihist(-1), maxrad(0.0), warned_slots(false), w_fric(0.0),
-    w_npoints(0.0), nevals(0), saved_at(-1), saved{0.0, 0.0, 0.0, 0.0}
+    nevals(0), saved_at(-1), saved{0.0, 0.0, 0.0, 0.0}
 {
   single_enable = 0;
   // settings, coefficients and the cumulative [4]-[7] go to restart files; the tangential
@@ -360,19 +362,12 @@ void PairBcmContact::compute(int eflag, int vflag)
       const int itype = type[i], jtype = type[j];
       const double kn_ = kn[itype][jtype], kt_ = kt[itype][jtype], mu_ = mu[itype][jtype];
       const double meff = rmass[a] * rmass[b] / (rmass[a] + rmass[b]);
-      const double knp = kn_ / np, ktp = kt_ / np;
-      // SPEC 1.2 Eq. 1: damping 2 alpha sqrt(k_n m) of the whole contact, shared like k_n
-      const double gamma = 2.0 * alpha[itype][jtype] * std::sqrt(kn_ * meff) / np;
+      // SPEC 1.2 Eq. 1, 2: the reduced mass shared by the contact's points (bcm_contact_law.h)
+      const double gamma = BcmContactLaw::damping(alpha[itype][jtype], kn_, meff, np);
 
       double fa[3] = {0.0, 0.0, 0.0}, ta[3] = {0.0, 0.0, 0.0}, tb[3] = {0.0, 0.0, 0.0};
       double fda[3] = {0.0, 0.0, 0.0}, tda[3] = {0.0, 0.0, 0.0}, tdb[3] = {0.0, 0.0, 0.0};
       double epair = 0.0, fric = 0.0;
-      // for the energy of a change of N: the springs' energy at the whole-contact
-      // stiffnesses (sum of k_n delta^2/2 + k_t |u_t|^2/2) now and at the last step, and N
-      // at the last step (0: the contact is new)
-      double e_whole = 0.0, e_whole_before = 0.0;
-      int np_before = 0;
-      written.clear();
       for (const BcmContactPoint &c : points) {
         const double *n = c.n;
         const double overlap = dcut - c.h;    // -delta > 0
@@ -386,26 +381,19 @@ void PairBcmContact::compute(int eflag, int vflag)
         for (int d = 0; d < 3; d++) vrel[d] = v[a][d] + wa[d] - v[b][d] - wb[d];
         const double vn = dot(vrel, n);
 
-        // SPEC 1.2 Eq. 1, clamped: damping may not pull
-        const double fel = knp * overlap;
-        double fn = fel - gamma * vn;
-        if (fn < 0.0) fn = 0.0;
-        e_whole += 0.5 * kn_ * overlap * overlap;
-
-        // SPEC 1.2 Eq. 7: tangential spring with Coulomb limit
-        double ft[3] = {0.0, 0.0, 0.0}, u[3] = {0.0, 0.0, 0.0};
+        // the point's tangential spring: from the newer current copy of its history,
+        // carried into the current tangent plane (length kept) and advanced over the step
+        double u[3] = {0.0, 0.0, 0.0}, ft_before = 0.0;
         const double key = static_cast<double>(c.key);
-        if (ktp > 0.0) {
+        if (kt_ > 0.0) {
           const int sa_ = find_slot(a, tag[b], key, step);
           const int sb_ = find_slot(b, tag[a], key, step);
           const double *src = nullptr;
           if (sa_ >= 0) src = &hist[a][SLOT * sa_];
           if (sb_ >= 0 && (!src || hist[b][SLOT * sb_ + S_STEP] > src[S_STEP]))
             src = &hist[b][SLOT * sb_];
-          double ft_before = 0.0;
           if (src) {
             for (int d = 0; d < 3; d++) u[d] = src[S_U + d];
-            // into the current tangent plane, length kept
             const double len0 = std::sqrt(dot(u, u));
             const double un = dot(u, n);
             for (int d = 0; d < 3; d++) u[d] -= un * n[d];
@@ -413,39 +401,38 @@ void PairBcmContact::compute(int eflag, int vflag)
             if (len1 > 0.0)
               for (double &ud : u) ud *= len0 / len1;
             ft_before = src[S_FT];
-            np_before = static_cast<int>(src[S_NPTS]);
-            e_whole_before = src[S_EWHOLE];
           }
           if (advance)
             for (int d = 0; d < 3; d++) u[d] += (vrel[d] - vn * n[d]) * dt;
-          const double slipped = BcmFriction::coulomb(u, ft, ktp, mu_ * fn, ft_before);
-          if (advance) fric += slipped;
-          e_whole += 0.5 * kt_ * dot(u, u);
-          if (advance) {
-            // one copy, in an owned cell of the pair (i always is); when both are owned,
-            // the parity of the tag sum picks one, so that cells share the load evenly
-            const bool in_a = b >= nlocal || (a < nlocal && ((tag[a] + tag[b]) & 1) == 0);
-            const int o = in_a ? a : b;
-            const tagint partner = o == a ? tag[b] : tag[a];
-            int m = find_slot(o, partner, key, step);
-            if (m < 0) m = free_slot(o, step);
-            if (m >= 0) {
-              double *dst = &hist[o][SLOT * m];
-              dst[S_PARTNER] = static_cast<double>(partner);
-              dst[S_KEY] = key;
-              dst[S_STEP] = static_cast<double>(step);
-              for (int d = 0; d < 3; d++) dst[S_U + d] = u[d];
-              dst[S_FT] = ktp * std::sqrt(dot(u, u));
-              dst[S_NPTS] = np;
-              written.push_back(dst);
-            } else {
-              nlost++;
-            }
+        }
+
+        // SPEC 1.2 Eq. 1, 7 at one point, the per-point law
+        const BcmContactLaw::Point pt =
+            BcmContactLaw::point(kn_, kt_, gamma, mu_, overlap, vn, u, ft_before);
+
+        if (kt_ > 0.0 && advance) {
+          fric += pt.slip;
+          // one copy, in an owned cell of the pair (i always is); when both are owned,
+          // the parity of the tag sum picks one, so that cells share the load evenly
+          const bool in_a = b >= nlocal || (a < nlocal && ((tag[a] + tag[b]) & 1) == 0);
+          const int o = in_a ? a : b;
+          const tagint partner = o == a ? tag[b] : tag[a];
+          int m = find_slot(o, partner, key, step);
+          if (m < 0) m = free_slot(o, step);
+          if (m >= 0) {
+            double *dst = &hist[o][SLOT * m];
+            dst[S_PARTNER] = static_cast<double>(partner);
+            dst[S_KEY] = key;
+            dst[S_STEP] = static_cast<double>(step);
+            for (int d = 0; d < 3; d++) dst[S_U + d] = u[d];
+            dst[S_FT] = std::sqrt(dot(pt.ft, pt.ft));
+          } else {
+            nlost++;
           }
         }
 
         double F[3], tqa[3], tqb[3];
-        for (int d = 0; d < 3; d++) F[d] = fn * n[d] + ft[d];
+        for (int d = 0; d < 3; d++) F[d] = pt.fn * n[d] + pt.ft[d];
         cross(ra, F, tqa);
         cross(rb, F, tqb);
         for (int d = 0; d < 3; d++) {
@@ -455,7 +442,7 @@ void PairBcmContact::compute(int eflag, int vflag)
         }
         // the damping part of the normal force (with the clamp: what it lets go)
         double Fd[3];
-        for (int d = 0; d < 3; d++) Fd[d] = (fn - fel) * n[d];
+        for (int d = 0; d < 3; d++) Fd[d] = (pt.fn - pt.fel) * n[d];
         cross(ra, Fd, tqa);
         cross(rb, Fd, tqb);
         for (int d = 0; d < 3; d++) {
@@ -463,24 +450,14 @@ void PairBcmContact::compute(int eflag, int vflag)
           tda[d] += tqa[d];
           tdb[d] -= tqb[d];
         }
-        if (eflag) epair += 0.5 * knp * overlap * overlap + 0.5 * ktp * dot(u, u);
+        epair += pt.stored;
       }
 
       if (counted) {
         damp_work.add(lmp, a, b, fda, tda, tdb);
         all_work.add(lmp, a, b, fa, ta, tb);
-        if (advance) {
-          w_fric += fric;
-          // the contact's stiffness is shared by its N points: when N changes, the springs
-          // change their energy by (1/N - 1/N_before) times their energy at the whole-contact
-          // stiffnesses (counted as dissipated, < 0 if gained). The change falls between the
-          // last step and this one; velocity Verlet's trapezoid places it at the middle: the
-          // mean of the energies at both steps
-          if (np_before > 0 && np_before != np)
-            w_npoints -= (1.0 / np - 1.0 / np_before) * 0.5 * (e_whole + e_whole_before);
-        }
+        if (advance) w_fric += fric;
       }
-      for (double *dst : written) dst[S_EWHOLE] = e_whole;
 
       if (a < nlocal || newton_pair) {
         for (int d = 0; d < 3; d++) {
@@ -508,7 +485,7 @@ void PairBcmContact::compute(int eflag, int vflag)
   pvector[2] = static_cast<double>(nlost);
   pvector[3] = -damp_work.work();
   pvector[4] = w_fric;
-  pvector[5] = w_npoints;
+  pvector[5] = 0.0;    // no energy moves at a change of N (bcm_contact_law.h)
   pvector[6] = all_work.work();
   nevals++;
   // a restart file is written at the end of this step (restart command): the totals as of
@@ -532,7 +509,7 @@ void PairBcmContact::local_totals(double *out)
 {
   out[0] = -damp_work.work_closed(lmp, "pair_style bcm/contact");
   out[1] = w_fric;
-  out[2] = w_npoints;
+  out[2] = 0.0;    // [6]: identically zero, kept in the record's layout
   out[3] = all_work.work_closed(lmp, "pair_style bcm/contact");
 }
 
@@ -627,10 +604,10 @@ void PairBcmContact::read_restart_settings(FILE *fp)
   // last step's forces were settled when the file was written
   damp_work.restore(-totals[0]);
   w_fric = totals[1];
-  w_npoints = totals[2];
   all_work.restore(totals[3]);
   for (int k = 0; k < nextra; k++) pvector[k] = 0.0;
   for (int k = 0; k < 4; k++) pvector[3 + k] = totals[k];
+  pvector[5] = 0.0;
 }
 
 /* ---------------------------------------------------------------------- */

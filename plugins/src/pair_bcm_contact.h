@@ -1,7 +1,7 @@
 /* pair_style bcm/contact: frictional contacts between BCM cells that are not bonded (never
    bonded cells, and cells of different fragments), as rounded convex polyhedra (SPEC 1.2,
    last bullets; Eq. 1, 2, 7). Geometry from a cells file (bcm_cells.h); contact points from
-   bcm_find_contacts(); the stiffness of a pair is shared by its contact points. Restart
+   bcm_find_contacts(); a fixed stiffness per contact point (bcm_contact_law.h). Restart
    files carry the settings, the coefficients and the cumulative energies; the tangential
    history is a per-atom store. See plugins/doc/pair_bcm_contact.md. */
 
@@ -50,11 +50,12 @@ class PairBcmContact : public Pair {
 
   // compute pair extra values: [1] contact points, [2] pairs in contact, [3] points without
   // a history slot (last evaluation); cumulative, this rank's pairs: [4] energy dissipated
-  // by normal damping, [5] by Coulomb slip, [6] lost at changes of a contact's number of
-  // points (< 0: gained), [7] work done on the cells by all the pair's forces
+  // by normal damping, [5] by Coulomb slip, [6] energy of changes of a contact's number of
+  // points (identically zero under the per-point law: kept for the positions), [7] work
+  // done on the cells by all the pair's forces
   static constexpr int NEXTRA = 7;
   BcmKickWork damp_work, all_work;
-  double w_fric, w_npoints;
+  double w_fric;
 
   // restart files: LAMMPS calls the pair's write_restart on rank 0 only, so the cumulative
   // [4]-[7] of all ranks are reduced to rank 0 beforehand (collectively: in init_style,
@@ -70,7 +71,6 @@ class PairBcmContact : public Pair {
   std::vector<int> placed;       // offset into geom, or -1
   std::vector<double> geom;      // 3 nv vertices then 4 nf planes per placed cell
   std::vector<BcmContactPoint> points;
-  std::vector<double *> written;    // history slots written for the current pair
   BcmContactWork work;
 
   void allocate();
