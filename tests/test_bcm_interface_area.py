@@ -114,3 +114,16 @@ def test_min_interface_area_leaves_small_faces_unbonded(tmp_path, plugin_path):
     summary = json.loads((out / "results/summary.json").read_text())
     assert summary["A0"] == pytest.approx(system["A0"], rel=1e-12)
     assert summary["D_w"] == pytest.approx(summary["A"] / system["A0"], rel=1e-12)
+
+
+def test_a_particle_whose_erosion_merged_vertices_runs(tmp_path, plugin_path):
+    """Seed 4 at 100 cells: one core face comes out of the erosion 1.1e-5 of its cell's size off
+    its plane (vertices merged where a face nearly vanished); the cells file is accepted."""
+    from driver.config import parse_config
+    from driver.pipeline import execute
+
+    out = tmp_path / "run"
+    execute(parse_config({"name": "s4", "seed": 4, "model": {"kind": "bcm", "n_cells": 100},
+                          "scenario": {"kind": "impact", "velocity": 3.0, "max_time": 1e-5},
+                          "output": {"dir": str(out), "plots": False}}), show_progress=False)
+    assert (out / "results/summary.json").exists()

@@ -246,7 +246,10 @@ void BcmCells::finish_cell(LAMMPS *lmp, tagint tag, Cell &c)
   for (int k = 0; k < c.nv; k++) rb = std::max(rb, len3(V + 3 * k));
   if (!(rb > 0.0)) error->all(FLERR, "BCM cells file {}: cell {} has no extent", source, tag);
   c.rbound = rb;
-  const double tol = 1.0e-8 * rb;
+  // planarity tolerance: the driver's erosion merges vertices closer than up to 1e-4 of the
+  // cell's size when a face nearly vanishes (driver/bcm/tessellation.py erode), which leaves a
+  // face off its plane by as much; far below the rounding radius r_m (~0.02 of the cell size)
+  const double tol = 5.0e-4 * rb;
 
   auto face_range = [&](int f, int &b, int &e) {
     b = face_first[c.f0 + f];
