@@ -4,6 +4,10 @@ Energies in J, areas in m^2. The SPEC 1.5 definitions:
   W_k^- = M v^2 / 2 before impact, W_k^+ = kinetic energy of all cells after,
   W_f = 2 A G_c, W_s = 2 A_0 G_c, D_w = A / A_0, eta = W_f / W_k^-, e_k^2 = W_k^+ / W_k^-,
   omega = W_k^- / W_s, chi = W_k^+ / W_f, W_c = W_k^- - W_k^+ - W_f.
+SPEC 3 (and the rockable convention): W_f is also reported as the elastic energy the breaks
+released (W_f_released = W_f + W_c_switch), with eta_released and W_c_released built on it and
+a flag when the two differ by more than W_F_TOLERANCE, and as the energy the broken
+interfaces held just before (W_f_held).
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ from analysis.dumps import read_atom_dump, read_local_dump
 from analysis.grain_table import grain_table
 from analysis.grains import grain_labels
 from analysis.pictures import render_cells
-from analysis.plots import plot_energies, plot_mass_pdf, plot_shapes
+from analysis.plots import PlotGuard, plot_energies, plot_mass_pdf, plot_shapes
 from analysis.report import Report, clear_report, provenance_line, write_report
 from analysis.shapes import fragment_table, shape_averages, vertices_in_space
 from analysis.statistics import fit_mass_ratio_law, normalised_mass_distribution
@@ -29,13 +33,30 @@ from driver.bcm.lammps_files import read_cells
 from driver.rundir import display_dir
 
 
+W_F_TOLERANCE = 0.01  # |W_f_released - W_f| above this fraction of W_f is flagged
+
+
 def impact_measures(wk_minus: float, wk_plus: float, wk_plus_cm: float, broken_area: float,
                     total_area: float, g_c: float, elastic_end: float,
-                    dissipated_measured: float | None = None) -> dict[str, float]:
+                    dissipated_measured: float | None = None, channels: dict[str, float] | None = None,
+                    w_f_held: float | None = None, convention: str | None = None) -> dict:
     """SPEC 1.5 measures of one impact. `wk_plus_cm` is the fragments' centre-of-mass part of
     W_k^+; `dissipated_measured` is W_c from the work of the dissipative forces (damping,
     friction, switch, changes of a contact's number of points: see read_impact_thermo),
-    reported beside the balance value as a check."""
+    reported beside the balance value as a check; channels: its parts (energy_channels), as
+    W_c_<channel>.
+
+    W_f = 2 A G_c is what the Griffith convention books (`convention`: model.griffith_energy).
+    What the breaks took out of the interfaces' springs, the energy held just before minus what
+    the contact law kept, is W_f_released = W_f + W_c_switch (the switch term is exactly that
+    difference, up to the half kick of the break step; plugins/doc/bond_bcm_griffith.md). Under
+    `rockable` the springs held about 1/N_p of W_f and the switch term is negative. Both are
+    reported, with eta_released = W_f_released / W_k^- and W_c_released = W_k^- - W_k^+ -
+    W_f_released, and W_f_flag says why when they differ by more than W_F_TOLERANCE of W_f.
+    w_f_held: the energy the broken interfaces held when they broke (sum of their
+    energy_at_break; SPEC 3), as W_f_held. energy_flags lists every flag, and every negative
+    dissipation (W_c, W_c_measured, W_c_released, a channel) with its cause: none is a result
+    without its flag."""
     w_f = 2.0 * broken_area * g_c
     w_s = 2.0 * total_area * g_c
     w_c = wk_minus - wk_plus - w_f
@@ -51,6 +72,61 @@ def impact_measures(wk_minus: float, wk_plus: float, wk_plus_cm: float, broken_a
         out["W_c_measured"] = dissipated_measured
         # the balance W_k^- = W_k^+ + W_f + W_c + E_el(end), with W_c measured directly
         out["balance_residual"] = (wk_minus - wk_plus - w_f - dissipated_measured - elastic_end) / wk_minus
+    for name, value in (channels or {}).items():
+        out[f"W_c_{name}"] = value
+    flags: list[str] = []
+    if channels is not None and "switch" in channels:
+        released = w_f + channels["switch"]
+        out.update({"W_f_released": released, "W_f_released_over_W_f": released / w_f if w_f > 0 else None,
+                    "eta_released": released / wk_minus, "W_c_released": wk_minus - wk_plus - released})
+        out["W_f_flag"] = fracture_energy_flag(w_f, released, convention)
+        if out["W_f_flag"]:
+            flags.append(out["W_f_flag"])
+    if w_f_held is not None:
+        out.update({"W_f_held": w_f_held, "W_f_held_over_W_f": w_f_held / w_f if w_f > 0 else None})
+    flags += negative_dissipation_flags(out, wk_minus, list(channels or ()))
+    out["energy_flags"] = flags
+    return out
+
+
+def fracture_energy_flag(w_f: float, w_f_released: float, convention: str | None = None,
+                         tolerance: float = W_F_TOLERANCE) -> str | None:
+    """Why W_f = 2 A G_c is not the elastic energy the breaks released, when the two differ by
+    more than `tolerance` of W_f (None otherwise)."""
+    if w_f == 0 and w_f_released == 0 or abs(w_f_released - w_f) <= tolerance * abs(w_f):
+        return None
+    conv = f" (model.griffith_energy = {convention})" if convention else ""
+    head = (f"W_f = 2 A G_c = {w_f:.4g} J but the breaks released {w_f_released:.4g} J of elastic energy "
+            f"(W_f + W_c_switch, {(w_f_released - w_f) / w_f:+.1%} of W_f){conv}: ")
+    if w_f_released < w_f:
+        return head + ("the convention books fracture energy the springs never held, so W_f, eta, chi and W_c are "
+                       "bookkeeping; W_f_released, eta_released and W_c_released are what the springs gave up")
+    return head + ("more than 2 A G_c left the springs at the breaks (the switch loss: broken points passing to the "
+                   "contact law lose energy), so eta understates what breaking took; eta_released is that")
+
+
+_NEGATIVE_CAUSES = {
+    "npoints": "energy put in when a contact gains points (its stiffness is shared by more points)",
+    "switch": "the one-step overshoot of the threshold and the half kick replaced at breaks",
+}
+
+
+def negative_dissipation_flags(measures: dict, wk_minus: float, channels: list[str]) -> list[str]:
+    """One line per negative dissipation among W_c, W_c_measured, W_c_released and the
+    channels W_c_<channel>, with its likely cause."""
+    out = []
+    for key in ("W_c", "W_c_measured", "W_c_released", *(f"W_c_{c}" for c in channels)):
+        value = measures.get(key)
+        if value is None or value >= 0:
+            continue
+        booked_beyond = measures.get("W_f_flag") and measures["W_f_released"] < measures["W_f"]
+        if booked_beyond and key in ("W_c", "W_c_measured", "W_c_switch"):
+            cause = "the Griffith convention books more fracture energy than the springs held (W_f_flag)"
+        else:
+            cause = next((c for k, c in _NEGATIVE_CAUSES.items() if key.endswith(k)),
+                         "the energy balance does not close (see balance_residual)")
+        out.append(f"{key} = {value:.4g} J ({value / wk_minus:+.3g} W_k^-) is negative: not a dissipation, "
+                   f"not a result; cause: {cause}")
     return out
 
 
@@ -84,6 +160,43 @@ def read_impact_thermo(path: Path) -> pd.DataFrame:
     df["dissipated_npoints"] = df.W_wall_npoints + df.W_contact_npoints
     df["dissipated"] = df.dissipated_damping + df.dissipated_friction + df.dissipated_npoints + df.W_switch
     return df
+
+
+# Where the measured dissipation W_c went (read_impact_thermo's sinks), one channel per force
+# style and mechanism: (channel, record column, what). Their sum is the `dissipated` column.
+ENERGY_CHANNELS = [
+    ("interface_damping", "W_damp", "damping of intact interfaces (bond bcm/griffith)"),
+    ("interface_friction", "W_friction", "friction on broken interfaces"),
+    ("switch", "W_switch", "switch loss at breaks: stored before - stored after - 2 S G_c"),
+    ("contact_damping", "W_contact_damp", "damping of cell-cell contacts (pair bcm/contact)"),
+    ("contact_friction", "W_contact_friction", "friction of cell-cell contacts"),
+    ("contact_npoints", "W_contact_npoints", "cell-cell contacts changing their number of points"),
+    ("wall_damping", "W_wall_damp", "damping of cell-plane contacts (fix bcm/wall)"),
+    ("wall_friction", "W_wall_friction", "friction on the plane"),
+    ("wall_npoints", "W_wall_npoints", "cell-plane contacts changing their number of points"),
+]
+
+
+def energy_channels(record: pd.Series, wk_minus: float) -> pd.DataFrame:
+    """The energy split of one record of read_impact_thermo (the last: the outcome): one row
+    per dissipation channel (ENERGY_CHANNELS; they sum to the measured W_c, `dissipated`), then
+    fracture (W_f), the kinetic energy W_k^+ and the elastic energy left. Columns: channel,
+    record_column, what, energy [J], over_W_k_minus, part_of_W_c."""
+    rows = [(name, col, what, float(record[col]), True) for name, col, what in ENERGY_CHANNELS]
+    rows += [("fracture", "W_f", "fracture energy 2 A G_c (Griffith convention)", float(record.W_f), False),
+             ("kinetic", "kinetic", "kinetic energy W_k^+ (rebound and fragments)", float(record.kinetic), False),
+             ("elastic", "elastic", "elastic energy still stored", float(record.elastic), False)]
+    df = pd.DataFrame(rows, columns=["channel", "record_column", "what", "energy", "part_of_W_c"])
+    df.insert(4, "over_W_k_minus", df.energy / wk_minus)
+    return df
+
+
+def held_fracture_energy(interfaces: pd.DataFrame) -> float | None:
+    """The elastic energy the broken interfaces held just before they broke (SPEC 3), the sum
+    of their energy_at_break; None for a dump without it."""
+    if "energy_at_break" not in interfaces:
+        return None
+    return float(interfaces.loc[interfaces["state"] <= 0.5, "energy_at_break"].sum())
 
 
 def read_interfaces(path: Path) -> pd.DataFrame:
@@ -164,17 +277,22 @@ def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bool =
 
     last = thermo.iloc[-1]
     wk_minus = 0.5 * system["mass"] * scen["velocity"] ** 2
+    channels = energy_channels(last, wk_minus)
+    held = held_fracture_energy(ifaces)
+    if held is None:
+        warnings_.append("the interfaces dump has no energy_at_break: W_f_held is not measured")
     measures = impact_measures(
         wk_minus=wk_minus, wk_plus=float(last.kinetic), wk_plus_cm=wk_cm, broken_area=float(last.broken_area),
         total_area=system["A0"], g_c=model["interface"]["G_c"], elastic_end=float(last.elastic),
-        dissipated_measured=float(last.dissipated))
+        dissipated_measured=float(last.dissipated), w_f_held=held,
+        channels=dict(zip(channels.channel[channels.part_of_W_c], channels.energy[channels.part_of_W_c])),
+        convention=model.get("griffith_energy"))
     mass_pdf = normalised_mass_distribution(frags.mass.to_numpy())
     tau = fragment_mass_fit(frags.mass.to_numpy())
     measures.update({
         "W_c_damping": float(last.dissipated_damping), "W_c_friction": float(last.dissipated_friction),
         "W_c_switch": float(last.W_switch), "W_c_npoints": float(last.dissipated_npoints),
-        "n_fragments": int(len(frags)), "n_fragments_multi_cell": int((~frags.single_cell).sum()),
-        "largest_fragment_mass_fraction": float(frags.mass.max() / system["mass"]),
+        **fragment_counts(frags, system["mass"]),
         "broken_interfaces": int(last.broken), "end_time": float(last.time), "end_step": int(last.step),
         "timestep": system["timestep"], "settled": bool(last.step < system["max_steps"]),
         "cells_on_plane_end": int(last.wall_contacts),
@@ -189,6 +307,7 @@ def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bool =
 
     res = run_dir / "results"
     save_table(thermo, res / "energies")
+    save_table(channels, res / "energy_channels")
     save_table(frags, res / "fragments")
     save_table(ifaces, res / "interfaces")
     save_table(mass_pdf, res / "fragment_masses")
@@ -197,16 +316,38 @@ def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bool =
         save_table(tracking, res / "tracking")
     title = (f"BCM impact, N_c = {system['n_cells']}, v0 = {scen['velocity']:g} m/s, "
              f"G_c = {model['interface']['G_c']:g} J/m²")
+    guard = PlotGuard()  # a figure that fails is listed in plots_failed; the analysis goes on
     if plots:
-        plot_energies(thermo, wk_minus, run_dir / "plots" / "energies.png", title)
-        plot_mass_pdf({f"v0 = {scen['velocity']:g} m/s": mass_pdf}, run_dir / "plots" / "fragment_masses.png", title,
-                      fits={f"v0 = {scen['velocity']:g} m/s": tau})
-        plot_shapes(frags, run_dir / "plots" / "shapes.png", title)
-        cell_vertices = [space[offsets[i]:offsets[i + 1]] for i in range(n)]
-        render_cells(cell_vertices, faces, labels, run_dir / "plots" / "fragments.png",
-                     f"{title}\n{len(frags)} fragments, D_w = {measures['D_w']:.3f}")
-    write_report(impact_report(run_dir, cfg, system, measures, frags, title), run_dir)
+        plot_dir = run_dir / "plots"
+        guard.draw("energies", plot_dir / "energies.png", plot_energies, thermo, wk_minus, plot_dir / "energies.png",
+                   title)
+        label = f"v0 = {scen['velocity']:g} m/s"
+        guard.draw("fragment_masses", plot_dir / "fragment_masses.png", plot_mass_pdf, {label: mass_pdf},
+                   plot_dir / "fragment_masses.png", title, fits={label: tau})
+        guard.draw("shapes", plot_dir / "shapes.png", plot_shapes, frags, plot_dir / "shapes.png", title)
+        guard.draw("fragments", plot_dir / "fragments.png", _fragment_picture, space, offsets, faces, labels,
+                   plot_dir / "fragments.png", f"{title}\n{len(frags)} fragments, D_w = {measures['D_w']:.3f}")
+    measures["plots_failed"] = guard.failed
+    write_report(impact_report(run_dir, cfg, system, measures, frags, channels, title), run_dir)
     return measures
+
+
+def _fragment_picture(space: np.ndarray, offsets: np.ndarray, faces: list, labels: np.ndarray, path: Path,
+                      title: str) -> None:
+    """Cells coloured by fragment at the end (analysis.pictures.render_cells)."""
+    cell_vertices = [space[offsets[i]:offsets[i + 1]] for i in range(len(offsets) - 1)]
+    render_cells(cell_vertices, faces, labels, path, title)
+
+
+def fragment_counts(fragments: pd.DataFrame, parent_mass: float) -> dict:
+    """Break-up measures of one impact (SPEC 1.5) from its fragment table (mass, n_cells):
+    n_fragments, n_fragments_multi_cell (of two or more cells), and the mass fractions of the
+    parent held by the largest and the second largest fragment (0 when there is one), which
+    the set analysis compares with its break-up fraction."""
+    masses = np.sort(fragments["mass"].to_numpy(dtype=float))[::-1] / parent_mass
+    return {"n_fragments": int(len(masses)), "n_fragments_multi_cell": int((fragments["n_cells"] >= 2).sum()),
+            "largest_fragment_mass_fraction": float(masses[0]) if len(masses) else 0.0,
+            "second_fragment_mass_fraction": float(masses[1]) if len(masses) > 1 else 0.0}
 
 
 def fragment_mass_fit(masses: np.ndarray, n_bootstrap: int = 200) -> dict:
@@ -248,18 +389,28 @@ def fragment_history(run_dir: Path, n_cells: int) -> tuple[pd.DataFrame | None, 
     return frames, lineage_table(labels, masses)
 
 
-def impact_report(run_dir: Path, cfg: dict, system: dict, measures: dict, frags: pd.DataFrame, title: str) -> Report:
+def impact_report(run_dir: Path, cfg: dict, system: dict, measures: dict, frags: pd.DataFrame,
+                  channels: pd.DataFrame, title: str) -> Report:
     """The one-page report of an impact run."""
     prov = provenance_line(run_dir)
     rep = Report(f"{cfg['name']}: {title}", prov)
-    rep.values({k: measures[k] for k in ("omega", "D_w", "eta", "e_k2", "chi", "W_c_over_W_s", "balance_residual",
-                                          "n_fragments", "n_fragments_multi_cell", "largest_fragment_mass_fraction",
-                                          "mass_tau", "mass_sigma", "mass_xmin", "shape_shape_factor_mean",
-                                          "shape_elongation_mean", "shape_flatness_mean", "end_time", "settled")},
+    shown = ("omega", "D_w", "eta", "eta_released", "e_k2", "chi", "W_f", "W_f_released", "W_f_held",
+             "W_c_over_W_s",
+             "W_c_released", "balance_residual", "n_fragments", "n_fragments_multi_cell",
+             "largest_fragment_mass_fraction", "second_fragment_mass_fraction", "mass_tau", "mass_sigma", "mass_xmin",
+             "shape_shape_factor_mean", "shape_elongation_mean", "shape_flatness_mean", "end_time", "settled")
+    rep.values({k: measures[k] for k in shown if k in measures},
                "SPEC 1.5 measures (energies in J: see summary.json and the tables for all)")
+    for msg in measures.get("energy_flags", []):
+        rep.text(f"Flag: {msg}.")
     rep.text(measures["stop_rule"] + f"; time step {system['timestep']:.4g} s.")
     for msg in measures.get("warnings", []):
         rep.text(f"Warning: {msg}")
+    for fail in measures.get("plots_failed", []):
+        rep.text(f"Figure {fail['plot']} failed ({fail['error']}); the analysis is complete without it.")
+    rep.table(channels[["channel", "what", "energy", "over_W_k_minus", "part_of_W_c"]],
+              "where W_k^- went: dissipation channels (part_of_W_c; they sum to W_c_measured), fracture, "
+              "kinetic and elastic energy at the end (results/energy_channels; time series in results/energies)")
     rep.figure(run_dir / "plots" / "energies.png", "energy budget against time, fractions of W_k^-")
     rep.figure(run_dir / "plots" / "fragments.png", "cells coloured by fragment at the end")
     rep.figure(run_dir / "plots" / "fragment_masses.png", "fragment mass distribution p(m/m_max)")
@@ -268,4 +419,3 @@ def impact_report(run_dir: Path, cfg: dict, system: dict, measures: dict, frags:
     rep.table(frags[["fragment", "n_cells", "mass", "a", "b", "c", "elongation", "flatness", "shape_factor",
                      "v_cm", "ke_trans", "rg"]], "largest fragments (results/fragments.csv has all)", max_rows=15)
     return rep
-

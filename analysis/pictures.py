@@ -52,12 +52,14 @@ def render_cells(cell_vertices: list[np.ndarray], cell_faces: list[list[np.ndarr
     allv = np.concatenate([np.asarray(v) for v in cell_vertices]) / length_unit
     fig = plt.figure(figsize=(5.5, 5.0), dpi=150)
     ax = fig.add_subplot(projection="3d")
-    with np.errstate(over="ignore"):  # mplot3d autoscales the still empty axes from +-inf limits first
-        ax.add_collection3d(Poly3DCollection(polys, facecolors=face_cols, edgecolors=(0, 0, 0, 0.25),
-                                             linewidths=0.2))
-    centre, half = allv.mean(0), 0.5 * (allv.max(0) - allv.min(0)).max()
-    for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre):
-        setter(c - half, c + half)
+    # Faces padded to one length by repeating their last vertex (a zero-length edge). Given a
+    # ragged list (pentagons beside hexagons), mplot3d >= 3.9 pads it into an np.empty array
+    # and autoscales from the padding too, i.e. from whatever memory the process freed last
+    # (after another figure: NaN or 1e308, "Axis limits cannot be NaN or Inf"). The limits
+    # are then set explicitly from the finite vertices.
+    ax.add_collection3d(Poly3DCollection(_pad_faces(polys), facecolors=face_cols, edgecolors=(0, 0, 0, 0.25),
+                                         linewidths=0.2))
+    _set_cube_limits(ax, allv)
     ax.set_box_aspect((1, 1, 1))
     ax.view_init(*view)
     ax.set_xlabel(f"x [{unit_name}]")
@@ -67,6 +69,36 @@ def render_cells(cell_vertices: list[np.ndarray], cell_faces: list[list[np.ndarr
         ax.set_title(title, fontsize=9)
     atomic_save(path, lambda p: fig.savefig(p, format="png"))
     plt.close(fig)
+
+
+def _pad_faces(polys: list[np.ndarray]) -> np.ndarray:
+    """(n_faces, max_vertices, 3) array of face loops, each padded with its last vertex."""
+    if not polys:
+        return np.zeros((0, 3, 3))
+    width = max(len(p) for p in polys)
+    return np.stack([np.concatenate([p, np.repeat(p[-1:], width - len(p), axis=0)]) for p in polys])
+
+
+def finite_cube_limits(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """Centre and half side of a cube holding the finite points of (n, 3) `points`; a point
+    set with no finite point or no extent gets a unit cube (limits are always finite and
+    distinct)."""
+    pts = np.asarray(points, dtype=float).reshape(-1, 3)
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    if not len(pts):
+        return np.zeros(3), 1.0
+    lo, hi = pts.min(0), pts.max(0)
+    half = 0.5 * float((hi - lo).max())
+    centre = 0.5 * (lo + hi)
+    if not half > 0:
+        half = max(1.0, float(np.abs(centre).max())) * 1e-3
+    return centre, half
+
+
+def _set_cube_limits(ax, points: np.ndarray) -> None:
+    centre, half = finite_cube_limits(points)
+    for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre):
+        setter(c - half, c + half)
 
 
 def render_particles_2d(positions: np.ndarray, radii: np.ndarray, labels: np.ndarray, box: np.ndarray,
@@ -94,6 +126,7 @@ def render_particles_3d(positions: np.ndarray, labels: np.ndarray, path: Path, t
     fig = plt.figure(figsize=(5.5, 5.0), dpi=150)
     ax = fig.add_subplot(projection="3d")
     ax.scatter(*positions.T, c=cols, s=4, depthshade=True)
+    _set_cube_limits(ax, np.asarray(positions, dtype=float))
     ax.set_xlabel("x [a]")
     ax.set_ylabel("y [a]")
     ax.set_zlabel("z [a]")

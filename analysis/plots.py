@@ -6,6 +6,7 @@ Greyscale-readable (markers and line styles differ, not only colours), axes with
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Callable
 
 import matplotlib
 
@@ -19,6 +20,32 @@ from driver.rundir import atomic_save  # noqa: E402
 
 _MARKERS = "osD^v<>ph*"
 _LINES = ["-", "--", "-.", ":"]
+_THRESHOLD_LINES = ["--", ":", "-."]
+_THRESHOLD_NAMES = {"--": "dashed", ":": "dotted", "-.": "dash-dot"}
+
+
+class PlotGuard:
+    """The one way the analyses draw figures: a figure never decides whether an analysis (or
+    the run behind it) succeeded. `draw(name, path, fn, ...)` calls fn(...); when it raises, the
+    failure ({"plot": name, "error": "Type: message"}) is kept in `failed` (the summary's
+    plots_failed), the figures it left open are closed, and a figure of that name left by an
+    earlier analysis is removed so that the report does not show it as this one's."""
+
+    def __init__(self) -> None:
+        self.failed: list[dict[str, str]] = []
+
+    def draw(self, name: str, path: Path, fn: Callable, *args, **kwargs) -> bool:
+        """True when the figure was drawn."""
+        open_before = set(plt.get_fignums())
+        try:
+            fn(*args, **kwargs)
+            return True
+        except Exception as exc:  # noqa: BLE001 -- any error of a figure is recorded, none is fatal
+            self.failed.append({"plot": name, "error": f"{type(exc).__name__}: {exc}"})
+            for num in set(plt.get_fignums()) - open_before:
+                plt.close(num)
+            Path(path).unlink(missing_ok=True)
+            return False
 
 
 def plot_nm(nm: pd.DataFrame, path: Path, title: str = "", mass_unit: str = "m", fit: dict | None = None,
@@ -182,8 +209,10 @@ def plot_measures(points: pd.DataFrame, path: Path, x: str = "omega", thresholds
                   fits: dict | None = None, title: str = "") -> None:
     """SPEC 1.5 sweep level: D_w, eta, e_k^2 and fragment count against omega (x="omega") or
     the impact velocity (x="velocity"), mean +- standard deviation over tessellations, one
-    marker per G_c. Against omega: vertical lines at omega_0 (dashed) and omega_1 (dotted), and
-    fits[(G_c, measure)] = (callable(omega), omega_lo, omega_hi) drawn over the fitted range."""
+    marker per G_c. Against omega: thresholds[G_c] = {name: omega} drawn as vertical lines
+    (dashed, dotted, dash-dot in order; e.g. omega_0 and omega_1 under each break-up
+    definition), and fits[(G_c, measure)] = (callable(omega), omega_lo, omega_hi) drawn over
+    the fitted range."""
     panels = [("D_w", "damage $D_w = A/A_0$ [-]"), ("eta", r"fracture efficiency $\eta$ [-]"),
               ("e_k2", "restitution $e_k^2$ [-]"), ("n_fragments", "fragments [-]")]
     xcol = "omega_mean" if x == "omega" else "velocity"
@@ -205,19 +234,62 @@ def plot_measures(points: pd.DataFrame, path: Path, x: str = "omega", thresholds
                 w = np.geomspace(max(lo, 1e-12), hi, 100)
                 ax.plot(w, fn(w), "-", color=grey, lw=0.8)
             th = (thresholds or {}).get(gc, {})
-            for key, style in (("omega_0", "--"), ("omega_1", ":")):
-                v = th.get(key)
+            for (key, v), style in zip(th.items(), _THRESHOLD_LINES):
                 if v is not None and np.isfinite(v):
                     ax.axvline(v, color=grey, ls=style, lw=0.8)
         ax.set_xscale("log")
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())  # labelled minor ticks overlap
         if col == "n_fragments":
             ax.set_yscale("log")
         ax.set_xlabel(xlabel)
         ax.set_ylabel(label)
     axes.flat[0].legend(fontsize=7, frameon=False)
-    note = r"dashed: $\omega_0$ (first cracks), dotted: $\omega_1$ (first break-up)" if x == "omega" else ""
+    names = next((list(t) for t in (thresholds or {}).values() if t), [])
+    note = ", ".join(f"{_THRESHOLD_NAMES[style]}: {name}" for name, style in zip(names, _THRESHOLD_LINES)) \
+        if x == "omega" else ""
     fig.suptitle("\n".join(t for t in (title, note) if t), fontsize=9)
     fig.tight_layout()
+    atomic_save(path, lambda p: fig.savefig(p, format="png"))
+    plt.close(fig)
+
+
+def plot_energy_split(points: pd.DataFrame, parts: list[tuple[str, str]], path: Path, title: str = "") -> None:
+    """Where the impact energy goes (SPEC 1.5 sweep level): each part as a fraction of W_k^-
+    against the impact velocity, one panel per G_c, mean +- standard deviation over
+    tessellations. parts: (column, label) with points holding <column>_mean and _std; parts
+    that are zero at every point are left out (named in the panel)."""
+    groups = list(points.groupby("G_c", sort=True))
+    legend_rows = (len(parts) + 1) // 2
+    height = 4.0 + 0.22 * legend_rows
+    fig, axes = plt.subplots(1, len(groups), figsize=(max(7.0, 4.5 * len(groups)), height), dpi=150, squeeze=False)
+    legend: dict[str, object] = {}
+    for ax, (gc, grp) in zip(axes[0], groups):
+        grp = grp.sort_values("velocity")
+        silent = []
+        for k, (col, label) in enumerate(parts):  # one style per part in every panel
+            mean = grp[f"{col}_mean"].to_numpy(dtype=float)
+            if not np.any(np.abs(np.nan_to_num(mean)) > 0):
+                silent.append(label)
+                continue
+            line = ax.errorbar(grp.velocity, mean, yerr=grp[f"{col}_std"].fillna(0), marker=_MARKERS[k % len(_MARKERS)],
+                               linestyle=_LINES[k % len(_LINES)], color=str(0.6 * (k % 4) / 3), mfc="white", ms=4,
+                               capsize=2, lw=1.0, label=label)
+            legend.setdefault(label, line)
+        ax.axhline(0.0, color="0.5", lw=0.5)
+        ax.set_xscale("log")
+        if grp.velocity.nunique() <= 10:  # the sampled velocities, labelled
+            ax.set_xticks(sorted(grp.velocity.unique()))
+        ax.xaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+        ax.set_xlabel("impact velocity $v_0$ [m/s]")
+        ax.set_ylabel("energy / $W_k^-$ [-]")
+        ax.set_title(f"$G_c$ = {gc:g} J/m²", fontsize=9)
+        if silent:
+            ax.text(0.02, 0.02, "zero throughout: " + ", ".join(silent), transform=ax.transAxes, fontsize=6,
+                    wrap=True)
+    fig.legend(list(legend.values()), list(legend), fontsize=7, frameon=False, loc="lower center", ncol=2)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout(rect=(0, (0.22 * legend_rows + 0.15) / height, 1, 1))
     atomic_save(path, lambda p: fig.savefig(p, format="png"))
     plt.close(fig)
 

@@ -15,11 +15,13 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from analysis.plots import plot_curves, plot_histograms, plot_mass_pdf, plot_measures
+from analysis.impact import ENERGY_CHANNELS
+from analysis.plots import PlotGuard, plot_curves, plot_energy_split, plot_histograms, plot_mass_pdf, plot_measures
 from analysis.report import Report, clear_report, write_report
-from analysis.scaling import (Curve, finite_rate_rescale, finite_size_rescale, fit_finite_rate, fit_finite_size,
-                              fit_growth, fit_loglog, fit_moment_collapse, fit_threshold_power, moment_curves, moment_rescale,
-                              omega_0, omega_1, power_law, threshold_power)
+from analysis.scaling import (BREAKUP_FRACTION, Curve, Threshold, breakup_definitions, finite_rate_rescale,
+                              finite_size_rescale, fit_finite_rate, fit_finite_size, fit_growth, fit_loglog,
+                              fit_moment_collapse, fit_threshold_power, moment_curves, moment_rescale, omega_0, omega_1,
+                              omega_1_largest, power_law, threshold_power)
 from analysis.statistics import (SMALL_GRAIN_CUT, fit_grain_tau, fit_mass_ratio_law, histogram_table,
                                  normalised_mass_distribution)
 from analysis.tables import save_table
@@ -40,10 +42,17 @@ class RunSetError(ValueError):
 # Finding and loading runs
 
 
-def find_runs(paths: list[Path]) -> list[Path]:
-    """Finished run directories among `paths`: a run directory itself, or a directory holding
-    run directories (a sweep), searched one level down. Unfinished runs are skipped."""
-    found: list[Path] = []
+# result tables each kind of set reads besides summary.json
+_REQUIRED_TABLES = {"impact": ("fragments",), "shear": ("frames", "nm", "grains")}
+
+
+def survey_runs(paths: list[Path]) -> tuple[list[Path], list[dict]]:
+    """The run directories among `paths` (a run directory itself, or a directory holding run
+    directories, a sweep, searched one level down), split into those a set analysis can read
+    (finished, with their summary and result tables) and those it leaves out, each as
+    {run_dir, state, reason}."""
+    finished: list[Path] = []
+    left: dict[Path, dict] = {}
     for p in map(Path, paths):
         if (p / "config.resolved.yaml").exists():
             cands = [p]
@@ -51,16 +60,60 @@ def find_runs(paths: list[Path]) -> list[Path]:
             cands = sorted(q for q in p.iterdir() if (q / "config.resolved.yaml").exists())
         else:
             raise RunSetError(f"{p}: neither a run directory nor a directory of runs")
-        found += [q for q in cands if _finished(q)]
-    if not found:
-        raise RunSetError(f"no finished runs in {', '.join(map(str, paths))}")
-    return list(dict.fromkeys(found))
+        for q in cands:
+            state, reason = _left_out_reason(q)
+            if reason is None:
+                finished.append(q)
+            else:
+                left[q] = {"run_dir": q, "state": state, "reason": reason}
+    return list(dict.fromkeys(finished)), list(left.values())
 
 
-def _finished(run_dir: Path) -> bool:
+def find_runs(paths: list[Path]) -> list[Path]:
+    """The finished run directories among `paths` (survey_runs); none is an error that lists
+    why each run was left out."""
+    finished, left = survey_runs(paths)
+    if not finished:
+        raise _no_runs(paths, left)
+    return finished
+
+
+def _no_runs(paths: list[Path], left: list[dict]) -> RunSetError:
+    why = "; ".join(f"{r['run_dir']}: {r['reason']}" for r in left[:10])
+    return RunSetError(f"no finished runs in {', '.join(map(str, paths))}" + (f" ({why})" if why else ""))
+
+
+def _left_out_reason(run_dir: Path) -> tuple[str, str | None]:
+    """(state, why the run cannot enter a set analysis, or None when it can)."""
     status = run_dir / "status.json"
-    return (status.exists() and json.loads(status.read_text()).get("state") == "finished"
-            and (run_dir / "results" / "summary.json").exists())
+    if not status.exists():
+        return "new", "no status.json: the run never started"
+    try:
+        st = json.loads(status.read_text())
+    except (OSError, ValueError) as exc:
+        return "unknown", f"status.json unreadable ({exc})"
+    state = str(st.get("state", "unknown"))
+    if state != "finished":
+        where = f" in phase {st['phase']}" if st.get("phase") else ""
+        error = f": {st['error']}" if st.get("error") else ""
+        done = "; its LAMMPS part had finished (driver post RUN_DIR analyses it)" if st.get("lammps_done") else ""
+        return state, f"not finished: {state}{where}{error}{done}"
+    summary = run_dir / "results" / "summary.json"
+    try:
+        json.loads(summary.read_text())
+    except FileNotFoundError:
+        return state, "finished, but results/summary.json is missing (driver post RUN_DIR rebuilds it)"
+    except (OSError, ValueError) as exc:
+        return state, f"results/summary.json unreadable ({exc})"
+    try:
+        kind = yaml.safe_load((run_dir / "config.resolved.yaml").read_text())["scenario"]["kind"]
+    except (OSError, KeyError, TypeError, yaml.YAMLError) as exc:
+        return state, f"config.resolved.yaml unreadable ({exc})"
+    missing = [t for t in _REQUIRED_TABLES.get(kind, ()) if not (run_dir / "results" / f"{t}.parquet").exists()]
+    if missing:
+        return state, (f"finished, but results/{', '.join(f'{t}.parquet' for t in missing)} missing "
+                       "(driver post RUN_DIR rebuilds them)")
+    return state, None
 
 
 def load_runs(run_dirs: list[Path]) -> list[dict]:
@@ -74,15 +127,84 @@ def load_runs(run_dirs: list[Path]) -> list[dict]:
 
 
 def analyse_set(paths: list[Path], out: Path, plots: bool = True, strain: float | None = None,
-                n_bootstrap: int = 100) -> dict:
-    """Tables, plots and report of a set of runs into `out`; returns the fitted figures."""
-    runs = load_runs(find_runs(paths))
+                n_bootstrap: int = 100, breakup_fraction: float = BREAKUP_FRACTION) -> dict:
+    """Tables, plots and report of a set of runs into `out`; returns the fitted figures and the
+    runs left out (left_out: run_dir, state, reason), which the runs table and the report
+    also list. breakup_fraction: impact sets, SPEC 1.5's break-up rule (largest fragment below
+    this fraction of the parent's mass)."""
+    if not 0 < breakup_fraction <= 1:
+        raise RunSetError(f"break-up fraction {breakup_fraction:g}: must be in (0, 1]")
+    finished, left = survey_runs(paths)
+    if not finished:
+        raise _no_runs(paths, left)
+    runs = load_runs(finished)
     out = Path(out)
     clear_report(out)
     kind = runs[0]["cfg"]["scenario"]["kind"]
     if kind == "shear":
-        return analyse_shear_set(runs, out, plots, strain, n_bootstrap)
-    return analyse_impact_set(runs, out, plots)
+        return analyse_shear_set(runs, out, plots, strain, n_bootstrap, left_out=left)
+    return analyse_impact_set(runs, out, plots, left_out=left, breakup_fraction=breakup_fraction)
+
+
+def _run_params(cfg: dict) -> dict:
+    """The parameters a set compares runs by (their columns in the runs table)."""
+    model, scen = cfg.get("model", {}), cfg.get("scenario", {})
+    if scen.get("kind") == "shear":
+        return {"L": float(model["L"]), "edot": float(scen["strain_rate"]), "k_A": model.get("k_A"),
+                "lambda_c": model.get("lambda_c"), "seed": cfg.get("seed")}
+    return {"G_c": float(model["interface"]["G_c"]), "velocity": float(scen["velocity"]), "seed": cfg.get("seed"),
+            "n_cells": model.get("n_cells")}
+
+
+def _run_row(r: dict) -> dict:
+    """One included run: name, directory, parameters, the summary's scalar entries, and the
+    figures its analysis failed to draw and its energy flags (lists in the summary)."""
+    summ = r["summary"]
+    return {"run": r["cfg"]["name"], "run_dir": str(r["dir"]), "included": True, "state": "finished", "left_out": "",
+            **_run_params(r["cfg"]),
+            **{k: v for k, v in summ.items() if not isinstance(v, (dict, list))},
+            "plots_failed": ", ".join(f["plot"] for f in summ.get("plots_failed", [])),
+            **({"energy_flags": len(summ["energy_flags"])} if "energy_flags" in summ else {})}
+
+
+def _left_out_rows(left: list[dict]) -> pd.DataFrame:
+    """Rows of the runs table for the runs left out: name and parameters where the config
+    reads, state and reason."""
+    rows = []
+    for r in left:
+        row = {"run": Path(r["run_dir"]).name, "run_dir": str(r["run_dir"]), "included": False, "state": r["state"],
+               "left_out": r["reason"]}
+        try:
+            cfg = yaml.safe_load((Path(r["run_dir"]) / "config.resolved.yaml").read_text())
+            row.update({"run": cfg["name"], **_run_params(cfg)})
+        except (OSError, KeyError, TypeError, ValueError, yaml.YAMLError):
+            pass
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _runs_table(table: pd.DataFrame, left: list[dict]) -> pd.DataFrame:
+    """The set's runs table: the runs analysed, then those left out with their reasons."""
+    return pd.concat([table, _left_out_rows(left)], ignore_index=True) if left else table
+
+
+def _report_left_out(rep: Report, left: list[dict], n_used: int) -> None:
+    if not left:
+        return
+    rep.text(f"{len(left)} of {len(left) + n_used} runs were LEFT OUT of this analysis (runs table: included = "
+             "False, with the reason in left_out); every figure and fit below is without them.")
+    rep.table(pd.DataFrame([{"run_dir": str(r["run_dir"]), "state": r["state"], "reason": r["reason"]}
+                            for r in left]), "runs left out, and why", max_rows=100)
+
+
+def _report_plot_failures(rep: Report, table: pd.DataFrame, guard: PlotGuard) -> None:
+    if "plots_failed" in table:
+        bad = table[table.plots_failed.fillna("").astype(str) != ""]
+        if len(bad):
+            rep.text(f"{len(bad)} runs have figures that failed to draw (runs table: plots_failed); their "
+                     "measures are complete.")
+    for fail in guard.failed:
+        rep.text(f"Set figure {fail['plot']} failed ({fail['error']}).")
 
 
 # ---------------------------------------------------------------------------------------
@@ -90,20 +212,18 @@ def analyse_set(paths: list[Path], out: Path, plots: bool = True, strain: float 
 
 
 def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: float | None = None,
-                      n_bootstrap: int = 100) -> dict:
+                      n_bootstrap: int = 100, left_out: list[dict] | None = None) -> dict:
     """Growth exponent phi per run; tau, and the finite-size (alpha, gamma), finite-rate
     (nu alpha) and second-moment (alpha, nu) collapses of SPEC 2.5 wherever the set varies L
-    and/or edot, at one strain (default: the largest measure strain all runs reached)."""
+    and/or edot, at one strain (default: the largest measure strain all runs reached).
+    left_out: runs not analysed (survey_runs), listed in the runs table and the report."""
+    left_out = left_out or []
     dims = {int(r["cfg"]["model"]["dimension"]) for r in runs}
     if len(dims) > 1:
         raise RunSetError("2D and 3D runs cannot be scaled together")
     d = dims.pop()
     cut = SMALL_GRAIN_CUT[d]
-    table = pd.DataFrame([{"run": r["cfg"]["name"], "run_dir": str(r["dir"]), "L": float(r["cfg"]["model"]["L"]),
-                           "edot": float(r["cfg"]["scenario"]["strain_rate"]), "k_A": r["cfg"]["model"]["k_A"],
-                           "lambda_c": r["cfg"]["model"]["lambda_c"], "seed": r["cfg"]["seed"],
-                           **{k: v for k, v in r["summary"].items() if not isinstance(v, (dict, list))}}
-                          for r in runs])
+    table = pd.DataFrame([_run_row(r) for r in runs])
     # runs are keyed by their directory: names repeat across sweeps made from one base config
     frames = {str(r["dir"]): pd.read_parquet(r["dir"] / "results" / "frames.parquet") for r in runs}
     if strain is None:
@@ -177,29 +297,36 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
                       r"$\dot\varepsilon L^{1/\nu}$", r"$\langle M^2\rangle / L^{d+\alpha}$",
                       runs=f"{len(m2)} runs ({m2.L.nunique()} curves, one per L)")
 
-    fits_df = pd.DataFrame(fits, columns=["fit", "runs", "parameter", "value", "sigma", "quality", "method"])
-    save_table(table, out / "runs")
+    fits_df = pd.DataFrame(fits, columns=["fit", "runs", "parameter", "value", "sigma", "quality", "method", "flag"])
+    save_table(_runs_table(table, left_out), out / "runs")
     save_table(nm, out / "nm")
     save_table(fits_df, out / "fits")
     title = f"BPM {d}D shear, {len(runs)} runs, strain {strain:g}"
+    guard = PlotGuard()
     if plots:
         label = [f"L = {c.params['L']:g}, edot = {c.params['edot']:g}" for c in curves]
-        plot_curves([(lb, c.x, c.y) for lb, c in zip(label, curves)], out / "plots" / "nm.png",
-                    "grain mass $M$ [m]", "$N(M)$ [grains per unit mass, 1/m]", title)
-        plot_curves([(Path(d).name, f.strain, f[f"n_grains_M>={cut}"]) for d, f in frames.items()],
-                    out / "plots" / "growth.png",
-                    r"true strain $\varepsilon$ [-]", f"grains with $M \\geq {cut}$ [-]", title)
+        guard.draw("nm", out / "plots" / "nm.png", plot_curves, [(lb, c.x, c.y) for lb, c in zip(label, curves)],
+                   out / "plots" / "nm.png", "grain mass $M$ [m]", "$N(M)$ [grains per unit mass, 1/m]", title)
+        guard.draw("growth", out / "plots" / "growth.png", plot_curves,
+                   [(Path(d).name, f.strain, f[f"n_grains_M>={cut}"]) for d, f in frames.items()],
+                   out / "plots" / "growth.png",
+                   r"true strain $\varepsilon$ [-]", f"grains with $M \\geq {cut}$ [-]", title)
         for key, (fit, sel, rescale, xl, yl) in collapses.items():
             p = list(fit.params.values())
             pts = [(f"L = {c.params['L']:g}, edot = {c.params.get('edot', float('nan')):g}", *rescale(c, p)) for c in sel]
             note = ", ".join(f"{k} = {v:.3g} ± {fit.sigma[k]:.2g}" for k, v in fit.params.items())
-            plot_curves(pts, out / "plots" / f"collapse_{key.replace(' ', '_')}.png", xl, yl, f"{title}: {key}", note)
+            path = out / "plots" / f"collapse_{key.replace(' ', '_')}.png"
+            guard.draw(f"collapse {key}", path, plot_curves, pts, path, xl, yl, f"{title}: {key}", note)
     rep = Report(f"Shear set: {title}", f"{len(runs)} runs: " + ", ".join(str(r["dir"]) for r in runs))
-    rep.table(fits_df, "fitted exponents (SPEC 2.5) with standard errors; quality: collapse cost (near 1 for a "
-                       "good collapse with Poisson errors), KS distance for tau, 1 - R^2 for growth")
-    shown = ["run", "L", "edot", "k_A", "seed", "n_particles", "bonds_broken", "final_mu", "tau_final",
-             "tau_final_sigma"]
-    rep.table(table[[c for c in shown if c in table]], "runs")
+    _report_left_out(rep, left_out, len(runs))
+    rep.table(fits_df.assign(flag=fits_df.flag.astype(object).where(fits_df.flag.notna(), "")),
+              "fitted exponents (SPEC 2.5) with standard errors; quality: collapse cost (near 1 for a good collapse "
+              "with Poisson errors), KS distance for tau, 1 - R^2 for growth; flag: at the edge of its range")
+    shown = ["run", "L", "edot", "k_A", "seed", "n_particles", "bonds_broken", "mu_mean", "mu_se", "P_mean", "P_se",
+             "sqrtJ2_mean", "sqrtJ2_se", "tau_final", "tau_final_sigma", "plots_failed"]
+    rep.table(table[[c for c in shown if c in table]], "runs (mu, P, sqrt(J2): means over the last 20 % of the "
+                                                      "strain, ± block-average standard errors)")
+    _report_plot_failures(rep, table, guard)
     for png, cap in [("nm.png", "N(M) of every run"), ("growth.png", "grains above the cut against strain")]:
         rep.figure(out / "plots" / png, cap)
     for key in collapses:
@@ -208,7 +335,12 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
         rep.text("No collapse: the set needs two or more sizes L (finite size, with tau fitted) or rates edot "
                  "(finite rate); the second moment needs both.")
     write_report(rep, out)
-    return {"strain": strain, "fits": fits_df.to_dict(orient="records")}
+    return {"strain": strain, "fits": fits_df.to_dict(orient="records"), "left_out": _left_out_result(left_out),
+            "plots_failed": guard.failed}
+
+
+def _left_out_result(left: list[dict]) -> list[dict]:
+    return [{"run_dir": str(r["run_dir"]), "state": r["state"], "reason": r["reason"]} for r in left]
 
 
 def _try_collapse(fits: list, collapses: dict, key: str, curves: list[Curve], fitter, bounds, rescale,
@@ -222,7 +354,7 @@ def _try_collapse(fits: list, collapses: dict, key: str, curves: list[Curve], fi
         fit = fitter(curves)
     except ValueError as exc:
         fits.append({"fit": f"{key} collapse", "runs": runs, "parameter": "-", "value": np.nan,
-                     "sigma": np.nan, "quality": np.nan, "method": f"not fitted: {exc}"})
+                     "sigma": np.nan, "quality": np.nan, "method": f"not fitted: {exc}", "flag": None})
         return
     for (k, v), (lo, hi) in zip(fit.params.items(), bounds):
         edge = "; AT THE EDGE of its range [{:g}, {:g}]: not constrained".format(lo, hi) if min(
@@ -230,72 +362,114 @@ def _try_collapse(fits: list, collapses: dict, key: str, curves: list[Curve], fi
         few = (f"; ONLY {fit.n_terms} point comparisons: indicative, the error understates it"
                if fit.n_terms < MIN_TRUSTED_TERMS else f"; {fit.n_terms} point comparisons")
         fits.append({"fit": f"{key} collapse", "runs": runs, "parameter": k, "value": v,
-                     "sigma": fit.sigma[k], "quality": fit.cost, "method": f"{fit.method}{few}{edge}"})
+                     "sigma": fit.sigma[k], "quality": fit.cost, "method": f"{fit.method}{few}{edge}",
+                     "flag": f"{k} at the edge of its range [{lo:g}, {hi:g}]: not constrained" if edge else None})
     collapses[key] = (fit, curves, rescale, xlabel, ylabel)
 
 
 # ---------------------------------------------------------------------------------------
 # BCM impact: SPEC 1.5 sweep level
 
-MEASURES = ["omega", "D_w", "eta", "e_k2", "chi", "W_c_over_W_s", "n_fragments", "n_fragments_multi_cell",
-            "largest_fragment_mass_fraction", "mass_tau", "shape_shape_factor_mean", "balance_residual"]
+MEASURES = ["omega", "D_w", "eta", "eta_released", "e_k2", "chi", "W_c_over_W_s", "W_f_released_over_W_f",
+            "n_fragments", "n_fragments_multi_cell", "largest_fragment_mass_fraction", "second_fragment_mass_fraction",
+            "mass_tau", "shape_shape_factor_mean", "balance_residual"]
+# the energy split of SPEC 1.5's W_k^- per run, as fractions of W_k^-: the dissipation channels
+# (analysis.impact.ENERGY_CHANNELS), fracture (W_f as booked and as released), the rebound and
+# the elastic energy left; (column, summary key, label)
+ENERGY_SPLIT = [(f"split_{name}", f"W_c_{name}", what) for name, _, what in ENERGY_CHANNELS] + [
+    ("split_fracture", "W_f", "fracture W_f = 2 A G_c"),
+    ("split_fracture_released", "W_f_released", "fracture as released by the springs, W_f + switch"),
+    ("split_kinetic", "W_k_plus", "kinetic W_k^+ (restitution e_k^2)"),
+    ("split_elastic", "elastic_end", "elastic energy left")]
+CRACKS = "cracks_D_w>0"  # the definition of omega_0: first cracks, D_w > 0
 
 
-def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True) -> dict:
+def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True, left_out: list[dict] | None = None,
+                       breakup_fraction: float = BREAKUP_FRACTION) -> dict:
     """Measures against v and omega per G_c (mean and standard deviation over tessellations),
-    omega_0 and omega_1 located from the data, regime fits (D_w = A (omega - omega_0)^beta above
-    omega_0; eta and e_k^2 as power laws of omega above omega_1), p(S_f) over all runs and p(m)
-    per G_c with its power-law fit."""
-    table = pd.DataFrame([{"run": r["cfg"]["name"], "run_dir": str(r["dir"]),
-                           "G_c": float(r["cfg"]["model"]["interface"]["G_c"]),
-                           "velocity": float(r["cfg"]["scenario"]["velocity"]), "seed": r["cfg"]["seed"],
-                           "n_cells": r["cfg"]["model"]["n_cells"],
-                           **{k: v for k, v in r["summary"].items() if not isinstance(v, (dict, list))}}
-                          for r in runs])
-    cols = [c for c in MEASURES if c in table]
+    omega_0 and omega_1 located from the data under every definition (breakup_definitions:
+    SPEC 1.5's largest fragment below breakup_fraction, the primary one, and the chip-based
+    count), each with its bracket, regime fits (D_w = A (omega - omega_0)^beta above omega_0,
+    in physical ranges, flagged at a bound; eta and e_k^2 as power laws of omega from the
+    primary break-up on), the energy split against v, p(S_f) over all runs and p(m) per G_c
+    with its power-law fit. left_out: runs not analysed, listed in the runs table and report."""
+    left_out = left_out or []
+    definitions = breakup_definitions(breakup_fraction)
+    primary, chips = list(definitions)
+    table = pd.DataFrame([_run_row(r) for r in runs])
+    if "largest_fragment_mass_fraction" in table:
+        table[f"breakup_{primary}"] = table.largest_fragment_mass_fraction < breakup_fraction
+    table[f"breakup_{chips}"] = table.n_fragments_multi_cell >= 2
+    if "W_k_minus" in table:
+        for col, key, _ in ENERGY_SPLIT:
+            if key in table:
+                table[col] = table[key] / table.W_k_minus
+    split_cols = [c for c, _, _ in ENERGY_SPLIT if c in table]
+    cols = [c for c in MEASURES if c in table] + split_cols
     grouped = table.groupby(["G_c", "velocity"], sort=True)
     points = grouped[cols].agg(["mean", "std"])
     points.columns = [f"{a}_{b}" for a, b in points.columns]
     points = points.reset_index()
     points.insert(2, "n_runs", grouped.size().to_numpy())
 
-    thresholds, fits, fit_fns = {}, [], {}
+    thresholds, threshold_rows, fits, fit_fns, lines = {}, [], [], {}, {}
     for gc, grp in table.groupby("G_c", sort=True):
-        # break-up: two or more fragments of two or more cells (single chipped cells, e.g. slivers, do not count)
         # bracketed between parameter points (velocities): tessellations of one point differ a little in omega
-        w0 = omega_0(grp.omega, grp.D_w, groups=grp.velocity)
-        w1 = omega_1(grp.omega, grp.n_fragments_multi_cell, groups=grp.velocity)
-        thresholds[gc] = {"omega_0": w0.value, "omega_1": w1.value}
-        for name, th in (("omega_0", w0), ("omega_1", w1)):
-            fits.append({"G_c": gc, "fit": f"{name} (first {'cracks' if name == 'omega_0' else 'break-up into multi-cell fragments'})",
-                         "parameter": name, "value": th.value, "sigma": th.half_width, "n": len(grp),
-                         "method": f"bracket [{th.lo:.4g}, {th.hi:.4g}] between velocities"})
+        found: dict[tuple[str, str], Threshold | str] = {
+            ("omega_0", CRACKS): omega_0(grp.omega, grp.D_w, groups=grp.velocity),
+            ("omega_1", chips): omega_1(grp.omega, grp.n_fragments_multi_cell, groups=grp.velocity)}
+        if "largest_fragment_mass_fraction" not in grp or grp.largest_fragment_mass_fraction.isna().any():
+            found[("omega_1", primary)] = ("not located: runs without largest_fragment_mass_fraction in their "
+                                           "summary (driver post RUN_DIR measures it)")
+        else:
+            found[("omega_1", primary)] = omega_1_largest(grp.omega, grp.largest_fragment_mass_fraction,
+                                                          breakup_fraction, groups=grp.velocity)
+        meaning = {CRACKS: "first cracks: D_w > 0", **definitions}
+        thresholds[f"{gc:g}"] = {"omega_0": {}, "omega_1": {}}
+        for name, definition in (("omega_0", CRACKS), ("omega_1", primary), ("omega_1", chips)):
+            th = found[(name, definition)]
+            entry = ({"value": th.value, "lo": th.lo, "hi": th.hi, "half_width": th.half_width, "note": ""}
+                     if isinstance(th, Threshold) else
+                     {"value": np.nan, "lo": np.nan, "hi": np.nan, "half_width": np.nan, "note": th})
+            thresholds[f"{gc:g}"][name][definition] = entry
+            threshold_rows.append({"G_c": gc, "threshold": name, "definition": definition,
+                                   "meaning": meaning[definition], **entry, "n_runs": len(grp)})
+            method = (f"bracket [{entry['lo']:.4g}, {entry['hi']:.4g}] between velocities" if not entry["note"]
+                      else entry["note"])
+            fits.append({"G_c": gc, "fit": f"{name} [{definition}] ({meaning[definition]})", "parameter": name,
+                         "value": entry["value"], "sigma": entry["half_width"], "n": len(grp), "method": method,
+                         "flag": None})
+        lines[gc] = {f"{name} [{definition}]": thresholds[f"{gc:g}"][name][definition]["value"]
+                     for name, definition in (("omega_0", CRACKS), ("omega_1", primary), ("omega_1", chips))}
         try:
             tf = fit_threshold_power(grp.omega, grp.D_w)
             fits += [{"G_c": gc, "fit": "D_w = A (omega - omega0)^beta", "parameter": p, "value": v, "sigma": s,
-                      "n": tf.n, "method": tf.method}
+                      "n": tf.n, "method": tf.method, "flag": tf.flag}
                      for p, v, s in (("omega0", tf.omega0, tf.sigma_omega0), ("beta", tf.beta, tf.sigma_beta),
                                      ("A", tf.prefactor, tf.sigma_prefactor))]
             fit_fns[(gc, "D_w")] = (lambda w, tf=tf: threshold_power(w, tf.omega0, tf.beta, tf.prefactor),
                                     grp.omega.min(), grp.omega.max())
         except ValueError as exc:
             fits.append({"G_c": gc, "fit": "D_w = A (omega - omega0)^beta", "parameter": "-", "value": np.nan,
-                         "sigma": np.nan, "n": len(grp), "method": f"not fitted: {exc}"})
-        # every run of the parameter points from the first break-up (the point omega_1 found) on
+                         "sigma": np.nan, "n": len(grp), "method": f"not fitted: {exc}", "flag": None})
+        # every run of the parameter points from the first break-up (primary definition, the chip
+        # count when the runs lack the fragment fractions) on
+        rule = primary if f"breakup_{primary}" in grp and not grp.largest_fragment_mass_fraction.isna().any() \
+            else chips
         point_omega = grp.groupby("velocity").omega.transform("mean")
-        broke = point_omega[grp.n_fragments_multi_cell > 1]
+        broke = point_omega[grp[f"breakup_{rule}"].astype(bool)]
         above = grp[point_omega >= broke.min()] if len(broke) else grp.iloc[0:0]
         for col in ("eta", "e_k2"):
+            fit_name = f"{col} = A omega^b above omega_1 [{rule}]"
             try:
                 pf = fit_loglog(above.omega, above[col])
-                fits.append({"G_c": gc, "fit": f"{col} = A omega^b above omega_1", "parameter": "b",
-                             "value": pf.exponent, "sigma": pf.sigma_exponent, "n": pf.n,
-                             "method": "log-log least squares"})
+                fits.append({"G_c": gc, "fit": fit_name, "parameter": "b", "value": pf.exponent,
+                             "sigma": pf.sigma_exponent, "n": pf.n, "method": "log-log least squares", "flag": None})
                 fit_fns[(gc, col)] = (lambda w, pf=pf: power_law(w, pf.prefactor, pf.exponent),
                                       above.omega.min(), above.omega.max())
             except ValueError as exc:
-                fits.append({"G_c": gc, "fit": f"{col} = A omega^b above omega_1", "parameter": "-",
-                             "value": np.nan, "sigma": np.nan, "n": len(above), "method": f"not fitted: {exc}"})
+                fits.append({"G_c": gc, "fit": fit_name, "parameter": "-", "value": np.nan, "sigma": np.nan,
+                             "n": len(above), "method": f"not fitted: {exc}", "flag": None})
 
     # fragments of every run: p(S_f) pooled, p(m/m_max) per G_c
     frags = pd.concat([pd.read_parquet(r["dir"] / "results" / "fragments.parquet").assign(
@@ -314,31 +488,79 @@ def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True) -> dict:
             fits.append({"G_c": gc, "fit": "p(m/m_max) ~ (m/m_max)^-tau, all runs (largest of each left out)",
                          "parameter": "tau",
                          "value": pl.tau, "sigma": mass_fits[label]["sigma"], "n": pl.n,
-                         "method": f"{pl.method}; range [{pl.xmin:.3g}, 1]"})
-    fits_df = pd.DataFrame(fits, columns=["G_c", "fit", "parameter", "value", "sigma", "n", "method"])
+                         "method": f"{pl.method}; range [{pl.xmin:.3g}, 1]", "flag": None})
+    fits_df = pd.DataFrame(fits, columns=["G_c", "fit", "parameter", "value", "sigma", "n", "method", "flag"])
+    thresholds_df = pd.DataFrame(threshold_rows)
     mass_pdf = pd.concat([t.assign(label=k) for k, t in mass_tables.items()], ignore_index=True)
 
-    save_table(table, out / "runs")
+    save_table(_runs_table(table, left_out), out / "runs")
     save_table(points, out / "points")
+    save_table(thresholds_df, out / "thresholds")
     save_table(fits_df, out / "fits")
     save_table(mass_pdf, out / "fragment_masses")
     if len(sf):
         save_table(sf, out / "shape_factor")
     title = f"BCM impacts, {len(runs)} runs"
+    guard = PlotGuard()
+    plot_dir = out / "plots"
     if plots:
-        plot_measures(points, out / "plots" / "measures_vs_omega.png", "omega", thresholds, fit_fns, title)
-        plot_measures(points, out / "plots" / "measures_vs_velocity.png", "velocity", title=title)
-        plot_mass_pdf(mass_tables, out / "plots" / "fragment_masses.png", title, fits=mass_fits)
+        guard.draw("measures_vs_omega", plot_dir / "measures_vs_omega.png", plot_measures, points,
+                   plot_dir / "measures_vs_omega.png", "omega", lines, fit_fns, title)
+        guard.draw("measures_vs_velocity", plot_dir / "measures_vs_velocity.png", plot_measures, points,
+                   plot_dir / "measures_vs_velocity.png", "velocity", title=title)
+        if split_cols:
+            guard.draw("energy_split", plot_dir / "energy_split.png", plot_energy_split, points,
+                       [(c, label) for c, _, label in ENERGY_SPLIT if c in split_cols], plot_dir / "energy_split.png",
+                       title)
+        guard.draw("fragment_masses", plot_dir / "fragment_masses.png", plot_mass_pdf, mass_tables,
+                   plot_dir / "fragment_masses.png", title, fits=mass_fits)
         if len(sf):
-            plot_histograms({"fragments of two or more cells": sf}, out / "plots" / "shape_factor.png",
-                            r"shape factor $S_f$ [-]", r"$p(S_f)$ [-]", title)
+            guard.draw("shape_factor", plot_dir / "shape_factor.png", plot_histograms,
+                       {"fragments of two or more cells": sf}, plot_dir / "shape_factor.png",
+                       r"shape factor $S_f$ [-]", r"$p(S_f)$ [-]", title)
     rep = Report(f"Impact set: {title}", f"{len(runs)} runs: " + ", ".join(str(r["dir"]) for r in runs))
-    rep.table(fits_df, "crossovers and regime fits per G_c (value ± standard error; omega brackets as half-widths)")
-    rep.table(points[["G_c", "velocity", "n_runs", *[c for c in points.columns if c.endswith("_mean")]]],
+    _report_left_out(rep, left_out, len(runs))
+    rep.table(thresholds_df[["G_c", "threshold", "definition", "value", "lo", "hi", "n_runs", "note"]],
+              f"crossovers under every definition, each bracketed [lo, hi] between velocities: "
+              + "; ".join(f"{k}: {v}" for k, v in {CRACKS: "first cracks, D_w > 0", **definitions}.items())
+              + f" (the break-up rule of SPEC 1.5 is {primary})")
+    rep.table(fits_df.assign(flag=fits_df.flag.astype(object).where(fits_df.flag.notna(), "")),
+              "crossovers and regime fits per G_c (value ± standard error; omega brackets as half-widths; flag: a "
+              "parameter at a bound of its physical range, not constrained by the data)")
+    _report_energy_flags(rep, table, points)
+    _report_plot_failures(rep, table, guard)
+    rep.table(points[["G_c", "velocity", "n_runs", *[c for c in points.columns if c.endswith("_mean")
+                                                      and not c.startswith("split_")]]],
               "measures per parameter point (means over tessellations; points.csv has the standard deviations)")
-    rep.figure(out / "plots" / "measures_vs_omega.png", "measures against the damage potential omega")
-    rep.figure(out / "plots" / "measures_vs_velocity.png", "measures against the impact velocity")
-    rep.figure(out / "plots" / "fragment_masses.png", "fragment mass distributions per G_c")
-    rep.figure(out / "plots" / "shape_factor.png", "distribution of the shape factor over all runs")
+    if split_cols:
+        rep.table(points[["G_c", "velocity", *[f"{c}_mean" for c in split_cols]]],
+                  "where W_k^- goes, fractions of W_k^- per parameter point (means; split_<channel>: the "
+                  "dissipation channels, which sum to W_c measured)")
+    rep.figure(plot_dir / "measures_vs_omega.png", "measures against the damage potential omega")
+    rep.figure(plot_dir / "measures_vs_velocity.png", "measures against the impact velocity")
+    rep.figure(plot_dir / "energy_split.png", "where the impact energy goes, against the impact velocity: "
+                                              "dissipation channels, fracture, rebound (e_k^2) and elastic energy left")
+    rep.figure(plot_dir / "fragment_masses.png", "fragment mass distributions per G_c")
+    rep.figure(plot_dir / "shape_factor.png", "distribution of the shape factor over all runs")
     write_report(rep, out)
-    return {"thresholds": {f"{k:g}": v for k, v in thresholds.items()}, "fits": fits_df.to_dict(orient="records")}
+    return {"breakup_fraction": breakup_fraction, "omega_1_definition": primary, "thresholds": thresholds,
+            "fits": fits_df.to_dict(orient="records"), "left_out": _left_out_result(left_out),
+            "plots_failed": guard.failed}
+
+
+def _report_energy_flags(rep: Report, table: pd.DataFrame, points: pd.DataFrame) -> None:
+    """Runs whose W_f differs from the energy their broken interfaces held, and negative
+    dissipations: named, so that no such number stands in the report as a result."""
+    if "W_f_flag" in table:
+        flagged = table[table.W_f_flag.notna() & (table.W_f_flag.astype(str) != "")]
+        if len(flagged):
+            rep.text(f"Flag: in {len(flagged)} of {len(table)} runs W_f = 2 A G_c differs by more than 1 % from the "
+                     "elastic energy the breaks released, W_f + W_c_switch (runs table: W_f_flag, "
+                     "W_f_released_over_W_f): there eta, chi and W_c built on W_f are the Griffith convention's "
+                     "bookkeeping; eta_released and W_f_released are what the springs gave up.")
+    neg = points[points.W_c_over_W_s_mean < 0] if "W_c_over_W_s_mean" in points else points.iloc[0:0]
+    if len(neg):
+        rep.text("Flag: negative dissipation W_c < 0 (mean over tessellations) at "
+                 + ", ".join(f"G_c = {r.G_c:g}, v = {r.velocity:g}" for r in neg.itertuples())
+                 + ": not a result; see the runs' energy_flags (W_f booked beyond what the springs held, or the "
+                   "balance).")

@@ -429,11 +429,31 @@ def omega_0(omega, damage, groups=None) -> Threshold:
     return locate_threshold(omega, damage, level=0.0, groups=groups)
 
 
+BREAKUP_FRACTION = 0.9  # SPEC 1.5: broken up when the largest fragment holds less of the parent's mass
+
+
+def breakup_definitions(fraction: float = BREAKUP_FRACTION) -> dict[str, str]:
+    """The break-up definitions a set analysis reports omega_1 under, name -> meaning (SPEC 1.5)."""
+    return {f"largest_below_{fraction:g}": f"the largest fragment holds less than {fraction:g} of the parent's mass",
+            "two_multicell_fragments": "two or more fragments of two or more cells (chip-based count)"}
+
+
 def omega_1(omega, n_fragments, groups=None) -> Threshold:
-    """omega_1: first omega where a particle breaks into two or more fragments (SPEC 1.5).
-    Pass the count of fragments of two or more cells to leave single chipped cells out;
-    groups as in locate_threshold."""
+    """omega_1 by the chip-based count (`two_multicell_fragments`): first omega where a particle
+    breaks into two or more fragments. Pass the count of fragments of two or more cells to
+    leave single chipped cells out; groups as in locate_threshold. A two-cell chip knocked off
+    a particle that keeps 99 % of its mass passes this test: omega_1_largest is SPEC 1.5's rule."""
     return locate_threshold(omega, n_fragments, level=1.0, groups=groups)
+
+
+def omega_1_largest(omega, largest_fraction, fraction: float = BREAKUP_FRACTION, groups=None) -> Threshold:
+    """omega_1 by SPEC 1.5's break-up rule (`largest_below_<fraction>`): the first parameter
+    point where some run's largest fragment holds less than `fraction` of the parent's mass
+    (largest_fraction: largest fragment mass / parent mass per run); groups as in
+    locate_threshold."""
+    if not 0 < fraction <= 1:
+        raise ValueError(f"break-up fraction {fraction:g}: must be in (0, 1]")
+    return locate_threshold(omega, fraction - np.asarray(largest_fraction, dtype=float), level=0.0, groups=groups)
 
 
 def threshold_power(omega, omega0: float, beta: float, prefactor: float):
@@ -462,6 +482,10 @@ class ThresholdFit:
     n: int
     cov: np.ndarray = field(repr=False)
     method: str = ""
+    flag: str | None = None  # why a parameter sits at a bound of its physical range (not constrained)
+
+
+BETA_MAX = 10.0  # largest threshold exponent a fit may return (D_w grows as a power of omega - omega0)
 
 
 def fit_threshold_power(omega, y, omega0: float | None = None, sigma_lny=None,
@@ -470,8 +494,10 @@ def fit_threshold_power(omega, y, omega0: float | None = None, sigma_lny=None,
 
     omega0 None: fitted, bounded below by the largest omega where every run has y <= 0
     (the measure is still zero there) and above by the smallest omega with y > 0, unless
-    omega0_bounds is given. sigma_lny: standard error of ln y per point (None: estimated
-    from the residuals). Errors from the Jacobian at the optimum, Cov = s^2 (J^T J)^-1.
+    omega0_bounds is given, and never below 0; beta in (0, BETA_MAX]. A parameter that ends
+    at a bound is named in `flag` (and the method): the data do not constrain it.
+    sigma_lny: standard error of ln y per point (None: estimated from the residuals). Errors
+    from the Jacobian at the optimum, Cov = s^2 (J^T J)^-1.
     """
     omega, y = np.asarray(omega, dtype=float), np.asarray(y, dtype=float)
     pos = y > 0
@@ -497,23 +523,29 @@ def fit_threshold_power(omega, y, omega0: float | None = None, sigma_lny=None,
                             float(np.exp(lnA) * np.sqrt(cov[2, 2])), int(len(w)), cov,
                             "log-log least squares, omega0 fixed")
 
+    # physical ranges: omega0 >= 0 (omega = W_k^- / W_s > 0: no crack threshold below zero
+    # impact energy), at or above the largest omega where every run has y = 0, below the first
+    # omega with y > 0; beta in (0, BETA_MAX] (the measure grows from zero at omega0)
     zero_below = [v for v in np.unique(omega) if v < w.min() and np.all(y[omega == v] <= 0)]
     span = w.max() - w.min()
     lo, hi = omega0_bounds if omega0_bounds is not None else (
         max(zero_below) if zero_below else w.min() - 10 * span, w.min())
+    lo = max(lo, 0.0)
     hi_eff = min(hi, w.min()) - 1e-9 * max(span, 1.0)
     if not lo < hi_eff:
         raise ValueError(f"empty omega0 range [{lo}, {hi}]")
+    beta_lo, beta_hi = 1e-6, BETA_MAX
 
     def resid(p):
         o0, beta, lnA = p
         return (ly - lnA - beta * np.log(w - o0)) * wt
 
     best = None
-    for o0 in np.linspace(lo, hi_eff, 7)[1:-1] if np.isfinite(lo) else [hi_eff - 0.1 * span]:
+    for o0 in np.linspace(lo, hi_eff, 7)[1:-1]:
         X = np.column_stack([np.ones_like(w), np.log(w - o0)])
         (lnA, beta), *_ = np.linalg.lstsq(X * wt[:, None], ly * wt, rcond=None)
-        r = least_squares(resid, [o0, beta, lnA], bounds=([lo, -np.inf, -np.inf], [hi_eff, np.inf, np.inf]),
+        r = least_squares(resid, [o0, float(np.clip(beta, 2 * beta_lo, 0.5 * beta_hi)), lnA],
+                          bounds=([lo, beta_lo, -np.inf], [hi_eff, beta_hi, np.inf]),
                           x_scale="jac", xtol=1e-12, ftol=1e-12)
         if best is None or r.cost < best.cost:
             best = r
@@ -521,9 +553,20 @@ def fit_threshold_power(omega, y, omega0: float | None = None, sigma_lny=None,
     s2 = 2 * best.cost / (len(w) - 3) if sig is None else 1.0
     cov = s2 * np.linalg.pinv(J.T @ J)
     o0, beta, lnA = best.x
-    note = "; omega0 at a bound" if min(abs(o0 - lo), abs(o0 - hi_eff)) < 1e-6 * max(span, 1.0) else ""
+    flags = []
+    tol = 1e-3 * (hi_eff - lo)  # at a bound: within 0.1 % of the range (as the collapses' edges)
+    if abs(o0 - lo) < tol:
+        flags.append(f"omega0 at the lower bound {lo:.4g} of its range "
+                     + ("(physical: omega0 >= 0)" if lo == 0.0 else "(the largest omega with y = 0 in every run)"))
+    if abs(o0 - hi_eff) < tol:
+        flags.append(f"omega0 at the upper bound {hi:.4g} of its range (the first omega with y > 0)")
+    for edge in (beta_lo, beta_hi):
+        if abs(beta - edge) < 1e-3 * (beta_hi - beta_lo):
+            flags.append(f"beta at the bound {edge:g} of its range ({beta_lo:g}, {beta_hi:g}]")
+    note = "".join(f"; {f}" for f in flags)
     if omega0_bounds is None and not zero_below:
         note += "; no sampled omega has y = 0 in every run: omega0 is extrapolated below the data"
+    flag = "; ".join(flags) + ": not constrained by the data" if flags else None
     return ThresholdFit(float(o0), float(beta), float(np.exp(lnA)), float(np.sqrt(cov[0, 0])),
                         float(np.sqrt(cov[1, 1])), float(np.exp(lnA) * np.sqrt(cov[2, 2])), int(len(w)), cov,
-                        "least squares in ln y, omega0 fitted" + note)
+                        "least squares in ln y, omega0 fitted in its physical range" + note, flag)

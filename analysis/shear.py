@@ -11,11 +11,11 @@ import pandas as pd
 from analysis.dumps import AtomFrame, DumpError, LocalFrame, bond_pairs, read_atom_dump, read_local_dump
 from analysis.grain_table import frame_grains
 from analysis.pictures import render_particles_2d, render_particles_3d
-from analysis.plots import plot_nm, plot_stress
+from analysis.plots import PlotGuard, plot_nm, plot_stress
 from analysis.powerlaw import MIN_FIT_GRAINS, exponent_flag, grains_fitted
 from analysis.report import Report, clear_report, provenance_line, write_report
 from analysis.statistics import SMALL_GRAIN_CUT, fit_grain_tau, frame_measures, mass_distribution
-from analysis.stress import inertial_number, stress_measures
+from analysis.stress import N_BLOCKS, STRESS_WINDOW, inertial_number, stress_measures, stress_windows
 from analysis.tables import save_table
 from analysis.tracking import lineage_table
 
@@ -86,20 +86,28 @@ def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = 
     tracking.insert(1, "strain_parent", tracking["frame"].map(lambda k: strain_of[k - 1]))
     tracking.insert(2, "strain_child", tracking["frame"].map(strain_of))
 
+    # mu, P and sqrt(J2) averaged over strain windows, the last one the summary's (steady flow)
+    windows = stress_windows(stress)
+    final_window = windows.iloc[-1] if len(windows) else None
+
     res = run_dir / "results"
     save_table(stress, res / "stress")
+    save_table(windows, res / "stress_windows")
     save_table(grains, res / "grains")
     save_table(nm_all, res / "nm")
     save_table(frames, res / "frames")
     save_table(fits, res / "nm_fits")
     save_table(tracking, res / "tracking")
     title = f"BPM {dim}D, L = {model['L']:g}, edot = {scen['strain_rate']:g}, k_A = {model['k_A']:g}"
+    guard = PlotGuard()  # a figure that fails is listed in plots_failed; the analysis goes on
     if plots:
+        plot_dir = run_dir / "plots"
         # a flagged fit is no result: no slope drawn through the data
-        plot_nm(nm_all[nm_all.strain > 0], run_dir / "plots" / "nm.png", title,
-                fit=None if fit_rows[-1]["tau_flag"] else fit_rows[-1])
-        plot_stress(stress, run_dir / "plots" / "stress.png", title)
-        _picture(run_dir, snaps[-1], all_labels[-1], dim, system, f"{title}, strain {snaps[-1]['strain']:g}")
+        guard.draw("nm", plot_dir / "nm.png", plot_nm, nm_all[nm_all.strain > 0], plot_dir / "nm.png", title,
+                   fit=None if fit_rows[-1]["tau_flag"] else fit_rows[-1])
+        guard.draw("stress", plot_dir / "stress.png", plot_stress, stress, plot_dir / "stress.png", title)
+        guard.draw("grains", plot_dir / "grains.png", _picture, run_dir, snaps[-1], all_labels[-1], dim, system,
+                   f"{title}, strain {snaps[-1]['strain']:g}")
 
     last = stress.iloc[-1]
     summary = {
@@ -111,13 +119,36 @@ def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = 
         "angles_broken": int(last.angles_broken),
         "grains_at_strain": {f"{r['strain']:g}": r["n_grains"] for r in frame_rows},
         f"grains_M>={cut}_at_strain": {f"{r['strain']:g}": r[f"n_grains_M>={cut}"] for r in frame_rows},
-        "final_mu": float(last.mu) if np.isfinite(last.mu) else None,
+        **_window_summary(final_window),
+        # one instantaneous record, for reference only: mu_mean is the measure
+        "mu_last_record": float(last.mu) if np.isfinite(last.mu) else None,
         "tau_final": fit_rows[-1]["tau"], "tau_final_sigma": fit_rows[-1]["sigma"],
         "tau_final_flag": fit_rows[-1]["tau_flag"],
+        "plots_failed": guard.failed,
         **({"warnings": warnings_} if warnings_ else {}),
     }
     write_report(shear_report(run_dir, cfg, summary, frames, fits, title), run_dir)
     return summary
+
+
+def _window_summary(window) -> dict:
+    """Summary entries of the last strain window (analysis.stress.stress_windows): the means of
+    mu, P and sqrt(J2) over it and their block-average standard errors."""
+    keys = {"stress_window": None, "stress_window_records": 0}
+    for col in ("mu", "P", "sqrtJ2"):
+        keys.update({f"{col}_mean": None, f"{col}_se": None})
+    if window is None:
+        return keys
+    keys.update({"stress_window": [float(window.strain_lo), float(window.strain_hi)],
+                 "stress_window_records": int(window.n),
+                 "stress_window_rule": (f"records with strain in ({window.strain_lo:.4g}, {window.strain_hi:.4g}], the "
+                                        f"last {STRESS_WINDOW:.0%} of the strain reached; standard errors from "
+                                        f"{N_BLOCKS} block means")})
+    for col in ("mu", "P", "sqrtJ2"):
+        mean, se = window[f"{col}_mean"], window[f"{col}_se"]
+        keys[f"{col}_mean"] = None if mean is None or not np.isfinite(mean) else float(mean)
+        keys[f"{col}_se"] = None if se is None or not np.isfinite(se) else float(se)
+    return keys
 
 
 def bonds_intact(bonds: LocalFrame) -> np.ndarray:
@@ -138,7 +169,12 @@ def shear_report(run_dir: Path, cfg: dict, summary: dict, frames: pd.DataFrame, 
                  title: str) -> Report:
     """The one-page report of a shear run."""
     rep = Report(f"{cfg['name']}: {title}", provenance_line(run_dir))
-    rep.values({k: v for k, v in summary.items() if not isinstance(v, dict)}, "summary (LJ units: a, m, u)")
+    rep.values({k: v for k, v in summary.items() if not isinstance(v, (dict, list))}, "summary (LJ units: a, m, u)")
+    if summary.get("stress_window_rule"):
+        rep.text(f"mu_mean, P_mean and sqrtJ2_mean (± *_se): {summary['stress_window_rule']}; every window in "
+                 "results/stress_windows.")
+    for fail in summary.get("plots_failed", []):
+        rep.text(f"Figure {fail['plot']} failed ({fail['error']}); the analysis is complete without it.")
     if summary.get("tau_final_flag"):
         rep.text(f"Warning: tau_final ({summary['tau_final']}) is not a result: {summary['tau_final_flag']}.")
     rep.figure(run_dir / "plots" / "nm.png", "N(M) at the measure strains with the discrete MLE slope")

@@ -124,15 +124,18 @@ def test_no_bootstrap_and_repeated_run_names(size_set, tmp_path):
 
 def fake_impact_run(root: Path, velocity: float, seed: int) -> Path:
     """omega = velocity^2 / 4; D_w = 0.2 (omega - 0.5)^0.8 above 0.5; two or more multi-cell
-    fragments from omega 2; eta = 0.05 omega^0.3; fragment masses p(m) ~ m^-1.6."""
+    fragments from omega 2 (chips: the largest fragment keeps 95 % of the mass), the largest
+    below 0.9 of the parent from omega 5; eta = 0.05 omega^0.3; fragment masses p(m) ~ m^-1.6."""
     omega = velocity ** 2 / 4
     d_w = 0.2 * (omega - 0.5) ** 0.8 if omega > 0.5 else 0.0
     multi = 1 if omega < 2 else int(3 * omega)
+    largest = 1.0 if omega < 2 else 0.95 if omega < 5 else 0.5
     rng = np.random.default_rng(seed)
     masses = sample_power_law(150, 1.6, 1e-3, xmax=1.0, rng=rng)
     frags = pd.DataFrame({"mass": masses, "single_cell": False, "shape_factor": rng.uniform(3.0, 3.5, len(masses))})
     summary = {"omega": omega, "D_w": d_w, "eta": 0.05 * omega ** 0.3, "e_k2": 0.7 * omega ** -0.2,
-               "n_fragments": multi + 5, "n_fragments_multi_cell": multi}
+               "n_fragments": multi + 5, "n_fragments_multi_cell": multi, "largest_fragment_mass_fraction": largest,
+               "second_fragment_mass_fraction": min(0.3, 1 - largest)}
     cfg = {"name": f"v{velocity:g}_s{seed}", "seed": seed,
            "model": {"kind": "bcm", "n_cells": 100, "interface": {"G_c": 1.0}},
            "scenario": {"kind": "impact", "velocity": velocity}}
@@ -148,8 +151,14 @@ def test_impact_set_crossovers_and_fits(tmp_path):
     result = analyse_set([runs], out)
     th = result["thresholds"]["1"]
     # omega sampled at 0.09, 0.25, 0.64, 1.44, 3.24, 6.25, 12.25
-    assert th["omega_0"] == pytest.approx((0.25 + 0.64) / 2)
-    assert th["omega_1"] == pytest.approx((1.44 + 3.24) / 2)
+    assert th["omega_0"]["cracks_D_w>0"]["value"] == pytest.approx((0.25 + 0.64) / 2)
+    assert (th["omega_0"]["cracks_D_w>0"]["lo"], th["omega_0"]["cracks_D_w>0"]["hi"]) == pytest.approx((0.25, 0.64))
+    assert th["omega_1"]["two_multicell_fragments"]["value"] == pytest.approx((1.44 + 3.24) / 2)
+    assert th["omega_1"]["largest_below_0.9"]["value"] == pytest.approx((3.24 + 6.25) / 2)
+    assert result["omega_1_definition"] == "largest_below_0.9"
+    thresholds = pd.read_csv(out / "thresholds.csv")
+    assert set(zip(thresholds.threshold, thresholds.definition)) == {
+        ("omega_0", "cracks_D_w>0"), ("omega_1", "largest_below_0.9"), ("omega_1", "two_multicell_fragments")}
     fits = _fits(out)
     assert _value(fits, "D_w", "omega0")[0] == pytest.approx(0.5, abs=1e-4)
     assert _value(fits, "D_w", "beta")[0] == pytest.approx(0.8, abs=1e-4)
@@ -168,9 +177,33 @@ def test_sets_refused_with_reasons(tmp_path, size_set):
     unfinished = tmp_path / "unfinished"
     fake_impact_run(unfinished / "a", 3.0, 1)
     (unfinished / "a" / "status.json").write_text(json.dumps({"state": "running"}))
-    with pytest.raises(RunSetError, match="no finished runs"):
+    with pytest.raises(RunSetError, match="no finished runs.*not finished: running"):
         find_runs([unfinished])
     proc = subprocess.run([sys.executable, "-m", "driver.cli", "scaling", str(size_set), str(impact), "--out",
                            str(tmp_path / "o2")], capture_output=True, text=True)
     assert proc.returncode == 2 and "different kinds" in proc.stderr
     assert not (tmp_path / "o2").exists()
+
+
+def test_stress_window_means_with_block_errors():
+    """mu (and P, sqrt(J2)) averaged over the last 20 % of the strain, with the standard error
+    of 10 block means: a hand-built series whose pairs of records are correlated (each block
+    is c_k +- 0.01). The loading transient before the window does not enter, and the last
+    record (0.14 here, like the issue's 0.083) is not the measure."""
+    from analysis.stress import block_mean, stress_windows
+
+    c = np.array([0.17, 0.13, 0.16, 0.14, 0.18, 0.12, 0.15, 0.15, 0.16, 0.14])
+    window = np.ravel(np.column_stack([c + 0.01, c - 0.01]))  # 20 records, 2 per block
+    strain = np.arange(1, 101) / 100
+    mu = np.concatenate([np.full(80, 5.0), window])
+    stress = pd.DataFrame({"strain": strain, "mu": mu, "P": 2 * mu, "sqrtJ2": 2 * mu ** 2})
+    windows = stress_windows(stress)
+    assert list(windows.strain_hi) == pytest.approx([0.2, 0.4, 0.6, 0.8, 1.0]) and list(windows.n) == [20] * 5
+    last = windows.iloc[-1]
+    assert last.mu_mean == pytest.approx(0.15) and last.mu_blocks == 10
+    assert last.mu_se == pytest.approx(c.std(ddof=1) / np.sqrt(10))
+    assert last.P_mean == pytest.approx(0.30) and last.P_se == pytest.approx(2 * c.std(ddof=1) / np.sqrt(10))
+    assert windows.iloc[0].mu_mean == 5.0 and windows.iloc[0].mu_se == 0.0
+    # NaNs (mu where P <= 0) are left out; too few samples for 4 blocks: no error stated
+    assert block_mean([1.0, np.nan, 3.0, 5.0, 7.0, 9.0, 11.0, 13.0, 15.0])["n"] == 8
+    assert block_mean([1.0, 2.0, 3.0])["se"] is None and block_mean([])["mean"] is None

@@ -205,3 +205,34 @@ def test_fit_threshold_power_recovers_and_covers():
         fit_threshold_power(omega, dw, omega0=3.0)
     assert "extrapolated" not in fit.method
     assert "extrapolated" in fit_threshold_power(omega[omega > 2.5], dw[omega > 2.5]).method
+
+
+def test_threshold_fit_stays_physical_and_flags_a_bound():
+    """D_w from a law whose threshold lies below zero (omega0 = -0.5), sampled where every run
+    has cracks: the unconstrained fit returned a negative omega_0. omega0 is now held in its
+    physical range (>= 0) and the fit that ends on that bound says so; a fit inside its range
+    carries no flag."""
+    omega = np.repeat(np.linspace(0.5, 3.0, 11), 3)
+    dw = threshold_power(omega, -0.5, 0.7, 0.3) * np.exp(np.random.default_rng(4).normal(size=omega.size) * 0.01)
+    fit = fit_threshold_power(omega, dw)
+    assert fit.omega0 >= 0.0 and fit.omega0 == pytest.approx(0.0, abs=1e-9)
+    assert fit.flag is not None and "lower bound 0" in fit.flag and "physical" in fit.flag
+    assert "not constrained" in fit.flag and "lower bound" in fit.method and fit.beta > 0
+    good = fit_threshold_power(*damage_sweep(np.random.default_rng(8)))
+    assert good.flag is None
+
+
+def test_omega_1_largest_fragment_rule():
+    """SPEC 1.5's break-up: the first point where a run's largest fragment holds less than the
+    fraction (default 0.9) of the parent; a 2-cell chip (largest 0.995) is not break-up."""
+    from analysis.scaling import BREAKUP_FRACTION, omega_1_largest
+
+    omega = np.array([1.0, 1.1, 2.0, 2.1, 3.0, 3.1])
+    largest = np.array([1.0, 1.0, 0.995, 0.93, 0.6, 0.95])
+    velocity = np.array([1, 1, 2, 2, 3, 3])
+    t = omega_1_largest(omega, largest, groups=velocity)
+    assert (t.lo, t.hi, t.value) == (2.1, 3.0, 2.55) and BREAKUP_FRACTION == 0.9
+    t = omega_1_largest(omega, largest, 0.94, groups=velocity)
+    assert (t.lo, t.hi) == (1.1, 2.1)
+    with pytest.raises(ValueError, match="break-up fraction"):
+        omega_1_largest(omega, largest, 1.5)
