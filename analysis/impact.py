@@ -106,7 +106,8 @@ def fracture_energy_flag(w_f: float, w_f_released: float, convention: str | None
 
 
 _NEGATIVE_CAUSES = {
-    "npoints": "energy put in when a contact gains points (its stiffness is shared by more points)",
+    "npoints": "energy put in when a contact gained points (runs made with the former law that shared a "
+               "contact's stiffness among its points; zero since)",
     "switch": "the one-step overshoot of the threshold and the half kick replaced at breaks",
 }
 
@@ -145,8 +146,10 @@ def read_impact_thermo(path: Path) -> pd.DataFrame:
     (bond bcm/griffith: E_interfaces, W_f, W_damp, W_friction, W_switch), the plane (fix
     bcm/wall: E_wall, W_wall = W_wall_damp + W_wall_friction + W_wall_npoints) and the contacts
     of cells that share no interface (pair bcm/contact: E_contacts, W_contact_damp,
-    W_contact_friction, W_contact_npoints). `*_npoints` is the energy lost when a contact's
-    number of points changes (its stiffness is shared by them; < 0 when gained).
+    W_contact_friction, W_contact_npoints). `*_npoints` was the energy lost when a contact's
+    number of points changed under the former law that shared a contact's stiffness among its
+    points; with the per-point law (plugins/doc) it is identically zero, kept so that records of
+    older runs read the same.
     Derived: kinetic, elastic (all stores), dissipated (all sinks but W_f), and the parts of
     dissipated: dissipated_damping, dissipated_friction, dissipated_npoints (W_switch apart).
     work_wall and work_contacts, the work of those styles' forces on the cells, are a check:
@@ -327,7 +330,7 @@ def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bool =
         guard.draw("shapes", plot_dir / "shapes.png", plot_shapes, frags, plot_dir / "shapes.png", title)
         guard.draw("fragments", plot_dir / "fragments.png", _fragment_picture, space, offsets, faces, labels,
                    plot_dir / "fragments.png", f"{title}\n{len(frags)} fragments, D_w = {measures['D_w']:.3f}")
-    measures["plots_failed"] = guard.failed
+    measures["plots_failed"] = system.get("plots_failed", []) + guard.failed  # built with the system, then here
     write_report(impact_report(run_dir, cfg, system, measures, frags, channels, title), run_dir)
     return measures
 

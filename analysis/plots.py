@@ -109,7 +109,7 @@ def plot_stress(stress: pd.DataFrame, path: Path, title: str = "") -> None:
 
 def plot_energies(energies: pd.DataFrame, wk_minus: float, path: Path, title: str = "") -> None:
     """Energy budget of an impact against time, as fractions of W_k^- (SPEC 1.5)."""
-    fig, ax = plt.subplots(figsize=(5.5, 4.0), dpi=150)
+    fig, ax = plt.subplots(figsize=(7.5, 4.0), dpi=150)
     t = energies.time * 1e6
     for col, label, style in [("kinetic", "kinetic $W_k$", "k-"), ("elastic", "elastic (interfaces + contacts)", "k--"),
                               ("W_f", "fracture $W_f = 2AG_c$", "k-."), ("dissipated", "dissipated $W_c$", "k:")]:
@@ -118,7 +118,8 @@ def plot_energies(energies: pd.DataFrame, wk_minus: float, path: Path, title: st
     ax.plot(t, total, color="0.6", lw=2.5, alpha=0.6, label="sum", zorder=0)
     ax.set_xlabel(r"time [$\mu$s]")
     ax.set_ylabel(r"energy / $W_k^-$")
-    ax.legend(fontsize=8, frameon=False, loc="center right")
+    # beside the axes, never over the curves
+    ax.legend(fontsize=8, frameon=False, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0)
     if title:
         ax.set_title(title, fontsize=9)
     fig.tight_layout()

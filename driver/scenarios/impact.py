@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 import driver
+from analysis.plots import PlotGuard
 from analysis.tables import save_table
 from driver.bcm.cellstats import cell_statistics, plot_cell_stats
 from driver.bcm.lammps_files import write_cell_data, write_cells, write_interfaces
@@ -46,7 +47,8 @@ def build_system(cfg: RunConfig, rd: RunDir) -> dict:
     t_tess = time.perf_counter() - t0
     stats = cell_statistics(tess)
     save_table(stats, rd.results / "cells")
-    plot_cell_stats(stats, rd.plots / "cells.png")
+    guard = PlotGuard()  # the cell statistics figure never decides whether the run goes on
+    guard.draw("cells", rd.plots / "cells.png", plot_cell_stats, stats, rd.plots / "cells.png")
     rng = np.random.default_rng([cfg.seed, 1])  # orientation stream, apart from the tessellation's
     particle = build_particle(tess, m.density, m.rounding, rng, plane_z=0.0, gap=sc.gap * m.diameter)
     root = rd.root
@@ -78,7 +80,7 @@ def build_system(cfg: RunConfig, rd: RunDir) -> dict:
         "tessellation_seconds": t_tess, "timestep": dt, "shortest_period": period,
         "timestep_rule": f"dt = 2 pi sqrt((m_min/2) / k_max) / {sc.steps_per_period:g}, k_max = {k_max:g} N/m",
         "max_bound_radius": float(particle.bound_radius.max()),
-        "initial_velocity": sc.velocity,
+        "initial_velocity": sc.velocity, "plots_failed": guard.failed,
     }
 
 
