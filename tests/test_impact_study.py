@@ -176,3 +176,30 @@ def test_failing_figure_leaves_the_run_finished(tmp_path, plugin_path, monkeypat
     channels = pd.read_csv(out / "results" / "energy_channels.csv")
     assert channels[channels.part_of_W_c].energy.sum() == pytest.approx(summary["W_c_measured"], rel=1e-9)
     assert summary["second_fragment_mass_fraction"] <= summary["largest_fragment_mass_fraction"]
+
+
+def test_sweep_of_four_small_impacts_in_one_process(tmp_path, plugin_path):
+    """Observed: in a sweep (one process), figures of later runs failed after earlier ones had
+    drawn, and the runs were marked failed. Four 200-cell impacts in one `driver sweep`: all
+    finished, every figure present, none failed."""
+    from typer.testing import CliRunner
+
+    from driver.cli import app
+
+    base = tmp_path / "base.yaml"
+    base.write_text(yaml.safe_dump({"name": "four", "seed": 1, "model": {"kind": "bcm", "n_cells": 200},
+                                    "scenario": {"kind": "impact", "velocity": 2.0, "max_time": 2e-4}}))
+    out = tmp_path / "sweep"
+    res = CliRunner().invoke(app, ["sweep", str(base), "--set", "scenario.velocity=2,5", "--set", "seed=1,2",
+                                   "--out", str(out)])
+    assert res.exit_code == 0, res.output[-3000:]
+    runs = sorted(p.parent for p in out.glob("*/status.json"))
+    assert len(runs) == 4
+    for run in runs:
+        assert json.loads((run / "status.json").read_text())["state"] == "finished"
+        summary = json.loads((run / "results/summary.json").read_text())
+        assert summary["plots_failed"] == []
+        for fig in ("cells", "energies", "fragments", "fragment_masses", "shapes"):
+            assert (run / "plots" / f"{fig}.png").stat().st_size > 0, (run, fig)
+    table = pd.read_csv(out / "runs.csv")
+    assert table["included"].all() and len(table) == 4
