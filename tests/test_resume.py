@@ -82,7 +82,9 @@ def assert_same_results(a: Path, b: Path) -> None:
     for name in tables:
         pd.testing.assert_frame_equal(pd.read_parquet(a / "results" / name), pd.read_parquet(b / "results" / name),
                                       check_exact=True)
-    assert json.loads((a / "results/summary.json").read_text()) == json.loads((b / "results/summary.json").read_text())
+    summaries = [json.loads((d / "results/summary.json").read_text()) for d in (a, b)]
+    assert [{k: v for k, v in x.items() if k != "name"} for x in summaries][0] == \
+        {k: v for k, v in summaries[1].items() if k != "name"}
     dumps = sorted(p.name for p in (a / "dumps").iterdir())
     assert dumps == sorted(p.name for p in (b / "dumps").iterdir())
     for name in dumps:
@@ -248,3 +250,26 @@ def test_resume_after_an_interrupted_analysis_only_analyses(shear_reference, tmp
     assert read_status(run)["state"] == "finished"
     assert (run / "log.lammps").read_bytes() == log
     assert_same_results(shear_reference, run)
+
+
+def test_interrupted_sweep_resumes_its_interrupted_run(tmp_path, shear_reference):
+    """SIGINT stops a sweep inside its first run (checkpoint written, exit 130); running the same
+    sweep again resumes that run from its checkpoint and runs the rest."""
+    base = config_file(tmp_path, SHEAR, "base")
+    out = tmp_path / "sweep"
+    cmd = ["sweep", str(base), "--set", "seed=3,4", "--out", str(out)]
+    proc = driver(*cmd)
+    first = out / "seed3"
+    deadline = time.time() + 240
+    while proc.poll() is None and time.time() < deadline and last_step(first) <= SHEAR_STEPS // 2:
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err[-2000:]
+    assert read_status(first)["state"] == "interrupted" and not (out / "seed4").exists()
+    again = subprocess.run([sys.executable, "-m", "driver.cli", *cmd], capture_output=True, text=True)
+    assert again.returncode == 0, again.stderr[-3000:]
+    prov = json.loads((first / "provenance.json").read_text())
+    assert prov["resumed"] and prov["resumed"][0]["from_step"] > 0
+    assert read_status(first)["state"] == read_status(out / "seed4")["state"] == "finished"
+    assert_same_results(shear_reference, first)
