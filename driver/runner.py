@@ -170,16 +170,12 @@ _STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
 @contextlib.contextmanager
-def interruptible():
-    """SIGINT/SIGTERM raise RunInterrupted in the main thread (outside a LAMMPS session, i.e.
-    while a system is built or a run analysed). A no-op outside the main thread."""
+def _on_stop_signals(handler: Callable[[int, Any], None]):
+    """`handler` for SIGINT and SIGTERM while the block runs (the previous ones restored after);
+    a no-op outside the main thread, where Python cannot install handlers."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-
-    def handler(signum, _frame):
-        raise RunInterrupted(signum, phase="driver")
-
     old = {s: signal.signal(s, handler) for s in _STOP_SIGNALS}
     try:
         yield
@@ -188,24 +184,26 @@ def interruptible():
             signal.signal(s, h)
 
 
-@contextlib.contextmanager
+def interruptible():
+    """SIGINT/SIGTERM raise RunInterrupted in the main thread (outside a LAMMPS session, i.e.
+    while a system is built or a run analysed)."""
+
+    def handler(signum, _frame):
+        raise RunInterrupted(signum, phase="driver")
+
+    return _on_stop_signals(handler)
+
+
 def _signals_request_stop(control: Control, on_second: Callable[[], None] | None = None):
-    """Inside a session: the first signal asks for a stop at the next chunk boundary."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
+    """Inside a session: the first signal asks for a stop at the next chunk boundary; a second
+    one calls `on_second` (an MPI run: end it at once)."""
 
     def handler(signum, _frame):
         if control.stop and on_second is not None:
             on_second()
         control.request_stop(signum)
 
-    old = {s: signal.signal(s, handler) for s in _STOP_SIGNALS}
-    try:
-        yield
-    finally:
-        for s, h in old.items():
-            signal.signal(s, h)
+    return _on_stop_signals(handler)
 
 
 # ------------------------------------------------------------------------- session
