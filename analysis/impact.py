@@ -246,6 +246,18 @@ def last_state_dumps(run_dir: Path, partial: bool) -> tuple[Path, Path, str | No
             f"the end state (dumps/cells.end.lammpstrj) is missing")
 
 
+def settle_outcome(run_dir: Path, system: dict, last_record: int) -> dict:
+    """How the run ended: `settled` (the stop rule fired) and `end_step`, from the session's
+    outcome.json; runs made before it existed: settled when the last record is before the
+    hard stop."""
+    try:
+        outcome = json.loads((Path(run_dir) / "outcome.json").read_text())
+        return {"settled": bool(outcome["settled"]), "end_step": int(outcome["end_step"]),
+                "settle_windows": int(outcome["windows"])}
+    except (OSError, ValueError, KeyError):
+        return {"settled": bool(last_record < system["max_steps"]), "end_step": last_record}
+
+
 def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = False) -> dict:
     """Measures, fragment table, mass and shape distributions, energy series, fragment history
     (when periodic dumps exist), plots, picture and report of a finished impact run (partial:
@@ -296,12 +308,13 @@ def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bool =
         "W_c_damping": float(last.dissipated_damping), "W_c_friction": float(last.dissipated_friction),
         "W_c_switch": float(last.W_switch), "W_c_npoints": float(last.dissipated_npoints),
         **fragment_counts(frags, system["mass"]),
-        "broken_interfaces": int(last.broken), "end_time": float(last.time), "end_step": int(last.step),
-        "timestep": system["timestep"], "settled": bool(last.step < system["max_steps"]),
+        "broken_interfaces": int(last.broken), "end_time": float(last.time),
+        "timestep": system["timestep"], **settle_outcome(run_dir, system, int(last.step)),
         "cells_on_plane_end": int(last.wall_contacts),
         "stop_rule": (f"stopped after a window of {system['window_steps']} steps with no break, kinetic energy "
                       f"within {scen['ke_tolerance']:g} and the plane unloaded, or at max_time "
                       f"{scen['max_time']:g} s"),
+        **({"settled": False} if cut_short else {}),
         **{f"shape_{k}": v for k, v in shape_averages(frags).items()},
         **{f"mass_{k}": v for k, v in tau.items()},
         **({"warnings": warnings_} if warnings_ else {}),

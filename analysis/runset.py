@@ -96,7 +96,7 @@ def _left_out_reason(run_dir: Path) -> tuple[str, str | None]:
     if state != "finished":
         where = f" in phase {st['phase']}" if st.get("phase") else ""
         error = f": {st['error']}" if st.get("error") else ""
-        done = "; its LAMMPS part had finished (driver post RUN_DIR analyses it)" if st.get("lammps_done") else ""
+        done = "; its LAMMPS part had finished (driver run RUN_DIR --resume analyses it)" if st.get("lammps_done") else ""
         return state, f"not finished: {state}{where}{error}{done}"
     summary = run_dir / "results" / "summary.json"
     try:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import os
 import sys
 from pathlib import Path
 from typing import Optional
@@ -71,6 +72,12 @@ def run(input_yaml: Path = typer.Argument(..., help="run configuration (YAML), o
     except RunInterrupted as exc:
         _fail(f"{cfg.run_dir()}: {exc}" + ("" if exc.checkpoint is None else
                                            f" (driver run {cfg.run_dir()} --resume)"), exc.exit_code)
+    except OSError:
+        raise  # one line from main()
+    except Exception as exc:  # noqa: BLE001 - the run's status.json holds the error too
+        if os.environ.get("BRITTLE_DEBUG"):
+            raise
+        _fail(f"{type(exc).__name__}: {exc} (the run is marked failed; --debug shows where)", 1)
     summary = json.loads((out / "results" / "summary.json").read_text())
     err.print(f"[green]finished:[/] {out}")
     typer.echo(json.dumps(summary, indent=2))
@@ -169,10 +176,16 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
             if given:
                 _fail(f"{' '.join(given)}: options for dump files named on the command line, not for a run "
                       f"directory ({run_dir}); its results are rewritten in place from its resolved config", 2)
-            from driver.rundir import read_status, run_state  # noqa: PLC0415
+            from driver.rundir import MARKER, RunDir, has_marker, read_status  # noqa: PLC0415
 
-            if run_state(run_dir)["state"] == "running":
-                _fail(f"{run_dir}: a run is in progress there; analyse it when it has stopped", 2)
+            # the run's lock is held while its results are rewritten: no run and no other post
+            # works in the folder meanwhile (run directories of older versions have no lock)
+            holder = RunDir(run_dir, existing=True)
+            if has_marker(holder.root, MARKER):
+                try:
+                    holder.acquire()
+                except RunDirError as exc:
+                    _fail(f"{exc}; analyse it when it has stopped", 2)
             cfg = load_resolved(run_dir)
             cfg["output"]["plots"] = plots
             if thresholds is not None:
@@ -182,7 +195,10 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
             unfinished = (read_status(run_dir) or {}).get("state") != "finished"
             if unfinished:
                 err.print(f"[yellow]{run_dir} did not finish (status.json): analysing the snapshots it has")
-            summary = analyse_run(run_dir, cfg, partial=unfinished)
+            try:
+                summary = analyse_run(run_dir, cfg, partial=unfinished)
+            finally:
+                holder.release()
             for msg in summary.get("warnings", []):
                 err.print(f"[yellow]warning:[/] {msg}")
             if animate:
@@ -275,7 +291,7 @@ def sweep(input_yaml: Path = typer.Argument(..., help="base configuration (YAML)
     from driver.pipeline import execute  # noqa: PLC0415
     from driver.sweep import expand, parse_assignment, pending, sweep_table  # noqa: PLC0415
 
-    from driver.rundir import SWEEP_MARKER, claim_dir, expand_path, latest_checkpoint  # noqa: PLC0415
+    from driver.rundir import SWEEP_MARKER, claim_dir, expand_path, latest_checkpoint, read_status  # noqa: PLC0415
     from driver.runner import RunInterrupted  # noqa: PLC0415
 
     try:
@@ -291,7 +307,8 @@ def sweep(input_yaml: Path = typer.Argument(..., help="base configuration (YAML)
     failed = []
     for values, cfg in todo:
         # an interrupted run carries on from its checkpoint; any other unfinished one starts again
-        resume = latest_checkpoint(cfg.run_dir()) is not None
+        resume = latest_checkpoint(cfg.run_dir()) is not None or bool(
+            (read_status(cfg.run_dir()) or {}).get("lammps_done"))
         err.print(f"[bold]{'resume' if resume else 'run'}[/] {values}")
         try:
             execute(cfg, np_ranks=np, show_progress=True, console=err, resume=resume)
@@ -336,6 +353,7 @@ def main() -> None:  # pragma: no cover - the console script
     debug = "--debug" in sys.argv[1:]
     if debug:
         sys.argv.remove("--debug")
+        os.environ["BRITTLE_DEBUG"] = "1"
     try:
         app(prog_name="driver")
     except OSError as exc:

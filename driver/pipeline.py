@@ -23,7 +23,7 @@ from driver.config import RunConfig, resolved_yaml
 from driver.plugin_build import plugin_library
 from driver.rundir import (LOCK, MARKER, STATUS, RunDir, atomic_write_json, atomic_write_text, check_claimable,
                            latest_checkpoint, provenance, read_status)
-from driver.runner import RunInterrupted, interruptible, run_session
+from driver.runner import RunInterrupted, deferred_signals, interruptible, run_session
 
 # Keys that may change between an interrupted run and its resumption: how it runs, not what.
 RESUMABLE_CHANGES = ("execution.", "output.plots", "output.animation", "output.count_above", "output.dir")
@@ -109,6 +109,9 @@ def _execute_locked(cfg: RunConfig, rd: RunDir, action: str, source: Path | None
                         console=console, heartbeat=lambda last: rd.heartbeat(**last),
                         checkpoint_seconds=cfg.execution.checkpoint_seconds())
         except RunInterrupted as exc:
+            if exc.lammps_done:
+                rd.set_state("interrupted", error=str(exc), phase="analysis", lammps_done=True, signal=exc.signum)
+                raise
             last = latest_checkpoint(rd.root)
             rd.set_state("interrupted", error=str(exc), phase="lammps", signal=exc.signum,
                          checkpoint_step=last["step"] if last else None)
@@ -221,15 +224,17 @@ def analyse_run(run_dir: Path, cfg: dict, partial: bool = False) -> dict:
                         shutil.copy2(f, staging / name / f.name, follow_symlinks=False)
         summary = _analyse(staging, cfg, partial)
         atomic_write_json(staging / "results" / "summary.json", {"name": cfg["name"], **summary})
-        # swap in: plots and reports first, the results (holding summary.json) last
-        for name in ("plots", *_REPORTS, "results"):
-            new, old = staging / name, run_dir / name
-            if old.is_dir():
-                os.replace(old, staging / f"{name}.old")
-            elif not new.exists():
-                old.unlink(missing_ok=True)
-            if new.exists():
-                os.replace(new, old)
+        # swap in: plots and reports first, the results (holding summary.json) last; a stop
+        # signal waits for the end of the swap, so it never leaves a run without results
+        with deferred_signals():
+            for name in ("plots", *_REPORTS, "results"):
+                new, old = staging / name, run_dir / name
+                if old.is_dir():
+                    os.replace(old, staging / f"{name}.old")
+                elif not new.exists():
+                    old.unlink(missing_ok=True)
+                if new.exists():
+                    os.replace(new, old)
         return summary
     finally:
         shutil.rmtree(staging, ignore_errors=True)

@@ -21,6 +21,7 @@ import fnmatch
 import json
 import os
 import platform
+import re
 import shutil
 import socket
 import subprocess
@@ -28,7 +29,7 @@ import sys
 import tempfile
 import time
 import uuid
-from dataclasses import dataclass, field
+from dataclasses import InitVar, dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
@@ -242,9 +243,10 @@ class RunDir:
     root: Path
     started: float = field(default_factory=time.time)
     _lock_fd: int | None = field(default=None, repr=False)
+    existing: InitVar[bool] = False  # an existing run's folder, e.g. `driver post .` from inside it
 
-    def __post_init__(self) -> None:
-        self.root = check_location(Path(self.root))
+    def __post_init__(self, existing: bool) -> None:
+        self.root = Path(os.path.abspath(self.root)) if existing else check_location(Path(self.root))
 
     @property
     def dumps(self) -> Path:
@@ -265,17 +267,31 @@ class RunDir:
     # -- lock
     def acquire(self) -> None:
         """Claim the folder and take its lock; RunDirError (naming the holder) when busy."""
-        claim_dir(self.root, MARKER, "run directory")
+        if not has_marker(self.root):
+            claim_dir(self.root, MARKER, "run directory")
         fd = os.open(self.root / LOCK, os.O_RDWR | os.O_CREAT, 0o666 & ~_UMASK)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
+        except OSError as exc:
             os.close(fd)
-            st = read_status(self.root) or {}
-            raise RunDirError(f"{self.root}: busy, a run is in progress there (pid {st.get('pid', '?')} on host "
-                              f"{st.get('host', '?')}, since {st.get('started', '?')}); wait for it, stop it, "
-                              "or choose another output directory") from None
+            if exc.errno not in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
+                raise RunDirError(f"{self.root}: cannot lock {LOCK} ({exc.strerror}); this filesystem may not "
+                                  "support file locks: choose an output directory on a local disk") from None
+            raise RunDirError(self._busy_message()) from None
         self._lock_fd = fd
+        # a lock is local to a node on some shared filesystems: a run alive on another host
+        # (heartbeat younger than STALE_AFTER_S) still owns the directory
+        st = read_status(self.root) or {}
+        if st.get("state") == "running" and st.get("host") not in (None, socket.gethostname()) \
+                and time.time() - float(st.get("heartbeat_epoch", 0)) < STALE_AFTER_S:
+            self.release()
+            raise RunDirError(self._busy_message())
+
+    def _busy_message(self) -> str:
+        st = read_status(self.root) or {}
+        return (f"{self.root}: busy, a run is in progress there (pid {st.get('pid', '?')} on host "
+                f"{st.get('host', '?')}, since {st.get('started', '?')}); wait for it, stop it, or choose another "
+                "output directory")
 
     def release(self) -> None:
         if self._lock_fd is not None:
@@ -365,8 +381,9 @@ def _layout_name(name: str, is_dir: bool) -> bool:
         return name in LAYOUT_DIRS
     if any(fnmatch.fnmatch(name, pat) for pat in LAYOUT_FILES):
         return True
-    # a temporary file of an atomic write of a layout file, left by a crash: .NAME.xxxxxx
-    return name.startswith(".") and any(name[1:].startswith(f + ".") for f in LAYOUT_FILES if "*" not in f)
+    # a temporary file of an atomic write of a layout file left by a crash: .NAME. + mkstemp's 8
+    # characters (never an editor's .NAME.swp or a user's .NAME.orig)
+    return any(re.fullmatch(re.escape(f".{f}.") + r"[A-Za-z0-9_]{8}", name) for f in LAYOUT_FILES if "*" not in f)
 
 
 def _clear_folder(folder: Path, patterns: tuple[str, ...]) -> None:

@@ -42,11 +42,14 @@ STOP_GRACE_S = 60.0
 class RunInterrupted(Exception):
     """A run stopped on a signal; `checkpoint` is the step it can resume from (None: none)."""
 
-    def __init__(self, signum: int, checkpoint: int | None = None, phase: str = "lammps"):
+    def __init__(self, signum: int, checkpoint: int | None = None, phase: str = "lammps",
+                 lammps_done: bool = False):
         name = signal.Signals(signum).name
         where = f"; resume from the checkpoint at step {checkpoint}" if checkpoint is not None else ""
+        if lammps_done:
+            where = "; its simulation is complete: --resume analyses it"
         super().__init__(f"stopped by {name} during {phase}{where}")
-        self.signum, self.checkpoint, self.phase = signum, checkpoint, phase
+        self.signum, self.checkpoint, self.phase, self.lammps_done = signum, checkpoint, phase, lammps_done
 
     @property
     def exit_code(self) -> int:
@@ -184,14 +187,36 @@ def _on_stop_signals(handler: Callable[[int, Any], None]):
             signal.signal(s, h)
 
 
+_deferred: list[int] = []  # signals held back while a deferred_signals() block runs
+_deferring = threading.Event()
+
+
 def interruptible():
     """SIGINT/SIGTERM raise RunInterrupted in the main thread (outside a LAMMPS session, i.e.
-    while a system is built or a run analysed)."""
+    while a system is built or a run analysed), or at the end of a deferred_signals() block."""
 
     def handler(signum, _frame):
+        if _deferring.is_set():
+            _deferred.append(signum)
+            return
         raise RunInterrupted(signum, phase="driver")
 
     return _on_stop_signals(handler)
+
+
+@contextlib.contextmanager
+def deferred_signals():
+    """A block that a stop signal must not cut in two (e.g. swapping results into place): the
+    signal takes effect when it ends."""
+    _deferring.set()
+    try:
+        yield
+    finally:
+        _deferring.clear()
+    if _deferred:
+        signum = _deferred.pop()
+        _deferred.clear()
+        raise RunInterrupted(signum, phase="driver")
 
 
 def _signals_request_stop(control: Control, on_second: Callable[[], None] | None = None):
@@ -229,6 +254,8 @@ def run_session(run_dir: Path, np: int = 1, checkpoint: dict[str, Any] | None = 
     finally:
         monitor.stop_event.set()
         monitor.join()
+    if control.stop:  # asked during the last chunk: the simulation is complete, the rest waits
+        raise RunInterrupted(control.signum or signal.SIGINT, phase="the end of the LAMMPS run", lammps_done=True)
 
 
 def _session_in_process(run_dir: Path, checkpoint: dict[str, Any] | None, control: Control) -> None:

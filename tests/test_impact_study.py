@@ -201,5 +201,25 @@ def test_sweep_of_four_small_impacts_in_one_process(tmp_path, plugin_path):
         assert summary["plots_failed"] == []
         for fig in ("cells", "energies", "fragments", "fragment_masses", "shapes"):
             assert (run / "plots" / f"{fig}.png").stat().st_size > 0, (run, fig)
+        # the energy record resolves the contact: 50 points or more while the plane is loaded
+        energies = pd.read_parquet(run / "results/energies.parquet")
+        loaded = energies[energies.E_wall > 1e-2 * energies.E_wall.max()]
+        assert len(loaded) >= 50, (run, len(loaded))
     table = pd.read_csv(out / "runs.csv")
     assert table["included"].all() and len(table) == 4
+
+
+def test_rockable_convention_flags_the_fracture_energy_it_books(tmp_path, plugin_path):
+    """griffith_energy: rockable counts N_p times the stored energy in the criterion and books
+    2 A G_c: more than the springs gave up. The summary says so and gives what they released."""
+    out = tmp_path / "rock"
+    execute(parse_config({"name": "rock", "seed": 3,
+                          "model": {"kind": "bcm", "n_cells": 100, "griffith_energy": "rockable"},
+                          "scenario": {"kind": "impact", "velocity": 2.0},
+                          "output": {"dir": str(out), "plots": False}}), show_progress=False)
+    summary = json.loads((out / "results/summary.json").read_text())
+    assert summary["broken_interfaces"] > 0
+    assert summary["W_f_released"] < 0.99 * summary["W_f"]
+    assert "never held" in summary["W_f_flag"]
+    assert summary["W_c_released"] == pytest.approx(
+        summary["W_k_minus"] - summary["W_k_plus"] - summary["W_f_released"], rel=1e-9)

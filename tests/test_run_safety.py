@@ -204,3 +204,23 @@ def test_check_location_accepts_a_new_folder(tmp_path):
     assert check_location(tmp_path / "new" / "run") == tmp_path / "new" / "run"
     assert not (tmp_path / "new").exists()  # checking creates nothing
     assert LOCK.startswith(".brittle")
+
+
+def test_a_run_on_another_host_is_busy_while_its_heartbeat_is_fresh(tmp_path):
+    """Locks may be local to a node: a `running` status from another host counts as alive while
+    its heartbeat is younger than STALE_AFTER_S, and as stale after."""
+    import time
+
+    from driver.rundir import STALE_AFTER_S, run_state
+
+    out = tmp_path / "run"
+    rd = RunDir(out)
+    rd.acquire()
+    rd.release()
+    status = {"state": "running", "pid": 1, "host": "node-that-is-not-this-one", "started": "earlier"}
+    (out / "status.json").write_text(json.dumps({**status, "heartbeat_epoch": time.time()}))
+    assert run_state(out)["state"] == "running"
+    with pytest.raises(RunDirError, match="busy.*node-that-is-not-this-one"):
+        RunDir(out).prepare(force=True)
+    (out / "status.json").write_text(json.dumps({**status, "heartbeat_epoch": time.time() - 2 * STALE_AFTER_S}))
+    assert run_state(out)["state"] == "stale"

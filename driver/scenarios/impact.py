@@ -143,14 +143,15 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
         record_target="file thermo.dat",
         start=("run             0\n" + _dump_commands("start") +
                "\nvariable        nb_prev equal ${nb}\nvariable        ke_prev equal ${kin}"
-               "\nvariable        loaded_prev equal 0"),
+               "\nvariable        loaded_prev equal 0\nvariable        reached_prev equal 0"),
         **common)
     resume = render(
         "bcm_impact.in", role="Start from a checkpoint (resume.lammps: -var checkpoint FILE).",
         system=SYSTEM_RESUME, pair_setup="# pair style, coefficients and counters: from the checkpoint",
         bond_setup="# bond style, interface table and reference state: from the checkpoint",
         velocity="# velocities: from the checkpoint", record_target="append thermo.dat",
-        start="# the settle rule's last values (nb_prev, ke_prev, loaded_prev): from the checkpoint's record",
+        start="# the settle rule's last values (nb_prev, ke_prev, loaded_prev, reached_prev): from the checkpoint's "
+              "record",
         **common)
     # Stop rule (SPEC 1.4), latched: the plane must first have loaded the particle (given back
     # LOADED_FRACTION of its incoming momentum: the centre of mass has slowed from -v0 to at
@@ -163,14 +164,18 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
                f"variable        loaded_now equal \"v_loaded_prev || (vcm(all,z) >= "
                f"{-(1.0 - LOADED_FRACTION) * sc.velocity!r})\"",
                "variable        loaded_now equal ${loaded_now}",
+               # reached: the plane has touched the particle (a cell on it now, or the momentum changed)
+               f"variable        reached_now equal \"v_reached_prev || (f_plane[1] > 0) || (vcm(all,z) > "
+               f"{-(1.0 - 1e-6) * sc.velocity!r})\"",
+               "variable        reached_now equal ${reached_now}",
                f'variable        settled equal "(v_loaded_now > 0) && (v_nb_now == v_nb_prev) && '
                f'(abs(v_ke_now - v_ke_prev) <= {sc.ke_tolerance}*v_ke_prev) && '
                f'(v_wall_energy <= {sc.ke_tolerance}*v_ke_now)"'],
         settled_variable="settled",
         advance=["variable        nb_prev equal ${nb_now}", "variable        ke_prev equal ${ke_now}",
-                 "variable        loaded_prev equal ${loaded_now}"],
+                 "variable        loaded_prev equal ${loaded_now}", "variable        reached_prev equal ${reached_now}"],
         end=_dump_commands("end").splitlines(),
-        never=("touched", f"the particle did not reach the plane within max_time = {sc.max_time:g} s (gap "
+        never=("reached_now", f"the particle did not reach the plane within max_time = {sc.max_time:g} s (gap "
                           f"{sc.gap * m.diameter:g} m at {sc.velocity:g} m/s needs {sc.gap * m.diameter / sc.velocity:g} s "
                           "of flight): raise scenario.max_time"))
     return setup, resume, schedule
@@ -184,7 +189,7 @@ def run_impact(cfg: RunConfig, rd: RunDir, plugin_path: Path) -> tuple[dict, dic
                   max_windows=schedule["max_windows"], max_steps=schedule["window"] * schedule["max_windows"])
     atomic_write_json(rd.root / "system.json", system)
     write_session(rd.root, setup, resume, schedule, cfg.execution.checkpoint_steps(),
-                  checkpoint_variables=["nb_prev", "ke_prev", "loaded_prev"])
+                  checkpoint_variables=["nb_prev", "ke_prev", "loaded_prev", "reached_prev"])
     return system, progress_spec(cfg, system)
 
 
