@@ -279,26 +279,41 @@ def scaling(paths: list[Path] = typer.Argument(..., help="run directories and/or
 
 
 @app.command()
-def sweep(input_yaml: Path = typer.Argument(..., help="base configuration (YAML)"),
-          set_: list[str] = typer.Option(..., "--set", help="KEY.PATH=V1,V2,... (repeat for a grid)"),
-          out: Optional[Path] = typer.Option(None, "--out", help="sweep directory (default runs/<name>_sweep)"),
+def sweep(input_yaml: Path = typer.Argument(..., help="sweep file (base, axes, zip, seeds), or a run config "
+                                                      "varied with --set"),
+          set_: list[str] = typer.Option([], "--set", help="KEY.PATH=V1,V2,... (repeat for a grid; on a sweep file, "
+                                                          "more axes)"),
+          out: Optional[Path] = typer.Option(None, "--out", help="sweep directory (default runs/<sweep file stem>, "
+                                                                 "or runs/<name>_sweep for a run config)"),
           np: Optional[int] = typer.Option(None, "--np", min=1, help="MPI ranks per run"),
+          dry_run: bool = typer.Option(False, "--dry-run", help="list the runs, their state and estimated cost; "
+                                                                "write nothing"),
           columns: str = typer.Option("", "--columns", help="comma-separated summary columns to print")) -> None:
     """Run a config over a grid of values; finished runs are kept (a re-run resumes)."""
+    from rich.measure import Measurement  # noqa: PLC0415
     from rich.table import Table  # noqa: PLC0415
 
     from analysis.tables import save_table  # noqa: PLC0415
     from driver.pipeline import execute  # noqa: PLC0415
-    from driver.sweep import expand, parse_assignment, pending, sweep_table  # noqa: PLC0415
+    from driver.sweep import load_sweep, pending, plan, plan_summary, plan_table, sweep_table  # noqa: PLC0415
 
-    from driver.rundir import SWEEP_MARKER, claim_dir, expand_path, latest_checkpoint, read_status  # noqa: PLC0415
+    from driver.rundir import (SWEEP_MARKER, check_claimable, claim_dir, latest_checkpoint,  # noqa: PLC0415
+                               read_status)
     from driver.runner import RunInterrupted  # noqa: PLC0415
 
     try:
-        base_cfg = load_config(input_yaml)  # the base itself must be valid
-        base = load_yaml(read_config_text(input_yaml), str(input_yaml))
-        sweep_dir = expand_path(out) if out is not None else Path("runs") / f"{base_cfg.name}_sweep"
-        runs = expand(base, [parse_assignment(a) for a in set_], sweep_dir, str(input_yaml))
+        expanded = load_sweep(input_yaml, set_, out)
+        runs, sweep_dir = expanded.runs, expanded.directory
+        if dry_run:
+            dry = plan(expanded, np_ranks=np)
+            table = plan_table(dry)
+            console = Console()
+            wide = Measurement.get(console, console.options.update_width(10_000), table).maximum
+            Console(width=max(wide, console.width)).print(table)
+            for line in plan_summary(dry):
+                typer.echo(line)
+            check_claimable(sweep_dir, SWEEP_MARKER, "sweep directory")  # reads only
+            return
         claim_dir(sweep_dir, SWEEP_MARKER, "sweep directory")
     except (ConfigError, RunDirError) as exc:
         _fail(str(exc), 2)

@@ -1,0 +1,240 @@
+"""Sweep files (`driver sweep sweep.yaml`): axes, zip groups, ranges, seeds, base, names, dry
+run and its cost estimate. Nothing here runs a simulation."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from driver.cli import app
+from driver.config import ConfigError, resolved_yaml
+from driver.estimate import estimate
+from driver.sweep import load_sweep, plan, short_keys, value_list
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+BASE = {"name": "sw", "seed": 2, "model": {"kind": "bpm", "dimension": 2, "L": 8},
+        "scenario": {"kind": "shear", "strain_rate": 0.02, "max_strain": 0.1, "measure_strains": [0.1],
+                     "thermo_every": 100}}
+
+
+def write(path: Path, data) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return path
+
+
+def tree(root: Path) -> set[str]:
+    return {str(Path(d, f).relative_to(root)) for d, dirs, files in os.walk(root) for f in files + dirs}
+
+
+def dry_run(*args):
+    return CliRunner().invoke(app, ["sweep", *map(str, args), "--dry-run"])
+
+
+# ----------------------------------------------------------------------------- grids
+def test_three_axis_dry_run_lists_the_product_and_names(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    sweep = write(tmp_path / "grid.yaml", {"base": BASE, "axes": {
+        "scenario.strain_rate": [0.01, 0.02], "model.k_A": {"linspace": [1, 3, 3]}, "model.gamma": [10.5, 50]}})
+    loaded = load_sweep(sweep, [])
+    assert loaded.directory == Path("runs/grid")
+    assert loaded.keys == ["scenario.strain_rate", "model.k_A", "model.gamma"]
+    names = [cfg.run_dir().name for _, cfg in loaded.runs]
+    expected = [f"strain_rate{r}_k_A{k}_gamma{g}" for r in ("0.01", "0.02") for k in (1, 2, 3) for g in ("10.5", 50)]
+    assert names == expected  # the first axis varies slowest
+    values, cfg = loaded.runs[9]  # 0.02, 2, 50
+    assert values == {"scenario.strain_rate": 0.02, "model.k_A": 2, "model.gamma": 50}
+    assert (cfg.scenario.strain_rate, cfg.model.k_A, cfg.model.gamma) == (0.02, 2, 50)
+    assert cfg.run_dir() == Path("runs/grid") / expected[9] and cfg.name == f"sw_{expected[9]}"
+    result = dry_run(sweep)
+    assert result.exit_code == 0, result.output
+    assert all(name in result.output for name in expected)
+    assert result.output.count("pending") == 12 and "12 runs in runs/grid" in result.output
+
+
+def test_zip_pairs_keys_and_refuses_unequal_lengths(tmp_path):
+    sweep = write(tmp_path / "z.yaml", {"base": BASE, "axes": {"model.k_A": [1, 2]},
+                                        "zip": [{"model.L": [8, 12, 16], "scenario.strain_rate": [0.04, 0.02, 0.01]}]})
+    runs = load_sweep(sweep, []).runs
+    pairs = [(v["model.k_A"], v["model.L"], v["scenario.strain_rate"]) for v, _ in runs]
+    assert pairs == [(k, L, r) for k in (1, 2) for L, r in ((8, 0.04), (12, 0.02), (16, 0.01))]
+    assert runs[1][1].run_dir().name == "k_A1_L12_strain_rate0.02"
+    write(sweep, {"base": BASE, "zip": [{"model.k_A": [1, 2]}, {"model.L": [8, 12, 16],
+                                                                "scenario.strain_rate": [0.04, 0.02]}]})
+    with pytest.raises(ConfigError, match=r"(?s)z\.yaml: zip group 2 \(model\.L, scenario\.strain_rate\).*equal lengths"):
+        load_sweep(sweep, [])
+    write(sweep, {"base": BASE, "zip": {"model.L": [8, 12]}})
+    with pytest.raises(ConfigError, match="zip: expected a list of groups"):
+        load_sweep(sweep, [])
+
+
+def test_log_and_lin_ranges():
+    log = value_list({"logspace": [0.5, 10, 12]}, "v")
+    assert len(log) == 12 and log[0] == 0.5 and log[-1] == 10
+    ratios = [b / a for a, b in zip(log, log[1:])]
+    assert ratios == pytest.approx([20 ** (1 / 11)] * 11, rel=1e-10)  # geometric, between the values given
+    assert value_list({"logspace": [1, 1000, 4]}, "v") == [1, 10, 100, 1000]
+    assert value_list({"linspace": [0.0, 1.0, 5]}, "v") == [0.0, 0.25, 0.5, 0.75, 1.0]
+    assert value_list({"linspace": [0, 0.3, 4]}, "v") == [0, 0.1, 0.2, 0.3]  # no 0.30000000000000004
+    ints = value_list({"linspace": [300, 1700, 3]}, "v")
+    assert ints == [300, 1000, 1700] and all(isinstance(v, int) for v in ints)
+    assert value_list({"linspace": [2.5, 2.5, 1]}, "v") == [2.5]
+    for bad in ({"logspace": [0, 10, 3]}, {"linspace": [0, 1, 2.5]}, {"linspace": [0, 1]}, {"range": [0, 1, 2]},
+                [], 3.0):
+        with pytest.raises(ConfigError, match="^v: "):
+            value_list(bad, "v")
+
+
+def test_seeds_as_count_and_list(tmp_path):
+    sweep = write(tmp_path / "s.yaml", {"base": BASE, "axes": {"model.k_A": [1, 2]}, "seeds": 3})
+    runs = load_sweep(sweep, []).runs
+    assert [(v["model.k_A"], cfg.seed) for v, cfg in runs] == [(k, s) for k in (1, 2) for s in (1, 2, 3)]
+    assert runs[0][1].run_dir().name == "k_A1_seed1"
+    write(sweep, {"base": BASE, "seeds": [7, 11]})
+    assert [cfg.run_dir().name for _, cfg in load_sweep(sweep, []).runs] == ["seed7", "seed11"]
+    for bad in (0, [], [1.5], "3"):
+        write(sweep, {"base": BASE, "seeds": bad})
+        with pytest.raises(ConfigError, match=r"s\.yaml: seeds"):
+            load_sweep(sweep, [])
+    write(sweep, {"base": BASE, "axes": {"seed": [1, 2]}, "seeds": 2})
+    with pytest.raises(ConfigError, match="varied more than once: seed"):
+        load_sweep(sweep, [])
+
+
+def test_base_as_relative_path_and_inline(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    write(tmp_path / "configs" / "base.yaml", {**BASE, "name": "from_file"})
+    sweep = write(tmp_path / "configs" / "studies" / "rel.yaml", {"base": "../base.yaml", "seeds": 1})
+    (values, cfg), = load_sweep(sweep, []).runs  # found beside the sweep file, not the working directory
+    assert cfg.name == "from_file_seed1" and cfg.model.L == 8
+    inline = write(tmp_path / "inline.yaml", {"base": {**BASE, "name": "inline"}, "seeds": 1})
+    assert load_sweep(inline, []).runs[0][1].name == "inline_seed1"
+    write(sweep, {"base": "../missing.yaml"})
+    with pytest.raises(ConfigError, match=r"rel\.yaml: base: .*missing\.yaml: cannot read"):
+        load_sweep(sweep, [])
+    write(sweep, {"base": {**BASE, "model": {"kind": "bpm", "L": -1}}})
+    with pytest.raises(ConfigError, match=r"(?s)rel\.yaml \(base\).*model\.L"):
+        load_sweep(sweep, [])
+    write(sweep, {"base": BASE, "model": {"L": 8}})
+    with pytest.raises(ConfigError, match="unknown key.*model.*under base"):
+        load_sweep(sweep, [])
+
+
+def test_example_velocity_sweep():
+    loaded = load_sweep(EXAMPLES / "studies" / "bcm_velocity_sweep.yaml", [])
+    assert loaded.directory == Path("runs/bcm_velocity_sweep")
+    names = [cfg.run_dir().name for _, cfg in loaded.runs]
+    assert names[:3] == ["velocity0.2_seed1", "velocity0.2_seed2", "velocity0.5_seed1"] and len(names) == 18
+    assert [cfg.scenario.velocity for _, cfg in loaded.runs[::2]] == [0.2, 0.5, 1, 2, 3, 4, 5, 6, 8]
+    assert all(cfg.model.n_cells == 1728 for _, cfg in loaded.runs)
+
+
+# ----------------------------------------------------------------------------- names
+def test_names_distinguish_keys_and_close_values(tmp_path):
+    assert short_keys(["model.interface.kn", "model.contact.kn", "seed"]) == ["interface.kn", "contact.kn", "seed"]
+    assert short_keys(["a.b", "b"]) == ["a.b", "b"]
+    bcm = yaml.safe_load((EXAMPLES / "bcm_impact_quick.yaml").read_text())
+    sweep = write(tmp_path / "k.yaml", {"base": bcm, "axes": {
+        "model.interface.kn": [1.0e7, 2.0e7], "model.contact.kn": [1.0e8],
+        "scenario.velocity": [1.0000001, 1.0000002, 1.5]}})
+    names = [cfg.run_dir().name for _, cfg in load_sweep(sweep, []).runs]
+    assert names[:3] == ["interface.kn1e07_contact.kn1e08_velocity1.0000001",
+                         "interface.kn1e07_contact.kn1e08_velocity1.0000002",
+                         "interface.kn1e07_contact.kn1e08_velocity1.5"]
+    assert len(set(names)) == 6
+    write(sweep, {"base": BASE, "axes": {"model.k_A": [1, 1.0]}})
+    with pytest.raises(ConfigError, match="two runs would share the directory 'k_A1'"):
+        load_sweep(sweep, [])
+
+
+def test_set_is_a_shortcut(tmp_path):
+    config = write(tmp_path / "plain.yaml", BASE)
+    loaded = load_sweep(config, ["model.k_A=1,2"])
+    assert loaded.directory == Path("runs/sw_sweep") and [c.run_dir().name for _, c in loaded.runs] == ["k_A1", "k_A2"]
+    with pytest.raises(ConfigError, match="a run config; vary keys with --set"):
+        load_sweep(config, [])
+    sweep = write(tmp_path / "s.yaml", {"base": BASE, "axes": {"model.k_A": [1, 2]}, "seeds": 2})
+    names = [c.run_dir().name for _, c in load_sweep(sweep, ["model.gamma=10,20"]).runs]
+    assert len(names) == 8 and names[0] == "k_A1_gamma10_seed1"  # --set axes come before the seeds
+    with pytest.raises(ConfigError, match="varied more than once: model.k_A"):
+        load_sweep(sweep, ["model.k_A=3"])
+
+
+# ------------------------------------------------------------------- refused, writes
+def test_bad_combination_refused_before_anything_runs(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    sweep = write(tmp_path / "bad.yaml", {"base": BASE, "axes": {"model.lambda_c": [1.05, 0.5]}, "seeds": 2})
+    with pytest.raises(ConfigError) as info:
+        load_sweep(sweep, [])
+    message = str(info.value)
+    assert "bad.yaml, run lambda_c0.5_seed1 (model.lambda_c=0.5, seed=1)" in message and "lambda_c" in message
+    for args in ([sweep], [sweep, "--dry-run"]):
+        result = CliRunner().invoke(app, ["sweep", *map(str, args), "--out", str(tmp_path / "out")])
+        assert result.exit_code == 2 and "lambda_c0.5_seed1" in result.output
+        assert tree(tmp_path) == {"bad.yaml"}  # no sweep directory, no run directory
+
+
+def test_dry_run_writes_nothing(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    sweep = write(tmp_path / "d.yaml", {"base": BASE, "axes": {"model.k_A": [1, 2]}, "seeds": 2})
+    before = tree(tmp_path)
+    for args in ([sweep], [sweep, "--out", tmp_path / "elsewhere"]):
+        result = dry_run(*args)
+        assert result.exit_code == 0, result.output
+    assert tree(tmp_path) == before == {"d.yaml"}
+
+
+# ------------------------------------------------------------------------------ cost
+def test_cost_unknown_when_no_estimate(tmp_path, monkeypatch):
+    def no_estimate(cfg, np_ranks=None):
+        raise ValueError("not covered")
+
+    monkeypatch.setattr("driver.estimate.estimate", no_estimate)
+    sweep = write(tmp_path / "u.yaml", {"base": BASE, "seeds": 2})
+    result = dry_run(sweep, "--out", tmp_path / "out")
+    assert result.exit_code == 0, result.output
+    assert result.output.count("unknown") >= 3  # both rows and the total
+    assert "total: unknown for the 2 runs to do" in result.output
+
+
+def fake_finished(run_dir: Path, cfg, wall: float) -> None:
+    """A run directory as a finished run leaves it, as far as the dry run reads it."""
+    run_dir.mkdir(parents=True)
+    (run_dir / ".brittle-run").write_text("{}")
+    (run_dir / "status.json").write_text(json.dumps({"state": "finished"}))
+    (run_dir / "provenance.json").write_text(json.dumps({"wall_seconds": wall, "mpi_ranks": 1}))
+    (run_dir / "config.resolved.yaml").write_text(resolved_yaml(cfg))
+
+
+def test_cost_bound_then_scaled_by_finished_runs(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    bcm = yaml.safe_load((EXAMPLES / "bcm_impact_quick.yaml").read_text())
+    sweep = write(tmp_path / "v.yaml", {"base": bcm, "axes": {"scenario.velocity": [1, 2, 4]}})
+    loaded = load_sweep(sweep, [])
+    seconds = [estimate(cfg).seconds for _, cfg in loaded.runs]
+    result = dry_run(sweep)
+    assert result.exit_code == 0, result.output
+    assert result.output.count("≤") >= 4 and "not scaled" in result.output  # BCM: an upper bound
+
+    # two runs finished, in a quarter and a half of their estimate: scale (0.25 + 0.5) / 2 ...
+    write(tmp_path / "runs" / "v" / ".brittle-sweep", {})
+    for (_, cfg), est, fraction in zip(loaded.runs, seconds, (0.25, 0.5)):
+        fake_finished(cfg.run_dir(), cfg, fraction * est)
+    before = tree(tmp_path)
+    result = dry_run(sweep)
+    assert result.exit_code == 0, result.output
+    scale = (0.25 * seconds[0] + 0.5 * seconds[1]) / (seconds[0] + seconds[1])
+    assert f"scaled by {scale:.3g}" in result.output and "of 2 runs finished in runs/v" in result.output
+    assert result.output.count("finished") >= 2 and result.output.count("pending") == 1
+    assert "for the 1 run to do" in result.output and "2 finished" in result.output
+    assert tree(tmp_path) == before
+    p = plan(loaded)
+    assert p.scale == pytest.approx(scale) and p.scaled_runs == 2
+    assert p.cost(p.runs[2]) == pytest.approx(scale * seconds[2])
+    assert [r.state for r in p.runs] == ["finished", "finished", "pending"]
+    assert p.runs[0].measured == pytest.approx(0.25 * seconds[0])
