@@ -329,6 +329,8 @@ def sweep(input_yaml: Path = typer.Argument(..., help="sweep file (base, axes, z
             execute(cfg, np_ranks=np, show_progress=True, console=err, resume=resume)
         except RunInterrupted as exc:
             _fail(f"sweep stopped: {cfg.run_dir()}: {exc}; run the same command again to carry on", exc.exit_code)
+        except KeyboardInterrupt:  # Ctrl-C between two runs (inside a run it is RunInterrupted)
+            _fail("sweep stopped by SIGINT between runs; run the same command again to carry on", 130)
         except Exception as exc:  # noqa: BLE001 - one failed run must not stop the sweep
             failed.append(str(cfg.run_dir()))
             err.print(f"[red]failed[/] {values}: {type(exc).__name__}: {exc} (see {cfg.run_dir()}/status.json)")
