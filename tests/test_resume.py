@@ -91,6 +91,28 @@ def assert_same_results(a: Path, b: Path) -> None:
         assert filecmp.cmp(a / "dumps" / name, b / "dumps" / name, shallow=False), name
 
 
+def cli_run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "driver.cli", "run", *args, "--quiet"], capture_output=True,
+                          text=True)
+
+
+def reference_interrupted_resumed(cfg: Path, tmp_path: Path, at_step: int | None = None,
+                                  at_fraction: float | None = None) -> tuple[Path, Path]:
+    """An uninterrupted run of `cfg` (ref), and the same run stopped by SIGINT once its record
+    passes `at_step` (or that fraction of the reference's steps) and resumed (run): checks the
+    stop (exit 130 within 10 s, `interrupted`, a checkpoint) and the resume; returns both."""
+    ref, out = tmp_path / "ref", tmp_path / "run"
+    done = cli_run(str(cfg), "-o", str(ref))
+    assert done.returncode == 0, done.stderr[-2000:]
+    at = at_step if at_step is not None else int(at_fraction * last_step(ref))
+    code, seconds, err = run_and_signal(cfg, out, at, signal.SIGINT)
+    assert code == 130 and seconds < 10, err[-2000:]
+    assert read_status(out)["state"] == "interrupted" and latest_checkpoint(out) is not None
+    resumed = cli_run(str(cfg), "-o", str(out), "--resume")
+    assert resumed.returncode == 0, resumed.stderr[-3000:]
+    return ref, out
+
+
 @pytest.fixture(scope="module")
 def shear_reference(tmp_path_factory, plugin_path) -> Path:
     out = tmp_path_factory.mktemp("ref") / "shear"
@@ -125,17 +147,7 @@ def test_signal_stops_one_rank_shear_and_resume_is_identical(tmp_path, shear_ref
 
 
 def test_sigint_stops_bcm_impact_and_resume_is_identical(tmp_path, plugin_path):
-    cfg = config_file(tmp_path, IMPACT, "impact")
-    ref = tmp_path / "ref"
-    assert subprocess.run([sys.executable, "-m", "driver.cli", "run", str(cfg), "-o", str(ref), "--quiet"],
-                          capture_output=True).returncode == 0
-    out = tmp_path / "run"
-    code, seconds, err = run_and_signal(cfg, out, IMPACT_STEPS // 2, signal.SIGINT)
-    assert code == 130 and seconds < 10, err
-    assert read_status(out)["state"] == "interrupted" and latest_checkpoint(out) is not None
-    resumed = subprocess.run([sys.executable, "-m", "driver.cli", "run", str(out), "--resume", "--quiet"],
-                             capture_output=True, text=True)
-    assert resumed.returncode == 0, resumed.stderr[-3000:]
+    ref, out = reference_interrupted_resumed(config_file(tmp_path, IMPACT, "impact"), tmp_path, IMPACT_STEPS // 2)
     assert_same_results(ref, out)
 
 
@@ -143,17 +155,8 @@ def test_sigint_stops_bcm_impact_and_resume_is_identical(tmp_path, plugin_path):
 def test_sigint_stops_two_rank_run_and_resume_completes(tmp_path, plugin_path):
     """2 ranks: the stop request reaches every rank through rank 0 (include control.lmp); the
     resumed run matches an uninterrupted 2-rank run."""
-    cfg = config_file(tmp_path, SHEAR, "shear2", np=2)
-    ref = tmp_path / "ref"
-    assert subprocess.run([sys.executable, "-m", "driver.cli", "run", str(cfg), "-o", str(ref), "--quiet"],
-                          capture_output=True).returncode == 0
-    out = tmp_path / "run"
-    code, seconds, err = run_and_signal(cfg, out, SHEAR_STEPS // 2, signal.SIGINT)
-    assert code == 130 and seconds < 10, err
-    assert read_status(out)["state"] == "interrupted" and latest_checkpoint(out) is not None
-    resumed = subprocess.run([sys.executable, "-m", "driver.cli", "run", str(cfg), "-o", str(out), "--resume",
-                              "--quiet"], capture_output=True, text=True)
-    assert resumed.returncode == 0, resumed.stderr[-3000:]
+    ref, out = reference_interrupted_resumed(config_file(tmp_path, SHEAR, "shear2", np=2), tmp_path,
+                                             SHEAR_STEPS // 2)
     one = json.loads((ref / "results/summary.json").read_text())
     two = json.loads((out / "results/summary.json").read_text())
     assert two["bonds_broken"] == one["bonds_broken"] and two["grains_at_strain"] == one["grains_at_strain"]
@@ -294,17 +297,8 @@ def test_stop_during_the_last_chunk_keeps_the_finished_simulation(tmp_path, shea
 
 @pytest.mark.mpi
 def test_sigint_stops_two_rank_bcm_impact_and_resume_completes(tmp_path, plugin_path):
-    cfg = config_file(tmp_path, IMPACT, "impact2", np=2)
-    ref = tmp_path / "ref"
-    assert subprocess.run([sys.executable, "-m", "driver.cli", "run", str(cfg), "-o", str(ref), "--quiet"],
-                          capture_output=True).returncode == 0
-    out = tmp_path / "run"
-    code, seconds, err = run_and_signal(cfg, out, IMPACT_STEPS // 2, signal.SIGINT)
-    assert code == 130 and seconds < 10, err
-    assert latest_checkpoint(out) is not None
-    resumed = subprocess.run([sys.executable, "-m", "driver.cli", "run", str(cfg), "-o", str(out), "--resume",
-                              "--quiet"], capture_output=True, text=True)
-    assert resumed.returncode == 0, resumed.stderr[-3000:]
+    ref, out = reference_interrupted_resumed(config_file(tmp_path, IMPACT, "impact2", np=2), tmp_path,
+                                             IMPACT_STEPS // 2)
     one = json.loads((ref / "results/summary.json").read_text())
     two = json.loads((out / "results/summary.json").read_text())
     # same decomposition on both: the resumed run repeats the uninterrupted one
@@ -318,15 +312,5 @@ def test_sigint_stops_two_rank_bcm_impact_and_resume_completes(tmp_path, plugin_
 def test_examples_interrupted_and_resumed_are_identical(tmp_path, plugin_path, example, at):
     """The issue's check on the examples themselves: interrupt at ~50 %, resume, compare."""
     cfg = Path(__file__).resolve().parent.parent / "examples" / example
-    ref = tmp_path / "ref"
-    done = subprocess.run([sys.executable, "-m", "driver.cli", "run", str(cfg), "-o", str(ref), "--quiet"],
-                          capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr[-2000:]
-    total = last_step(ref)
-    out = tmp_path / "run"
-    code, _, err = run_and_signal(cfg, out, int(at * total), signal.SIGINT)
-    assert code == 130, err[-2000:]
-    resumed = subprocess.run([sys.executable, "-m", "driver.cli", "run", str(cfg), "-o", str(out), "--resume",
-                              "--quiet"], capture_output=True, text=True)
-    assert resumed.returncode == 0, resumed.stderr[-3000:]
+    ref, out = reference_interrupted_resumed(cfg, tmp_path, at_fraction=at)
     assert_same_results(ref, out)
