@@ -288,6 +288,10 @@ def sweep(input_yaml: Path = typer.Argument(..., help="sweep file (base, axes, z
           np: Optional[int] = typer.Option(None, "--np", min=1, help="MPI ranks per run"),
           dry_run: bool = typer.Option(False, "--dry-run", help="list the runs, their state and estimated cost; "
                                                                 "write nothing"),
+          workers: int = typer.Option(1, "--workers", min=1, help="runs at a time: above 1, a local Dask cluster "
+                                                                  "with one worker process per run"),
+          scheduler: Optional[str] = typer.Option(None, "--scheduler", help="address of an existing Dask "
+                                                                             "scheduler to send the runs to"),
           columns: str = typer.Option("", "--columns", help="comma-separated summary columns to print")) -> None:
     """Run a config over a grid of values; finished runs are kept (a re-run resumes)."""
     from rich.measure import Measurement  # noqa: PLC0415
@@ -320,6 +324,16 @@ def sweep(input_yaml: Path = typer.Argument(..., help="sweep file (base, axes, z
     todo = pending(runs)
     err.print(f"sweep: {len(runs)} runs, {len(runs) - len(todo)} already finished, in {sweep_dir}")
     failed = []
+    if todo and (workers > 1 or scheduler):
+        from driver.distributed import run_on_dask  # noqa: PLC0415
+
+        try:
+            records = run_on_dask(todo, np, workers, scheduler, err)
+        except KeyboardInterrupt:
+            _fail("sweep stopped by SIGINT; its runs cut off are stale: run the same command again to resume them",
+                  130)
+        failed = [r["run_dir"] for r in records if r["state"] == "failed"]
+        todo = []
     for values, cfg in todo:
         # an interrupted run carries on from its checkpoint; any other unfinished one starts again
         resume = latest_checkpoint(cfg.run_dir()) is not None or bool(

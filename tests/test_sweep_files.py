@@ -238,3 +238,33 @@ def test_cost_bound_then_scaled_by_finished_runs(tmp_path, monkeypatch):
     assert p.cost(p.runs[2]) == pytest.approx(scale * seconds[2])
     assert [r.state for r in p.runs] == ["finished", "finished", "pending"]
     assert p.runs[0].measured == pytest.approx(0.25 * seconds[0])
+
+
+def test_sweep_on_a_local_dask_cluster_records_a_failed_run(tmp_path, plugin_path):
+    """Four runs on a LocalCluster of 2 workers: three finish, one fails (its folder belongs to
+    someone else) and is recorded with its error; the others go on and the exit code says so."""
+    import json
+    import subprocess
+    import sys
+
+    base = tmp_path / "base.yaml"
+    base.write_text(yaml.safe_dump({"name": "dk", "seed": 2, "model": {"kind": "bpm", "dimension": 2, "L": 8},
+                                    "scenario": {"kind": "shear", "strain_rate": 0.02, "max_strain": 0.05,
+                                                 "measure_strains": [0.05], "thermo_every": 100},
+                                    "output": {"plots": False}}))
+    sweep = tmp_path / "sw.yaml"
+    sweep.write_text(yaml.safe_dump({"base": "base.yaml", "axes": {"model.k_A": [1, 2]}, "seeds": 2}))
+    out = tmp_path / "out"
+    out.mkdir()
+    foreign = out / "k_A2_seed2"
+    foreign.mkdir()
+    (foreign / "mine.txt").write_text("not the tool's")
+    (out / ".brittle-sweep").write_text("{}")
+    proc = subprocess.run([sys.executable, "-m", "driver.cli", "sweep", str(sweep), "--out", str(out),
+                           "--workers", "2"], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 1, proc.stderr[-3000:]
+    assert "1 of 4 runs failed" in proc.stderr and "k_A2_seed2" in proc.stderr
+    assert (foreign / "mine.txt").read_text() == "not the tool's"
+    finished = [d.name for d in out.iterdir() if (d / "status.json").exists()
+                and json.loads((d / "status.json").read_text())["state"] == "finished"]
+    assert sorted(finished) == ["k_A1_seed1", "k_A1_seed2", "k_A2_seed1"]
