@@ -225,8 +225,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{type(exc).__name__}: {exc}", file=sys.stderr)
         return 1
     finally:
-        if lmp is not None:
-            lmp.close()
+        # every rank ends MPI properly: a rank that leaves without MPI_Finalize while another is
+        # still closing is taken by mpiexec for a crash, and the others are killed (signal 9)
+        if lmp is not None and lmp.lmp is not None:
+            lmp.lmp.finalize()
+            lmp.lmp = None
     return 0
 
 
