@@ -21,8 +21,8 @@ from rich.console import Console
 
 from driver.config import RunConfig, resolved_yaml
 from driver.plugin_build import plugin_library
-from driver.rundir import (LOCK, MARKER, STATUS, RunDir, atomic_write_json, atomic_write_text, check_claimable,
-                           latest_checkpoint, provenance, read_status)
+from driver.rundir import (LOCK, MARKER, STAGING, STAGING_MARKER, STATUS, RunDir, RunDirError, atomic_write_json, atomic_write_text,
+                           check_claimable, latest_checkpoint, provenance, read_status)
 from driver.runner import RunInterrupted, deferred_signals, interruptible, run_session
 
 # Keys that may change between an interrupted run and its resumption: how it runs, not what.
@@ -159,7 +159,8 @@ def check_resumable(cfg: RunConfig, run_dir: Path) -> None:
                           "run it under another output directory, or use --force to start it again")
 
 
-_STEP_NAME = re.compile(r"^(?P<stem>.+)\.(?P<step>\d+)\.lammpstrj(\.gz)?$")
+# the dumps a run writes: periodic and snapshot dumps by step, the impact's start and end state
+_DUMP_NAME = re.compile(r"^(atoms|bonds|cells|interfaces)\.(?P<step>\d+|start|end)\.lammpstrj$")
 
 
 def trim_after(run_dir: Path, step: int) -> None:
@@ -182,8 +183,8 @@ def trim_after(run_dir: Path, step: int) -> None:
                 continue
         atomic_write_text(thermo, "".join(kept))
     for dump in (run_dir / "dumps").glob("*.lammpstrj*"):
-        m = _STEP_NAME.match(dump.name)
-        if (m and int(m["step"]) > step) or ".end." in dump.name:
+        m = _DUMP_NAME.match(dump.name)  # only the tool's own dump names, never a user's file
+        if m and (m["step"] == "end" or (m["step"].isdigit() and int(m["step"]) > step)):
             dump.unlink()
 
 
@@ -205,13 +206,16 @@ def analyse_run(run_dir: Path, cfg: dict, partial: bool = False) -> dict:
     results) and its results replace the earlier ones only when it has finished, summary.json
     last: an analysis that fails leaves the previous results, summary included, untouched."""
     run_dir = Path(run_dir).resolve()
-    staging = run_dir / ".post-staging"
-    if staging.exists():
+    staging = run_dir / STAGING
+    if staging.exists():  # left by an analysis that was killed: removed only when it is ours
+        if not (staging / STAGING_MARKER).is_file():
+            raise RunDirError(f"{staging}: exists and was not made by this tool; move it away to analyse the run")
         shutil.rmtree(staging)
     staging.mkdir()
+    (staging / STAGING_MARKER).write_text("brittle-driver analysis staging\n")
     try:
         for entry in run_dir.iterdir():
-            if entry.name in (*_STAGED, *_REPORTS, staging.name, MARKER, LOCK, STATUS):
+            if entry.name in (*_STAGED, *_REPORTS, STAGING, MARKER, LOCK, STATUS):
                 continue
             (staging / entry.name).symlink_to(entry)
         for name in _STAGED:

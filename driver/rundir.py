@@ -41,6 +41,8 @@ LOCK = ".brittle-run.lock"
 SWEEP_MARKER = ".brittle-sweep"
 SET_MARKER = ".brittle-set"
 CHECKPOINTS = "checkpoints"
+STAGING = ".post-staging"  # where an analysis works before its results replace the run's
+STAGING_MARKER = ".brittle-staging"  # inside STAGING: the folder is an analysis of this tool's
 # a heartbeat older than this marks a run on another host as stale (its lock cannot be probed)
 STALE_AFTER_S = 600.0
 _UMASK = os.umask(0)
@@ -57,7 +59,7 @@ LAYOUT_DIRS = {
     "results": ("*.parquet", "*.csv", "*.json", ".*.tmp*"),
     "plots": ("*.png", "*.gif", ".*.tmp*"),
     CHECKPOINTS: ("*.restart", "*.json", ".*"),
-    ".post-staging": ("*", ".*"),  # STAGING
+    STAGING: ("*", ".*"),  # cleared only with its STAGING_MARKER
 }
 
 
@@ -124,7 +126,6 @@ def check_location(root: Path, what: str = "run directory") -> Path:
     return absolute
 
 
-STAGING = ".post-staging"
 
 
 def display_dir(path: str | os.PathLike) -> Path:
@@ -343,6 +344,8 @@ class RunDir:
             if entry.name in (MARKER, LOCK):
                 continue
             if entry.is_dir() and not entry.is_symlink() and entry.name in LAYOUT_DIRS:
+                if entry.name == STAGING and not (entry / STAGING_MARKER).is_file():
+                    continue  # a folder of that name the tool did not make
                 _clear_folder(entry, LAYOUT_DIRS[entry.name])
             elif not entry.is_dir() and _layout_name(entry.name, False):
                 entry.unlink()

@@ -172,8 +172,9 @@ def test_sigkill_leaves_a_stale_run_that_post_reads_and_resume_completes(tmp_pat
     assert run_state(out)["state"] == "stale"
     status = subprocess.run([sys.executable, "-m", "driver.cli", "status", str(out)], capture_output=True, text=True)
     assert status.returncode == 0 and "stale" in status.stdout
-    kept = sorted(p.name for p in (out / "checkpoints").glob("step*.json"))
-    assert 1 <= len(kept) <= 2
+    # checkpoints every 20,000 steps, killed past 60,000: the last two kept, 20,000 apart
+    kept = sorted(json.loads(p.read_text())["step"] for p in (out / "checkpoints").glob("step*.json"))
+    assert len(kept) == 2 and kept[1] - kept[0] == 20_000 and kept[1] % 20_000 == 0 and kept[1] >= 60_000
     # the snapshots it dumped are data: post analyses them and says what is missing
     post = subprocess.run([sys.executable, "-m", "driver.cli", "post", str(out), "--no-plots"], capture_output=True,
                           text=True)

@@ -224,3 +224,24 @@ def test_a_run_on_another_host_is_busy_while_its_heartbeat_is_fresh(tmp_path):
         RunDir(out).prepare(force=True)
     (out / "status.json").write_text(json.dumps({**status, "heartbeat_epoch": time.time() - 2 * STALE_AFTER_S}))
     assert run_state(out)["state"] == "stale"
+
+
+def test_a_foreign_staging_folder_and_dump_names_are_left_alone(tmp_path):
+    """Names the tool uses are only removed when the tool made them: a `.post-staging` folder
+    without the tool's marker stops the analysis instead of being deleted, and a resume drops
+    only dumps the tool itself names."""
+    from driver.pipeline import analyse_run, trim_after
+
+    run = tmp_path / "run"
+    (run / "dumps").mkdir(parents=True)
+    (run / ".post-staging").mkdir()
+    (run / ".post-staging" / "notes.txt").write_text("mine")
+    with pytest.raises(RunDirError, match="not made by this tool"):
+        analyse_run(run, {"name": "x", "scenario": {"kind": "shear"}, "output": {"plots": False}})
+    assert (run / ".post-staging" / "notes.txt").read_text() == "mine"
+    for name in ("atoms.500.lammpstrj", "cells.end.lammpstrj", "my.end.notes.lammpstrj", "atoms.100.lammpstrj",
+                 "trial.900.lammpstrj"):
+        (run / "dumps" / name).write_text("x")
+    trim_after(run, 200)
+    assert sorted(p.name for p in (run / "dumps").iterdir()) == [
+        "atoms.100.lammpstrj", "my.end.notes.lammpstrj", "trial.900.lammpstrj"]
