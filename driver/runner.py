@@ -78,6 +78,34 @@ def _chdir(path: Path):
 
 
 # ------------------------------------------------------------------------- control
+#: Sessions running in this process, and the sweep invocation each run belongs to: a sweep's
+#: client stops its runs on its Dask workers by its token (request_stop_sweep).
+_active: dict[Path, "Control"] = {}
+_run_tokens: dict[Path, str] = {}
+_stopped_tokens: set[str] = set()
+_registry_lock = threading.Lock()
+
+
+def bind_sweep_token(run_dir: Path, token: str) -> bool:
+    """Mark `run_dir` as run for the sweep invocation `token`; False when that invocation was
+    already asked to stop (the run should not begin)."""
+    with _registry_lock:
+        _run_tokens[Path(run_dir).resolve()] = token
+        return token not in _stopped_tokens
+
+
+def request_stop_sweep(token: str, signum: int = signal.SIGINT) -> list[str]:
+    """Ask the sessions of sweep invocation `token` in this process to stop at their next chunk
+    boundary (writing a checkpoint); its runs that begin later stop at once. Returns the run
+    dirs that were running here."""
+    with _registry_lock:
+        _stopped_tokens.add(token)
+        running = [c for d, c in _active.items() if _run_tokens.get(d) == token]
+    for control in running:
+        control.request_stop(signum)
+    return [str(c.run_dir) for c in running]
+
+
 class Control:
     """The driver's side of control.lmp: stop and checkpoint requests, written atomically."""
 
@@ -87,6 +115,9 @@ class Control:
         self.signum: int | None = None
         self.checkpoints = 0
         self._lock = threading.Lock()
+        with _registry_lock:
+            if _run_tokens.get(Path(run_dir).resolve()) in _stopped_tokens:
+                self.stop, self.signum = True, signal.SIGINT
         self._write()
 
     def _write(self) -> None:
@@ -246,12 +277,16 @@ def run_session(run_dir: Path, np: int = 1, checkpoint: dict[str, Any] | None = 
                        (console or Console(stderr=True)) if show_progress else None,
                        heartbeat=heartbeat, control=control, checkpoint_seconds=checkpoint_seconds)
     monitor.start()
+    with _registry_lock:
+        _active[run_dir] = control
     try:
         if np == 1:
             _session_in_process(run_dir, checkpoint, control)
         else:
             _session_mpi(run_dir, np, checkpoint, control)
     finally:
+        with _registry_lock:
+            _active.pop(run_dir, None)
         monitor.stop_event.set()
         monitor.join()
     if control.stop:  # asked during the last chunk: the simulation is complete, the rest waits
@@ -341,6 +376,8 @@ def run_input(run_dir: Path, input_name: str = "in.lammps", np: int = 1,
     if progress is not None and show_progress:
         monitor = _Monitor(run_dir / progress.file, progress, console or Console(stderr=True))
         monitor.start()
+    with _registry_lock:
+        _active[run_dir] = control
     try:
         if np == 1:
             with _chdir(run_dir), Lammps(log="log.lammps") as lmp:

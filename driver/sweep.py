@@ -10,11 +10,16 @@ A sweep is given either as a sweep file or as a run config with `--set KEY=V1,V2
     zip:                              # groups whose keys vary together (equal lengths)
       - {model.n_cells: [300, 1728], scenario.max_time: [1.0e-4, 4.0e-4]}
     seeds: 5                          # seeds 1..5, or a list [3, 7]
+    scales:                           # reduced variants: driver sweep FILE --scale small
+      small:
+        base: {model.n_cells: 300}    # dotted keys set in the base config
+        axes: {scenario.velocity: {logspace: [0.5, 10, 6]}}   # replace (or add) these axes
+        seeds: 2                      # replaces seeds (zip: would replace the zip groups)
 
 A value list may be a range: `{linspace: [a, b, n]}` is n values from a to b evenly spaced,
 `{logspace: [a, b, n]}` n values from a to b geometrically spaced (a and b are the end values
 themselves, not exponents; both > 0). Grid order: the axes, the zip groups, the `--set` axes,
-then the seeds.
+then the seeds. A scale's sweep goes to runs/<sweep file stem>_<scale> by default.
 
 Each run's directory, under the sweep directory, is named from its varied values, e.g.
 `velocity0.5_G_c0.2_seed1`: each key by its last dotted component (more of the path where two
@@ -43,7 +48,9 @@ from driver.config import ConfigError, RunConfig, load_config, load_yaml, parse_
 from driver.rundir import MARKER, expand_path, has_marker, is_finished, run_state
 
 #: Top-level keys of a sweep file; a YAML file with any of them is read as a sweep file.
-SWEEP_KEYS = ("base", "axes", "zip", "seeds")
+SWEEP_KEYS = ("base", "axes", "zip", "seeds", "scales")
+#: Keys of one entry of `scales:`.
+SCALE_KEYS = ("base", "axes", "zip", "seeds")
 #: Most runs one sweep may expand to (each is validated before anything runs).
 MAX_RUNS = 10_000
 #: Significant digits of a float in a directory name (%g); raised per key until its values differ.
@@ -281,16 +288,56 @@ def _base_of(spec: Any, sweep_file: Path) -> dict:
     return data
 
 
-def load_sweep(path: Path, set_args: list[str], out: Path | None = None) -> Sweep:
-    """Read a sweep file, or a run config varied by `set_args` (KEY=V1,V2,...), and expand it.
+def apply_scale(data: dict, scale: str, source: str) -> dict:
+    """The sweep file `data` with its `scales: {scale: ...}` entry applied: `base` sets dotted
+    keys of the base config, `axes` replaces or adds axes, `zip` replaces the zip groups, `seeds`
+    the seeds. ConfigError naming the scales that exist."""
+    scales = data.get("scales") or {}
+    if not isinstance(scales, dict) or not all(isinstance(v, dict) for v in scales.values()):
+        raise ConfigError(f"{source}: scales: expected a mapping of names to {{base, axes, zip, seeds}} mappings")
+    if scale not in scales:
+        have = ", ".join(map(str, scales)) or "none"
+        raise ConfigError(f"{source}: --scale {scale}: no such scale under scales: (defined: {have})")
+    spec = scales[scale]
+    unknown = [str(k) for k in spec if k not in SCALE_KEYS]
+    if unknown:
+        raise ConfigError(f"{source}: scales.{scale}: unknown key(s) {', '.join(unknown)}; allowed: "
+                          f"{', '.join(SCALE_KEYS)}")
+    out = {k: v for k, v in data.items() if k != "scales"}
+    overrides = spec.get("base") or {}
+    if not isinstance(overrides, dict):
+        raise ConfigError(f"{source}: scales.{scale}.base: expected a mapping of dotted keys to values")
+    if overrides:
+        base = copy.deepcopy(_base_of(data.get("base"), Path(source)))
+        for key, value in overrides.items():
+            try:
+                _assign(base, _check_key(key, f"{source}: scales.{scale}.base"), value)
+            except ConfigError as exc:
+                raise ConfigError(f"{source}: scales.{scale}.base: {exc}") from None
+        out["base"] = base
+    if spec.get("axes") is not None:
+        if not isinstance(spec["axes"], dict):
+            raise ConfigError(f"{source}: scales.{scale}.axes: expected a mapping of dotted keys to lists or ranges")
+        out["axes"] = {**(data.get("axes") or {}), **spec["axes"]}
+    for key in ("zip", "seeds"):
+        if key in spec:
+            out[key] = spec[key]
+    return out
 
-    The sweep directory is `out`, else runs/<sweep file stem> (sweep file) or
+
+def load_sweep(path: Path, set_args: list[str], out: Path | None = None, scale: str | None = None) -> Sweep:
+    """Read a sweep file (at `scale`, one of its `scales:`, if given), or a run config varied
+    by `set_args` (KEY=V1,V2,...), and expand it.
+
+    The sweep directory is `out`, else runs/<sweep file stem>[_<scale>] (sweep file) or
     runs/<config name>_sweep (run config)."""
     path = Path(path)
     source = str(path)
     data = load_yaml(read_config_text(path), source)
     extra = [parse_assignment(a) for a in set_args]
     extra_groups: list[Group] = [((k,), [(v,) for v in values]) for k, values in extra]
+    if scale is not None and not is_sweep_file(data):
+        raise ConfigError(f"{source}: --scale needs a sweep file with scales: (this is a run config)")
     if is_sweep_file(data):
         unknown = [str(k) for k in data if k not in SWEEP_KEYS]
         if unknown:
@@ -298,6 +345,8 @@ def load_sweep(path: Path, set_args: list[str], out: Path | None = None) -> Swee
                               f"{', '.join(SWEEP_KEYS)} (run settings go under base:)")
         if "base" not in data:
             raise ConfigError(f"{source}: a sweep file needs base: (a config path relative to it, or a mapping)")
+        if scale is not None:
+            data = apply_scale(data, scale, source)
         base = _base_of(data["base"], path)
         axes = data.get("axes") or {}
         if not isinstance(axes, dict):
@@ -310,7 +359,8 @@ def load_sweep(path: Path, set_args: list[str], out: Path | None = None) -> Swee
         groups += extra_groups
         if data.get("seeds") is not None:
             groups.append(_seed_group(data["seeds"], source))
-        directory = expand_path(out) if out is not None else Path("runs") / path.stem
+        stem = path.stem if scale is None else f"{path.stem}_{scale}"
+        directory = expand_path(out) if out is not None else Path("runs") / stem
     else:
         base_cfg = parse_config(data, source)  # the base itself must be valid
         if not extra:
@@ -350,6 +400,8 @@ class Plan:
     runs: list[PlannedRun]
     scale: float | None
     scaled_runs: int
+    reference: Path | None = None  # the directory whose finished runs gave `scale`
+    ranks: int = 1  # MPI ranks per run
 
     def cost(self, run: PlannedRun) -> float | None:
         if run.estimate is None:
@@ -400,8 +452,10 @@ def _scale(directory: Path) -> tuple[float | None, int]:
     return (measured / estimated, count) if count else (None, 0)
 
 
-def plan(sweep: Sweep, np_ranks: int | None = None) -> Plan:
-    """Every run of `sweep` with its state and cost; reads the sweep directory, writes nothing."""
+def plan(sweep: Sweep, np_ranks: int | None = None, cost_from: Path | None = None) -> Plan:
+    """Every run of `sweep` with its state and cost; reads the sweep directory, writes nothing.
+    The estimates are scaled by the finished runs of `cost_from` (another sweep directory, e.g.
+    the small scale of the same study) when given, else by those of the sweep itself."""
     rows = []
     for values, cfg in sweep.runs:
         state = run_state(cfg.run_dir())["state"]
@@ -409,8 +463,12 @@ def plan(sweep: Sweep, np_ranks: int | None = None) -> Plan:
         est, bound = _estimate(cfg, np_ranks)
         rows.append(PlannedRun(name=cfg.run_dir().name, values=values, state=state, estimate=est, bound=bound,
                                measured=_wall_seconds(cfg.run_dir()) if state == "finished" else None))
-    scale, scaled_runs = _scale(sweep.directory)
-    return Plan(directory=sweep.directory, keys=sweep.keys, runs=rows, scale=scale, scaled_runs=scaled_runs)
+    reference = expand_path(cost_from) if cost_from is not None else sweep.directory
+    if cost_from is not None and not reference.is_dir():
+        raise ConfigError(f"--cost-from {cost_from}: not a directory")
+    scale, scaled_runs = _scale(reference)
+    return Plan(directory=sweep.directory, keys=sweep.keys, runs=rows, scale=scale, scaled_runs=scaled_runs,
+                reference=reference, ranks=np_ranks or 1)
 
 
 def _cost_text(p: Plan, run: PlannedRun) -> str:
@@ -443,9 +501,9 @@ def plan_summary(p: Plan) -> list[str]:
              "an upper bound '≤' for BCM impacts, which stop when they settle)"]
     if p.scale is not None:
         lines.append(f"scaled by {p.scale:.3g}: measured wall time (provenance.json wall_seconds) over the estimate "
-                     f"of {_runs(p.scaled_runs)} finished in {p.directory}")
+                     f"of {_runs(p.scaled_runs)} finished in {p.reference or p.directory}")
     else:
-        lines.append(f"not scaled: no finished run with a measured wall time in {p.directory} yet")
+        lines.append(f"not scaled: no finished run with a measured wall time in {p.reference or p.directory} yet")
     todo = [r for r in p.runs if r.state != "finished"]
     costs = [p.cost(r) for r in todo]
     known = [c for c in costs if c is not None]
@@ -456,7 +514,13 @@ def plan_summary(p: Plan) -> list[str]:
         total = f"unknown for the {_runs(len(todo))} to do"
     else:
         bound = p.scale is None and all(r.bound for r, c in zip(todo, costs) if c is not None)
-        total = (f"{'≤' if bound else '~'} {_duration(sum(known))} for the {_runs(len(todo))} to do"
+        from driver.distributed import default_workers  # noqa: PLC0415
+
+        slots = default_workers(p.ranks)
+        mark = "≤" if bound else "~"
+        total = (f"{mark} {_duration(sum(known))} for the {_runs(len(todo))} to do, one after the other "
+                 f"({mark} {sum(known) * p.ranks / 3600:.3g} CPU hours; {mark} {_duration(sum(known) / slots)} on "
+                 f"{slots} local worker{'s' if slots > 1 else ''})"
                  + (f" ({unknown} of them unknown, not counted)" if unknown else ""))
     done = [r for r in p.runs if r.state == "finished"]
     if done:
@@ -472,15 +536,40 @@ def _runs(n: int) -> str:
 
 # ------------------------------------------------------------------------------ table
 def sweep_table(runs: list[tuple[dict[str, Any], RunConfig]]) -> pd.DataFrame:
-    """One row per finished run: the varied values, then the run's summary figures."""
+    """One row per run of the sweep: its varied values, run_dir, state (finished, failed,
+    interrupted, stale, pending) and error, then, for a finished run, its summary figures."""
     rows = []
     for values, cfg in runs:
-        summ = cfg.run_dir() / "results" / "summary.json"
-        if not summ.exists():
-            continue
-        flat = {k: v for k, v in json.loads(summ.read_text()).items() if not isinstance(v, (dict, list))}
-        rows.append({**values, "run_dir": str(cfg.run_dir()), **flat})
+        run_dir = cfg.run_dir()
+        st = run_state(run_dir)
+        state = _STATES.get(st["state"], st["state"])
+        row: dict[str, Any] = {**values, "run_dir": str(run_dir), "state": state,
+                               "error": st.get("error") if state != "finished" else None}
+        summ = run_dir / "results" / "summary.json"
+        if state == "finished" and summ.exists():
+            row.update({k: v for k, v in json.loads(summ.read_text()).items() if not isinstance(v, (dict, list))})
+        rows.append(row)
     return pd.DataFrame(rows)
+
+
+def seed_points(table: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
+    """Means and standard deviations (ddof 1; NaN for one run) over seeds of every numeric
+    summary column, one row per combination of the varied keys other than `seed`, from the
+    finished runs of `table` (sweep_table). Columns: the keys, n_runs, <col>_mean, <col>_std."""
+    group_keys = [k for k in keys if k != "seed" and k in table.columns]
+    done = table[table["state"] == "finished"] if "state" in table.columns else table
+    skip = set(keys) | {"run_dir", "state", "error"}
+    numeric = [c for c in done.columns if c not in skip and pd.api.types.is_numeric_dtype(done[c])
+               and not pd.api.types.is_bool_dtype(done[c])]
+    if done.empty:
+        return pd.DataFrame(columns=[*group_keys, "n_runs"])
+    grouped = done.groupby(group_keys, sort=False, dropna=False) if group_keys else done.groupby(
+        lambda _: 0, sort=False)
+    stats = grouped[numeric].agg(["mean", "std"])
+    stats.columns = [f"{a}_{b}" for a, b in stats.columns]
+    stats.insert(0, "n_runs", grouped.size())
+    stats = stats.reset_index()
+    return stats.drop(columns=["index"]) if not group_keys else stats
 
 
 def pending(runs: list[tuple[dict[str, Any], RunConfig]]) -> list[tuple[dict[str, Any], RunConfig]]:

@@ -7,6 +7,7 @@ import json
 import os
 from pathlib import Path
 
+import pandas as pd
 import pytest
 import yaml
 from typer.testing import CliRunner
@@ -268,3 +269,125 @@ def test_sweep_on_a_local_dask_cluster_records_a_failed_run(tmp_path, plugin_pat
     finished = [d.name for d in out.iterdir() if (d / "status.json").exists()
                 and json.loads((d / "status.json").read_text())["state"] == "finished"]
     assert sorted(finished) == ["k_A1_seed1", "k_A1_seed2", "k_A2_seed1"]
+
+
+def test_interrupting_a_dask_sweep_and_running_it_again_resumes_it(tmp_path, plugin_path):
+    """Four runs on 2 Dask workers; the client is interrupted (SIGINT) once the two short runs
+    finished and the two long ones run: those write a checkpoint and stop. Running the same
+    command again keeps the first two (their records untouched) and resumes the other two
+    from their checkpoints (provenance 'resumed'), which then finish."""
+    import json
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    base = tmp_path / "base.yaml"
+    base.write_text(yaml.safe_dump({"name": "ir", "seed": 2, "model": {"kind": "bpm", "dimension": 2, "L": 16},
+                                    "scenario": {"kind": "shear", "strain_rate": 0.002, "max_strain": 0.01,
+                                                 "measure_strains": [0.01], "thermo_every": 200},
+                                    "execution": {"chunk_steps": 500}, "output": {"plots": False}}))
+    sweep = tmp_path / "sw.yaml"
+    sweep.write_text(yaml.safe_dump({"base": "base.yaml", "zip": [{"scenario.max_strain": [0.01, 0.6],
+                                                                   "scenario.measure_strains": [[0.01], [0.6]]}],
+                                     "seeds": 2}))
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "driver.cli", "sweep", str(sweep), "--out", str(out), "--workers", "2"]
+    short = ["max_strain0.01_measure_strains0.01_seed1", "max_strain0.01_measure_strains0.01_seed2"]
+    long = ["max_strain0.6_measure_strains0.6_seed1", "max_strain0.6_measure_strains0.6_seed2"]
+
+    def status(name):
+        try:
+            return json.loads((out / name / "status.json").read_text())
+        except (OSError, ValueError):
+            return {}
+
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 300
+    while time.time() < deadline and not (all(status(n).get("state") == "finished" for n in short)
+                                          and all(status(n).get("phase") == "lammps" for n in long)):
+        assert proc.poll() is None, proc.communicate()[1][-3000:]
+        time.sleep(0.2)
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGINT)
+    _, stderr = proc.communicate(timeout=300)
+    assert proc.returncode == 130, stderr[-3000:]
+    assert "run the same command again" in stderr
+    for name in long:
+        st = status(name)
+        assert st["state"] == "interrupted" and st.get("checkpoint_step"), st
+    kept = {n: ((out / n / "status.json").read_bytes(), (out / n / "provenance.json").read_bytes()) for n in short}
+
+    again = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert again.returncode == 0, again.stderr[-3000:]
+    assert "4 runs, 2 already finished" in again.stderr
+    for n in short:  # not run again: their records are byte for byte those of the first invocation
+        assert ((out / n / "status.json").read_bytes(), (out / n / "provenance.json").read_bytes()) == kept[n]
+        assert "resumed" not in json.loads((out / n / "provenance.json").read_text())
+    for n in long:
+        assert status(n)["state"] == "finished"
+        resumed = json.loads((out / n / "provenance.json").read_text())["resumed"]
+        assert len(resumed) == 1 and resumed[0]["from_step"] > 0
+    table = pd.read_csv(out / "sweep.csv")
+    assert sorted(table.state) == ["finished"] * 4
+
+
+# ------------------------------------------------------------------------- aggregation
+def test_seed_points_on_synthetic_summaries():
+    """Means and standard deviations over seeds, per combination of the other keys; runs not
+    finished are left out of the figures and counted out of n_runs."""
+    from driver.sweep import seed_points
+
+    rows = []
+    for G, v, seed, D, e2 in [(0.5, 1, 1, 0.10, 0.30), (0.5, 1, 2, 0.20, 0.50), (0.5, 1, 3, 0.60, 0.40),
+                              (0.5, 2, 1, 0.40, 0.20), (0.5, 2, 2, 0.50, 0.10),
+                              (1.0, 1, 1, 0.05, 0.70)]:
+        rows.append({"G_c": G, "velocity": v, "seed": seed, "run_dir": f"r{G}{v}{seed}", "state": "finished",
+                     "error": None, "D_w": D, "e_k2": e2, "fragments": 3, "breakup": True})
+    rows.append({"G_c": 1.0, "velocity": 1, "seed": 2, "run_dir": "x", "state": "failed", "error": "LammpsError"})
+    points = seed_points(pd.DataFrame(rows), ["G_c", "velocity", "seed"])
+    assert list(points[["G_c", "velocity"]].itertuples(index=False, name=None)) == [(0.5, 1), (0.5, 2), (1.0, 1)]
+    assert list(points.n_runs) == [3, 2, 1]
+    assert points.D_w_mean.tolist() == pytest.approx([0.3, 0.45, 0.05])
+    assert points.D_w_std.iloc[0] == pytest.approx(((0.2 ** 2 + 0.1 ** 2 + 0.3 ** 2) / 2) ** 0.5)  # ddof 1
+    assert points.e_k2_std.iloc[1] == pytest.approx(0.1 / 2 ** 0.5) and pd.isna(points.D_w_std.iloc[2])
+    assert points.fragments_std.iloc[0] == 0 and "breakup_mean" not in points and "seed_mean" not in points
+    # no key but the seed: one point over all finished runs
+    one = seed_points(pd.DataFrame(rows), ["seed"])
+    assert len(one) == 1 and one.n_runs.iloc[0] == 6 and one.D_w_mean.iloc[0] == pytest.approx(1.85 / 6)
+
+
+def test_scales_of_a_sweep_file(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    sweep = write(tmp_path / "study.yaml", {
+        "base": BASE, "axes": {"model.k_A": [1, 2, 3], "scenario.strain_rate": [0.01, 0.02]}, "seeds": 5,
+        "scales": {"small": {"base": {"model.L": 12, "name": "st_small"}, "axes": {"model.k_A": [2]},
+                             "seeds": 2}}})
+    full = load_sweep(sweep, [])
+    assert len(full.runs) == 30 and full.directory == Path("runs/study")
+    small = load_sweep(sweep, [], scale="small")
+    assert small.directory == Path("runs/study_small") and len(small.runs) == 4
+    assert {cfg.model.L for _, cfg in small.runs} == {12} and {v["model.k_A"] for v, _ in small.runs} == {2}
+    assert small.runs[0][1].name.startswith("st_small_")
+    with pytest.raises(ConfigError, match=r"--scale big: no such scale under scales: \(defined: small\)"):
+        load_sweep(sweep, [], scale="big")
+    write(sweep, {"base": BASE, "scales": {"small": {"seeds": 2, "axis": {}}}})
+    with pytest.raises(ConfigError, match=r"scales\.small: unknown key\(s\) axis"):
+        load_sweep(sweep, [], scale="small")
+
+
+def test_study_files_expand(tmp_path, monkeypatch):
+    """The published studies: the full grid and the small scale validate, with their sizes."""
+    monkeypatch.chdir(tmp_path)
+    bcm = EXAMPLES / "studies" / "bcm_impact_study.yaml"
+    full, small = load_sweep(bcm, []), load_sweep(bcm, [], scale="small")
+    assert len(full.runs) == 240 and {cfg.model.n_cells for _, cfg in full.runs} == {1728}
+    velocities = sorted({v["scenario.velocity"] for v, _ in full.runs})
+    assert velocities[0] == 0.5 and velocities[-1] == 10 and len(velocities) == 12
+    assert {v["model.interface.G_c"] for v, _ in full.runs} == {0.2, 0.5, 1.0, 2.0}
+    assert len(small.runs) < len(full.runs) and {cfg.model.n_cells for _, cfg in small.runs} == {300}
+    bpm = EXAMPLES / "studies" / "bpm_shear_study.yaml"
+    full, small = load_sweep(bpm, []), load_sweep(bpm, [], scale="small")
+    assert len(small.runs) < len(full.runs)
+    assert {cfg.model.dimension for _, cfg in full.runs} == {2}
+    assert len({v["model.L"] for v, _ in full.runs}) >= 3 and len({v["model.k_A"] for v, _ in full.runs}) >= 2
