@@ -18,6 +18,7 @@ from their checkpoints. A second Ctrl-C closes the cluster at once: runs cut off
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import signal
 import time
@@ -155,6 +156,9 @@ def run_on_dask(todo: list[tuple[dict[str, Any], Any]], np_ranks: int | None, wo
         finally:
             client.close()
             if cluster is not None:
+                # a worker that imported LAMMPS's MPI may take a while to exit and is then killed:
+                # every result is in by now, so that warning is noise
+                logging.getLogger("distributed.nanny").setLevel(logging.ERROR)
                 cluster.close()
     return records
 

@@ -563,6 +563,10 @@ def seed_points(table: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
                and not pd.api.types.is_bool_dtype(done[c])]
     if done.empty:
         return pd.DataFrame(columns=[*group_keys, "n_runs"])
+    done = done.copy()
+    for k in group_keys:  # a varied list or mapping (measure_strains: [0.5, 1]) groups by its JSON text
+        if done[k].map(lambda v: isinstance(v, (list, dict, tuple))).any():
+            done[k] = done[k].map(lambda v: json.dumps(v) if isinstance(v, (list, dict, tuple)) else v)
     grouped = done.groupby(group_keys, sort=False, dropna=False) if group_keys else done.groupby(
         lambda _: 0, sort=False)
     stats = grouped[numeric].agg(["mean", "std"])

@@ -242,33 +242,35 @@ def test_cost_bound_then_scaled_by_finished_runs(tmp_path, monkeypatch):
 
 
 def test_sweep_on_a_local_dask_cluster_records_a_failed_run(tmp_path, plugin_path):
-    """Four runs on a LocalCluster of 2 workers: three finish, one fails (its folder belongs to
-    someone else) and is recorded with its error; the others go on and the exit code says so."""
+    """Four BCM impacts on a LocalCluster of 2 workers: one is given a parameter LAMMPS refuses
+    (2 cells: their one interface has more contact points than bond_style bcm/griffith
+    supports); its LAMMPS error is recorded in sweep.csv and its status, the other three
+    finish, and the exit code says the sweep had a failure."""
     import json
     import subprocess
     import sys
 
     base = tmp_path / "base.yaml"
-    base.write_text(yaml.safe_dump({"name": "dk", "seed": 2, "model": {"kind": "bpm", "dimension": 2, "L": 8},
-                                    "scenario": {"kind": "shear", "strain_rate": 0.02, "max_strain": 0.05,
-                                                 "measure_strains": [0.05], "thermo_every": 100},
-                                    "output": {"plots": False}}))
+    base.write_text(yaml.safe_dump({"name": "dk", "seed": 1, "model": {"kind": "bcm", "n_cells": 20},
+                                    "scenario": {"kind": "impact", "velocity": 1.0}, "output": {"plots": False}}))
     sweep = tmp_path / "sw.yaml"
-    sweep.write_text(yaml.safe_dump({"base": "base.yaml", "axes": {"model.k_A": [1, 2]}, "seeds": 2}))
+    sweep.write_text(yaml.safe_dump({"base": "base.yaml", "axes": {"model.n_cells": [2, 16, 20, 24]}}))
     out = tmp_path / "out"
-    out.mkdir()
-    foreign = out / "k_A2_seed2"
-    foreign.mkdir()
-    (foreign / "mine.txt").write_text("not the tool's")
-    (out / ".brittle-sweep").write_text("{}")
     proc = subprocess.run([sys.executable, "-m", "driver.cli", "sweep", str(sweep), "--out", str(out),
                            "--workers", "2"], capture_output=True, text=True, timeout=600)
     assert proc.returncode == 1, proc.stderr[-3000:]
-    assert "1 of 4 runs failed" in proc.stderr and "k_A2_seed2" in proc.stderr
-    assert (foreign / "mine.txt").read_text() == "not the tool's"
-    finished = [d.name for d in out.iterdir() if (d / "status.json").exists()
-                and json.loads((d / "status.json").read_text())["state"] == "finished"]
-    assert sorted(finished) == ["k_A1_seed1", "k_A1_seed2", "k_A2_seed1"]
+    assert "1 of 4 runs failed" in proc.stderr and "n_cells2" in proc.stderr
+    assert "more than the 16 that bond_style bcm/griffith supports" in proc.stderr  # LAMMPS's own message
+    status = {d.name: json.loads((d / "status.json").read_text())
+              for d in out.iterdir() if (d / "status.json").exists()}
+    assert sorted(n for n, st in status.items() if st["state"] == "finished") == ["n_cells16", "n_cells20",
+                                                                                  "n_cells24"]
+    assert status["n_cells2"]["state"] == "failed" and "LammpsError" in status["n_cells2"]["error"]
+    table = pd.read_csv(out / "sweep.csv").set_index("model.n_cells")
+    assert table.loc[2, "state"] == "failed" and "bcm/griffith" in table.loc[2, "error"]
+    assert (table.loc[[16, 20, 24], "state"] == "finished").all() and table.loc[[16, 20, 24], "D_w"].notna().all()
+    points = pd.read_csv(out / "sweep_points.csv")
+    assert sorted(points["model.n_cells"]) == [16, 20, 24] and (points.n_runs == 1).all()
 
 
 def test_interrupting_a_dask_sweep_and_running_it_again_resumes_it(tmp_path, plugin_path):
