@@ -27,6 +27,8 @@ from typing import Any
 
 from rich.console import Console
 
+#: Seconds between two refreshes of the sweep's progress line.
+REFRESH_S = 2.0
 #: Seconds the client waits for the running runs to write their checkpoints after a stop.
 STOP_GRACE_S = 120.0
 
@@ -111,7 +113,7 @@ def run_on_dask(todo: list[tuple[dict[str, Any], Any]], np_ranks: int | None, wo
     (driver/cluster.py). Returns one record per run, in the order they ended. Progress: done /
     running / failed / pending and the ETA. Raises SweepInterrupted after Ctrl-C or SIGTERM,
     once the running runs stopped."""
-    from distributed import Client, as_completed  # noqa: PLC0415
+    from distributed import Client, wait  # noqa: PLC0415
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn  # noqa: PLC0415
 
     cluster = None
@@ -148,8 +150,15 @@ def run_on_dask(todo: list[tuple[dict[str, Any], Any]], np_ranks: int | None, wo
                                     failed=sum(r["state"] == "failed" for r in records))
 
                 show()
-                for future in as_completed(futures):
-                    records.append(_record(future, futures[future], console))
+                remaining = set(futures)
+                while remaining:  # refreshed every REFRESH_S: the running count changes between ends
+                    try:
+                        done = wait(list(remaining), timeout=REFRESH_S, return_when="FIRST_COMPLETED").done
+                    except TimeoutError:
+                        done = set()
+                    for future in [f for f in futures if f in done]:  # submission order within a refresh
+                        remaining.discard(future)
+                        records.append(_record(future, futures[future], console))
                     show()
         except KeyboardInterrupt:
             raise SweepInterrupted(records, _stop(client, futures, token, records, console)) from None
