@@ -9,6 +9,7 @@ a run re-analysed by `driver post` feeds the set with its new tables.
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -257,46 +258,14 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
         g = g[np.isclose(g.strain, strain)]
         masses[key] = (g["mass"].to_numpy(), g["percolating"].to_numpy() if "percolating" in g else None)
     nm = pd.concat(nm, ignore_index=True)
-    ref = table.sort_values(["L", "edot"], ascending=[False, True]).iloc[0]["run_dir"]
-    tau, sigma_tau = None, None
-    ref_masses, ref_percolating = masses[ref]
-    pl = fit_grain_tau(ref_masses, cut, ref_percolating, n_bootstrap=n_bootstrap)
-    if pl is not None:
-        tau, sigma_tau = pl.tau, max(pl.sigma, pl.sigma_bootstrap or 0.0)
-        fits.append({"fit": f"N(M) ~ M^-tau at strain {strain:g}", "runs": ref, "parameter": "tau", "value": tau,
-                     "sigma": sigma_tau, "quality": pl.ks,
-                     "method": f"{pl.method}; range [{cut}, {pl.xmax:g}]"})
-    curves = [Curve(t.m_mean.to_numpy(), t.N.to_numpy(), {"L": float(t.L.iloc[0]), "edot": float(t.edot.iloc[0])},
-                    1.0 / np.sqrt(np.maximum(t["count"].to_numpy(dtype=float), 1)))
-              for _, t in nm.groupby("run_dir", sort=False)]
-    # fewer than 2 resamples cannot give a spread: errors from the curvature of the cost instead
-    kw = {"n_bootstrap": n_bootstrap, "seed": 0} if n_bootstrap >= 2 else {"uncertainty": "curvature"}
+    # exponents and collapses compare sizes and rates of one material: one analysis per material
+    materials = _materials(runs)
+    nm["material"] = nm.run_dir.map(materials)
     collapses = {}
-    Ls, rates = sorted(table.L.unique()), sorted(table.edot.unique())
-    if len(Ls) >= 2 and tau is not None:
-        for rate in rates:
-            sel = [c for c in curves if c.params["edot"] == rate]
-            if len({c.params["L"] for c in sel}) < 2:
-                continue
-            _try_collapse(fits, collapses, f"finite size at edot {rate:g}", sel,
-                          lambda cs: fit_finite_size(cs, tau, sigma_tau=sigma_tau, bounds=FINITE_SIZE_BOUNDS,
-                                                     n_grid=25, **kw), FINITE_SIZE_BOUNDS,
-                          lambda c, p: finite_size_rescale(c.x, c.y, c.params["L"], p[0], p[1], tau),
-                          r"$M / L^\alpha$", r"$N\,L^{\alpha\tau-\gamma}$")
-    if len(rates) >= 2:
-        _try_collapse(fits, collapses, "finite rate", curves,
-                      lambda cs: fit_finite_rate(cs, d, bounds=FINITE_RATE_BOUNDS, n_grid=60, **kw),
-                      FINITE_RATE_BOUNDS,
-                      lambda c, p: finite_rate_rescale(c.x, c.y, c.params["L"], c.params["edot"], p[0], d),
-                      r"$M\,\dot\varepsilon^{\nu\alpha}$", r"$N / (L^d \dot\varepsilon^{2\nu\alpha})$")
-    m2 = table.assign(M2=[frames[d].loc[np.isclose(frames[d].strain, strain), "M2"].iloc[0] for d in table.run_dir])
-    if len(Ls) >= 2 and m2.groupby("L").edot.nunique().min() >= 2:
-        _try_collapse(fits, collapses, "second moment", moment_curves(m2.L, m2.edot, m2.M2),
-                      lambda cs: fit_moment_collapse(cs, d, bounds=MOMENT_BOUNDS, n_grid=25, **kw), MOMENT_BOUNDS,
-                      lambda c, p: moment_rescale(c.x, c.y, c.params["L"], p[0], p[1], d),
-                      r"$\dot\varepsilon L^{1/\nu}$", r"$\langle M^2\rangle / L^{d+\alpha}$",
-                      runs=f"{len(m2)} runs ({m2.L.nunique()} curves, one per L)")
-
+    for material in dict.fromkeys(materials.values()):
+        members = [k for k, m in materials.items() if m == material]
+        _scale_material(fits, collapses, material, table[table.run_dir.isin(members)], nm[nm.material == material],
+                        masses, frames, strain, d, cut, n_bootstrap)
     fits_df = pd.DataFrame(fits, columns=["fit", "runs", "parameter", "value", "sigma", "quality", "method", "flag"])
     save_table(_runs_table(table, left_out), out / "runs")
     save_table(nm, out / "nm")
@@ -304,8 +273,9 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
     title = f"BPM {d}D shear, {len(runs)} runs, strain {strain:g}"
     guard = PlotGuard()
     if plots:
-        label = [f"L = {c.params['L']:g}, edot = {c.params['edot']:g}" for c in curves]
-        guard.draw("nm", out / "plots" / "nm.png", plot_curves, [(lb, c.x, c.y) for lb, c in zip(label, curves)],
+        nm_curves = [(f"{materials[k] + ', ' if materials[k] else ''}L = {t.L.iloc[0]:g}, edot = {t.edot.iloc[0]:g}",
+                      t.m_mean.to_numpy(), t.N.to_numpy()) for k, t in nm.groupby("run_dir", sort=False)]
+        guard.draw("nm", out / "plots" / "nm.png", plot_curves, nm_curves,
                    out / "plots" / "nm.png", "grain mass $M$ [m]", "$N(M)$ [grains per unit mass, 1/m]", title)
         guard.draw("growth", out / "plots" / "growth.png", plot_curves,
                    [(Path(d).name, f.strain, f[f"n_grains_M>={cut}"]) for d, f in frames.items()],
@@ -315,7 +285,7 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
             p = list(fit.params.values())
             pts = [(f"L = {c.params['L']:g}, edot = {c.params.get('edot', float('nan')):g}", *rescale(c, p)) for c in sel]
             note = ", ".join(f"{k} = {v:.3g} ± {fit.sigma[k]:.2g}" for k, v in fit.params.items())
-            path = out / "plots" / f"collapse_{key.replace(' ', '_')}.png"
+            path = out / "plots" / _collapse_png(key)
             guard.draw(f"collapse {key}", path, plot_curves, pts, path, xl, yl, f"{title}: {key}", note)
     rep = Report(f"Shear set: {title}", f"{len(runs)} runs: " + ", ".join(str(r["dir"]) for r in runs))
     _report_left_out(rep, left_out, len(runs))
@@ -330,13 +300,76 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
     for png, cap in [("nm.png", "N(M) of every run"), ("growth.png", "grains above the cut against strain")]:
         rep.figure(out / "plots" / png, cap)
     for key in collapses:
-        rep.figure(out / "plots" / f"collapse_{key.replace(' ', '_')}.png", f"{key} collapse")
+        rep.figure(out / "plots" / _collapse_png(key), f"{key} collapse")
     if not collapses:
         rep.text("No collapse: the set needs two or more sizes L (finite size, with tau fitted) or rates edot "
                  "(finite rate); the second moment needs both.")
     write_report(rep, out)
     return {"strain": strain, "fits": fits_df.to_dict(orient="records"), "left_out": _left_out_result(left_out),
             "plots_failed": guard.failed}
+
+
+#: Model keys that make a material: a scaling analysis compares runs of one material only.
+MATERIAL_KEYS = ("dimension", "k_A", "lambda_c", "theta_c_deg", "gamma", "timestep")
+
+
+def _collapse_png(key: str) -> str:
+    """File name of a collapse plot: 'k_A=4: finite rate' -> collapse_k_A4_finite_rate.png."""
+    return "collapse_" + re.sub(r"[^A-Za-z0-9.]+", "_", key.replace("=", "")).strip("_") + ".png"
+
+
+def _materials(runs: list[dict]) -> dict[str, str]:
+    """Each run's material label (run_dir -> 'k_A=4' etc., naming only the keys of
+    MATERIAL_KEYS that differ within the set; '' when the set is one material)."""
+    values = {str(r["dir"]): tuple(r["cfg"]["model"].get(k) for k in MATERIAL_KEYS) for r in runs}
+    varying = [i for i, _ in enumerate(MATERIAL_KEYS) if len({v[i] for v in values.values()}) > 1]
+    return {d: ", ".join(f"{MATERIAL_KEYS[i]}={v[i]:g}" if isinstance(v[i], (int, float)) else
+                         f"{MATERIAL_KEYS[i]}={v[i]}" for i in varying) for d, v in values.items()}
+
+
+def _scale_material(fits: list, collapses: dict, material: str, table: pd.DataFrame, nm: pd.DataFrame,
+                    masses: dict, frames: dict, strain: float, d: int, cut: int, n_bootstrap: int) -> None:
+    """tau and the SPEC 2.5 collapses of one material's runs (fits and collapses named with
+    the material when the set has several)."""
+    prefix = f"{material}: " if material else ""
+    ref = table.sort_values(["L", "edot"], ascending=[False, True]).iloc[0]["run_dir"]
+    tau, sigma_tau = None, None
+    ref_masses, ref_percolating = masses[ref]
+    pl = fit_grain_tau(ref_masses, cut, ref_percolating, n_bootstrap=n_bootstrap)
+    if pl is not None:
+        tau, sigma_tau = pl.tau, max(pl.sigma, pl.sigma_bootstrap or 0.0)
+        fits.append({"fit": f"{prefix}N(M) ~ M^-tau at strain {strain:g}", "runs": ref, "parameter": "tau",
+                     "value": tau, "sigma": sigma_tau, "quality": pl.ks,
+                     "method": f"{pl.method}; range [{cut}, {pl.xmax:g}]"})
+    curves = [Curve(t.m_mean.to_numpy(), t.N.to_numpy(), {"L": float(t.L.iloc[0]), "edot": float(t.edot.iloc[0])},
+                    1.0 / np.sqrt(np.maximum(t["count"].to_numpy(dtype=float), 1)))
+              for _, t in nm.groupby("run_dir", sort=False)]
+    # fewer than 2 resamples cannot give a spread: errors from the curvature of the cost instead
+    kw = {"n_bootstrap": n_bootstrap, "seed": 0} if n_bootstrap >= 2 else {"uncertainty": "curvature"}
+    Ls, rates = sorted(table.L.unique()), sorted(table.edot.unique())
+    if len(Ls) >= 2 and tau is not None:
+        for rate in rates:
+            sel = [c for c in curves if c.params["edot"] == rate]
+            if len({c.params["L"] for c in sel}) < 2:
+                continue
+            _try_collapse(fits, collapses, f"{prefix}finite size at edot {rate:g}", sel,
+                          lambda cs: fit_finite_size(cs, tau, sigma_tau=sigma_tau, bounds=FINITE_SIZE_BOUNDS,
+                                                     n_grid=25, **kw), FINITE_SIZE_BOUNDS,
+                          lambda c, p: finite_size_rescale(c.x, c.y, c.params["L"], p[0], p[1], tau),
+                          r"$M / L^\alpha$", r"$N\,L^{\alpha\tau-\gamma}$")
+    if len(rates) >= 2:
+        _try_collapse(fits, collapses, f"{prefix}finite rate", curves,
+                      lambda cs: fit_finite_rate(cs, d, bounds=FINITE_RATE_BOUNDS, n_grid=60, **kw),
+                      FINITE_RATE_BOUNDS,
+                      lambda c, p: finite_rate_rescale(c.x, c.y, c.params["L"], c.params["edot"], p[0], d),
+                      r"$M\,\dot\varepsilon^{\nu\alpha}$", r"$N / (L^d \dot\varepsilon^{2\nu\alpha})$")
+    m2 = table.assign(M2=[frames[r].loc[np.isclose(frames[r].strain, strain), "M2"].iloc[0] for r in table.run_dir])
+    if len(Ls) >= 2 and m2.groupby("L").edot.nunique().min() >= 2:
+        _try_collapse(fits, collapses, f"{prefix}second moment", moment_curves(m2.L, m2.edot, m2.M2),
+                      lambda cs: fit_moment_collapse(cs, d, bounds=MOMENT_BOUNDS, n_grid=25, **kw), MOMENT_BOUNDS,
+                      lambda c, p: moment_rescale(c.x, c.y, c.params["L"], p[0], p[1], d),
+                      r"$\dot\varepsilon L^{1/\nu}$", r"$\langle M^2\rangle / L^{d+\alpha}$",
+                      runs=f"{len(m2)} runs ({m2.L.nunique()} curves, one per L)")
 
 
 def _left_out_result(left: list[dict]) -> list[dict]:

@@ -6,6 +6,7 @@ import contextlib
 import json
 import os
 import sys
+import time
 from pathlib import Path
 from typing import Optional
 
@@ -350,27 +351,43 @@ def sweep(input_yaml: Path = typer.Argument(..., help="sweep file (base, axes, z
         + (f" of {np} MPI ranks" if np and np > 1 else ""))
     err.print(f"sweep: {len(runs)} runs, {len(runs) - len(todo)} already finished, in {sweep_dir}; "
               f"running on {where}")
+    record = {"started": time.strftime("%Y-%m-%dT%H:%M:%S"), "command_line": sys.argv, "runs": len(runs),
+              "to_run": len(todo), "workers": None if scheduler else slots, "scheduler": scheduler,
+              "cluster": str(cluster) if cluster else None, "np": np}
+    t0 = time.time()
     if todo and (slots > 1 or scheduler or cluster):
-        failed = _sweep_on_dask(todo, np, slots, scheduler, cluster)
+        failed = _sweep_on_dask(todo, np, slots, scheduler, cluster, sweep_dir, record)
     else:
         failed = _sweep_in_process(todo, np)
+    record.update(runs_seconds=time.time() - t0, failed=len(failed))
     _sweep_results(expanded, columns)
+    _log_sweep(sweep_dir, {**record, "seconds": time.time() - t0, "outcome": "failures" if failed else "complete"})
     if failed:
         _fail(f"{len(failed)} of {len(runs)} runs failed: {', '.join(failed)}", 1)
 
 
+def _log_sweep(sweep_dir: Path, record: dict) -> None:
+    """One line per invocation in sweep_log.jsonl: when, how (workers, scheduler, ranks), how
+    long the runs and the whole command took, and how it ended."""
+    with open(sweep_dir / "sweep_log.jsonl", "a") as fh:
+        fh.write(json.dumps(record, default=str) + "\n")
+
+
 def _sweep_on_dask(todo: list, np: int | None, workers: int, scheduler: str | None,
-                   cluster: Path | None) -> list[str]:
+                   cluster: Path | None, sweep_dir: Path, record: dict) -> list[str]:
     """The runs as Dask tasks; the failed run dirs. Ctrl-C stops the running runs with a
     checkpoint and exits 130."""
     from driver.distributed import SweepInterrupted, run_on_dask  # noqa: PLC0415
 
+    t0 = time.time()
     try:
         records = run_on_dask(todo, np, workers, scheduler, err, cluster_file=cluster)
     except SweepInterrupted as stop:
         by_state: dict[str, int] = {}
         for r in stop.records:
             by_state[r["state"]] = by_state.get(r["state"], 0) + 1
+        _log_sweep(sweep_dir, {**record, "runs_seconds": time.time() - t0, "outcome": "interrupted",
+                               "ended_runs": by_state, "cut": stop.cut})
         said = ", ".join(f"{n} {state}" for state, n in by_state.items()) or "no run ended"
         cut = f"; cut off without a final checkpoint: {', '.join(stop.cut)}" if stop.cut else ""
         _fail(f"sweep stopped ({said} in this invocation{cut}); run the same command again to carry on: finished "

@@ -34,7 +34,8 @@ def _write_run(root: Path, cfg: dict, summary: dict, tables: dict[str, pd.DataFr
     return root
 
 
-def fake_shear_run(root: Path, L: float, edot: float, m_star: float, amplitude: float, seed: int) -> Path:
+def fake_shear_run(root: Path, L: float, edot: float, m_star: float, amplitude: float, seed: int,
+                   k_A: float = 4) -> Path:
     """Grain masses at the last strain from N(M) = amplitude M^-TAU exp(-M / m_star) (discrete,
     drawn by rejection from the pure law); the number of grains above the cut grows as eps^PHI."""
     k = np.arange(1, int(30 * m_star) + 1)
@@ -47,7 +48,7 @@ def fake_shear_run(root: Path, L: float, edot: float, m_star: float, amplitude: 
     frames = pd.DataFrame({"strain": STRAINS, "n_grains_M>=3": [100 * e ** PHI for e in STRAINS],
                            "M2": [float(np.sum(masses ** 2))] * len(STRAINS)})
     grains = pd.DataFrame({"strain": STRAINS[-1], "mass": masses})
-    cfg = {"name": f"L{L:g}_e{edot:g}", "seed": seed, "model": {"kind": "bpm", "dimension": 2, "L": L, "k_A": 4,
+    cfg = {"name": f"L{L:g}_e{edot:g}", "seed": seed, "model": {"kind": "bpm", "dimension": 2, "L": L, "k_A": k_A,
                                                                  "lambda_c": 1.05},
            "scenario": {"kind": "shear", "strain_rate": edot}}
     return _write_run(root, cfg, {"n_particles": int(masses.sum())}, {"nm": nm, "frames": frames, "grains": grains})
@@ -99,6 +100,25 @@ def test_finite_size_set_recovers_exponents(size_set, tmp_path):
     for name in ["report.md", "report.html", "runs.csv", "nm.csv", "plots/collapse_finite_size_at_edot_0.001.png",
                  "plots/growth.png"]:
         assert (out / name).exists(), name
+
+
+def test_materials_are_scaled_apart(size_set, tmp_path):
+    """A set of two materials (k_A = 4 with alpha = 1, k_A = 12 with alpha = 0.6): one tau and
+    one finite-size collapse per material, named by it, each recovering its own alpha."""
+    other = tmp_path / "kA12"
+    for i, L in enumerate([16, 32, 64]):
+        fake_shear_run(other / f"L{L}", L, 1e-3, 10 * L ** 0.6, 20 * L ** GAMMA, seed=20 + i, k_A=12)
+    out = tmp_path / "out"
+    analyse_set([size_set, other], out, n_bootstrap=20)
+    fits = _fits(out)
+    assert not fits.fit.str.startswith("finite size").any()  # no collapse mixes the two materials
+    a4, s4 = _value(fits, "k_A=4: finite size", "alpha")
+    a12, s12 = _value(fits, "k_A=12: finite size", "alpha")
+    assert abs(a4 - ALPHA) < max(3 * s4, 0.15) and abs(a12 - 0.6) < max(3 * s12, 0.15), (a4, s4, a12, s12)
+    assert abs(a4 - a12) > 2 * np.hypot(s4, s12)  # told apart: a mixed collapse would blur them into one
+    assert len(fits[fits.parameter == "tau"]) == 2
+    assert set(pd.read_csv(out / "nm.csv").material) == {"k_A=4", "k_A=12"}
+    assert (out / "plots" / "collapse_k_A12_finite_size_at_edot_0.001.png").exists()
 
 
 def test_finite_rate_set_recovers_nu_alpha(rate_set, tmp_path):
