@@ -313,11 +313,11 @@ def test_interrupting_a_dask_sweep_and_running_it_again_resumes_it(tmp_path, plu
     time.sleep(1.0)
     proc.send_signal(signal.SIGINT)
     _, stderr = proc.communicate(timeout=300)
-    assert proc.returncode == 130, stderr[-3000:]
+    assert proc.returncode == 130, (proc.returncode, stderr[-3000:], {n: status(n) for n in short + long})
     assert "run the same command again" in stderr
     for name in long:
         st = status(name)
-        assert st["state"] == "interrupted" and st.get("checkpoint_step"), st
+        assert st["state"] == "interrupted" and st.get("checkpoint_step"), (st, stderr[-3000:])
     kept = {n: ((out / n / "status.json").read_bytes(), (out / n / "provenance.json").read_bytes()) for n in short}
 
     again = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
