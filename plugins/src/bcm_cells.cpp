@@ -12,7 +12,10 @@
       - edge-edge: non-parallel edges whose closest points are interior to both, facing each
         other (n, their common perpendicular, points out of B's edge and into A's); on two
         parallel faces in contact these are the crossings of the faces' edges, which with the
-        vertex-face points are the corners of the overlap polygon;
+        vertex-face points are the corners of the overlap polygon. A negative h claims that the
+        edges cross inside each other: it is kept only when each closest point lies inside the
+        other core (the common perpendicular lies in both), since two edges that pass each
+        other |h| apart can face each other by the face-normal test with n of the wrong sign;
       - vertex-edge: v outside the other core, closest point interior to the edge, and the
         direction n = (v - q)/|v - q| inside the edge's normal cone (between its two faces'
         normals) and inside the vertex's normal cone (no edge of v heads towards the other
@@ -457,6 +460,14 @@ void heights(const Side &S, const Side &O, std::vector<double> &h, std::vector<d
   }
 }
 
+// largest height of p over the face planes of S: <= 0 when p lies inside S's core
+double height_over(const Side &S, const double *p)
+{
+  double m = -HUGE_VAL;
+  for (int f = 0; f < S.c.nf; f++) m = std::max(m, dot(S.n(f), p) - S.n(f)[3]);
+  return m;
+}
+
 // v projects inside face f of S (boundary within tol included)
 bool inside_face(const Side &S, int f, const double *v, double tol)
 {
@@ -638,6 +649,8 @@ int LAMMPS_NS::bcm_find_contacts(const BcmSpaceCell &sa, const BcmSpaceCell &sb,
       sub3(pa, pb, dp);
       const double h = dot(n, dp);
       if (h >= dcut || h <= -pen) continue;
+      // an interpenetration of depth -h only if the edges do cross inside each other
+      if (h < 0.0 && (height_over(B, pa) > tol || height_over(A, pb) > tol)) continue;
       count += col.add(p, n, h, BCM_EE, ea, eb);
     }
   }

@@ -16,7 +16,24 @@
    damping force of each point at the last evaluation (damping-work quadrature), then per point
    the contact reference shift s, the slip offset sigma (cell 1's body frame), the in-contact
    flag and the last tangential contact force (friction work). The force loop works on a copy
-   of the state in bondlist order (rebuilt at reneighboring, written back by sync_store()). */
+   of the state in bondlist order (rebuilt at reneighboring, written back by sync_store()).
+
+   Retirement. The points of a broken interface are anchored to the two faces that were glued:
+   they stand for the contact of those faces only while the cells are near each other. Far
+   apart, the face plane of a turning cell 1 can sweep past a partner's anchors millimetres
+   away and close a point there, with the whole separation as lever arm (a force from nothing,
+   and a damping that turns unstable at that effective mass). So once the cells' bounding
+   spheres part, |x2 - x1| >= r1 + r2 (atom->radius holds the rounded cell: pair bcm/contact
+   checks it), the interface is retired for good: its points open and are never evaluated
+   again, what they store is counted as lost at this switch (W_switch, as at the break), and
+   the pair leaves the 1-2 special lists (fix breakable/special), so that if the cells meet
+   again they touch through pair_style bcm/contact, the polyhedral contact of SPEC 1.2. The
+   bond keeps its type, its area stays in the broken area and W_f, its counters in the sums.
+   Every rank holding the bond (newton_bond off: the owners of both cells) decides alike, from
+   the same positions and radii of both cells; the partner is still a ghost when the spheres
+   part, the communication cutoff reaching beyond r1 + r2 (pair bcm/contact's cutoff is twice
+   the largest radius). The retired state lives in the per-slot header (restart files keep
+   it), and fix breakable/special reads it at every run setup (released()). */
 
 #include "bond_bcm_griffith.h"
 
@@ -51,7 +68,7 @@ namespace {
 
 // slot header
 enum {
-  H_BROKEN,        // 0 intact, 1 broken
+  H_BROKEN,        // INTACT, BROKEN or RETIRED
   H_BREAK_STEP,    // step of the break
   H_BREAK_TIME,    // simulation time of the break
   H_E_BREAK,       // elastic energy stored by the interface just before the switch
@@ -76,6 +93,10 @@ enum {
   NCONTACT
 };
 constexpr int NPOINT = 3 + NCONTACT;    // doubles per point in a slot
+
+// H_BROKEN: the points are the intact interface's springs; frictional contacts; nothing (the
+// pair is the pair style's)
+constexpr double INTACT = 0.0, BROKEN = 1.0, RETIRED = 2.0;
 
 // record of a bondlist entry in the working copy: these constants, the slot's header and
 // damping forces (NHEAD + 3 N_p), the geometry (normal in cell 1's frame, then b1, b2 per
@@ -119,7 +140,7 @@ BondBcmGriffith::BondBcmGriffith(LAMMPS *_lmp) :
     kt_c(nullptr), en2_c(nullptr), mu(nullptr), alpha(nullptr), alpha_c(nullptr),
     convention(STORED), stiffness(PER_INTERFACE), mean_area(0.0), maxpts(0), reference_taken(0), span_max(0.0), cache_store(nullptr),
     cache_valid(false), dirty(false),
-    store_index(-1), slot_size(0), iquat(-1), nevaluations(0)
+    store_index(-1), slot_size(0), iquat(-1), nevaluations(0), special(nullptr)
 {
   writedata = 1;
   born_matrix_enable = 0;
@@ -435,9 +456,9 @@ void BondBcmGriffith::init_style()
                       "every rank owning a cell of an interface computes it and keeps its state");
   if (atom->molecular != Atom::MOLECULAR)
     error->all(FLERR, "bond_style bcm/griffith requires a molecular atom style (not a template)");
-  if (!atom->rmass || !atom->omega || !atom->torque)
-    error->all(FLERR, "bond_style bcm/griffith requires per-atom rmass, omega and torque "
-                      "(atom_style hybrid bond sphere)");
+  if (!atom->rmass || !atom->radius || !atom->omega || !atom->torque)
+    error->all(FLERR, "bond_style bcm/griffith requires per-atom rmass, radius, omega and "
+                      "torque (atom_style hybrid bond sphere)");
   if (!comm->ghost_velocity)
     error->all(FLERR, "bond_style bcm/griffith requires comm_modify vel yes "
                       "(damping reads the velocities and omega of ghost cells)");
@@ -454,6 +475,7 @@ void BondBcmGriffith::init_style()
   store_index = BreakableUtil::peratom_array(lmp, STORE_FIX_ID, STORE_NAME,
                                              atom->bond_per_atom * slot_size);
   FixBcmGriffith::get_or_create(lmp);
+  special = FixBreakableSpecial::get_or_create(lmp);
 
   // every bond of the topology has its interface, and the table has no extra interface
   const int nlocal = atom->nlocal;
@@ -798,6 +820,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
       e.type = type;
     }
     double *slot = rec + NCONST;    // working copy of the slot: header, damping forces
+    if (slot[H_BROKEN] == RETIRED) continue;    // for good: the pair style's now
     double *fdamp = slot + NHEAD;
     const double *g = fdamp + 3 * np;
 
@@ -817,7 +840,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     const int last = (int) slot[H_LAST_KIND];
     const int nkicks =
         (last != EVAL_NONE && kind != EVAL_NONE) ? (last == EVAL_STEP) + (kind == EVAL_STEP) : 0;
-    bool broken = slot[H_BROKEN] != 0.0;
+    bool broken = slot[H_BROKEN] != INTACT;
     bool just_broke = false;
     double e_before = 0.0;
     const double area = rec[K_AREA];
@@ -884,7 +907,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
       if (dwp / (2.0 * area) >= gc[type]) {
         broken = just_broke = true;
         e_before = e_total;
-        slot[H_BROKEN] = 1.0;
+        slot[H_BROKEN] = BROKEN;
         slot[H_BREAK_STEP] = (double) step;
         slot[H_BREAK_TIME] = time;
         slot[H_E_BREAK] = e_total;
@@ -927,11 +950,14 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     // half kicks in velocity Verlet (translation; second order with rotation)
     if (nkicks) slot[H_W_DAMP] += 0.25 * nkicks * slot[H_LAST_DT] * (slot[H_PD] - fd_dv);
 
-    // ---- broken interface: cohesionless frictional contacts (SPEC 1.2 Eq. 1, 7)
+    // ---- broken interface: cohesionless frictional contacts (SPEC 1.2 Eq. 1, 7), retired
+    // once the bounding spheres part (see the top of this file)
     if (broken) {
       for (int c = 0; c < 3; c++) ftot[c] = t2[c] = 0.0;
       e_total = pd = 0.0;
-      double fric = 0.0, unpaid = 0.0;
+      const double rsum = atom->radius[c1] + atom->radius[c2];
+      const bool retire = dot(d12, d12) >= rsum * rsum;
+      double fric = 0.0, unpaid = 0.0, held = 0.0;
       const double kc = rec[K_KC], ktc = rec[K_KTC], cc = rec[K_CC], muf = mu[type];
       double *cb = &contact[e.coff];
       for (int k = 0; k < np; k++) {
@@ -989,6 +1015,8 @@ void BondBcmGriffith::compute(int eflag, int vflag)
           for (int c = 0; c < 3; c++)
             unpaid += (F[c] - fd[c] + kp * dn[k] * n[c] + ktp * dtan[k][c]) * dv[k][c];
         }
+        if (retire)    // power of the elastic force that retirement takes away, below
+          for (int c = 0; c < 3; c++) held += (F[c] - fd[c]) * dv[k][c];
         pd -= dot(fd, dv[k]);
         double tq[3];
         cross(r2[k], F, tq);
@@ -1007,6 +1035,24 @@ void BondBcmGriffith::compute(int eflag, int vflag)
             (kind == EVAL_STEP ? 0.5 * dt * unpaid : 0.0);
       else
         slot[H_W_FRIC] += fric;
+
+      if (retire) {
+        // the same switch, from the contact springs to nothing: lost, what they store now
+        // and the half kick of their elastic force, (h/2) F_el . dv, that the bodies will
+        // not get (the damping force is dropped with its work: it never kicks)
+        slot[H_W_SWITCH] += e_total + (kind == EVAL_STEP ? 0.5 * dt * held : 0.0);
+        slot[H_BROKEN] = RETIRED;
+        for (int c = 0; c < 3; c++) ftot[c] = t2[c] = 0.0;
+        e_total = pd = 0.0;
+        for (int k = 0; k < np; k++) {
+          double *pt = cb + NCONTACT * k;
+          pt[C_TOUCH] = pt[C_FT] = 0.0;
+          for (int c = 0; c < 3; c++) fdamp[3 * k + c] = 0.0;
+        }
+        // hand-over: the pair style sees the pair from the next step (from the next
+        // reneighboring if special_bonds leaves 1-2 pairs out of the neighbor lists)
+        special->add_broken_bond(atom->tag[c1], atom->tag[c2], 0);
+      }
     }
 
     slot[H_PD] = pd;
@@ -1061,6 +1107,17 @@ const double *BondBcmGriffith::slot_of(int i, int j) const
 }
 
 /* ----------------------------------------------------------------------
+   a retired interface in bond slot m of owned atom i (fix breakable/special)
+------------------------------------------------------------------------- */
+
+bool BondBcmGriffith::released(int i, int m)
+{
+  if (store_index < 0 || atom->bond_type[i][m] <= 0) return false;
+  sync_store();
+  return atom->darray[store_index][i][(long) m * slot_size + H_BROKEN] == RETIRED;
+}
+
+/* ----------------------------------------------------------------------
    a multi-point interface has no force along the centre line: fforce = 0,
    energy = the elastic energy the interface stores now. Extra values
    (compute bond/local b1..b6): state (1 intact, 0 broken), area, stored
@@ -1075,7 +1132,7 @@ double BondBcmGriffith::single(int type, double /*rsq*/, int i, int j, double &f
   sync_store();
   const double *slot = slot_of(i, j);
   const int ii = find_interface(atom->tag[i], atom->tag[j]);
-  const bool broken = slot[H_BROKEN] != 0.0;
+  const bool broken = slot[H_BROKEN] != INTACT;
   svector[0] = broken ? 0.0 : 1.0;
   svector[1] = ii >= 0 ? interfaces[ii].area : 0.0;
   svector[2] = slot[H_E_EL];
@@ -1108,7 +1165,7 @@ void BondBcmGriffith::tally(double *sums)
       if (ii < 0) continue;
       const double *slot = store[i] + (long) m * slot_size;
       const Interface &itf = interfaces[ii];
-      if (slot[H_BROKEN] != 0.0) {
+      if (slot[H_BROKEN] != INTACT) {    // broken or retired
         sums[1] += 1.0;
         sums[2] += itf.area;
         sums[3] += 2.0 * itf.area * gc[type];

@@ -1,13 +1,16 @@
 /* bond_style bcm/griffith: the cohesive interface of the bonded cell method (SPEC 1.2), one
    bond per face shared by two cells. Multi-point spring-dashpot interface, Griffith breaking
-   (Eq. 4-6), then cohesionless frictional point contacts (Eq. 1, 7). The geometry of every
-   interface comes from a file; the per-interface state lives per atom and bond slot. See
+   (Eq. 4-6), then cohesionless frictional point contacts (Eq. 1, 7) until the two cells part
+   (their bounding spheres separate): the interface is then retired and the pair handed to
+   the pair style (pair_style bcm/contact). The geometry of every interface comes from a
+   file; the per-interface state lives per atom and bond slot. See
    plugins/doc/bond_bcm_griffith.md. */
 
 #ifndef BRITTLE_BOND_BCM_GRIFFITH_H
 #define BRITTLE_BOND_BCM_GRIFFITH_H
 
 #include "bond.h"
+#include "fix_breakable_special.h"
 
 #include <string>
 #include <unordered_map>
@@ -15,7 +18,7 @@
 
 namespace LAMMPS_NS {
 
-class BondBcmGriffith : public Bond {
+class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
  public:
   static constexpr int MAX_POINTS = 16;    // contact points per interface
   static constexpr int NVECTOR = 8;        // global vector of fix bcm/griffith
@@ -45,6 +48,9 @@ class BondBcmGriffith : public Bond {
   // of each interface); called by fix bcm/griffith before atoms move (pre_exchange), before
   // output and after a run, and before this style reads the store itself
   void sync_store();
+  // bond slot m of owned atom i is a retired interface: its cells are no longer 1-2 special
+  // neighbours (fix breakable/special, at every run setup)
+  bool released(int i, int m) override;
 
  private:
   enum Convention { STORED, ROCKABLE, LITERAL };
@@ -105,6 +111,7 @@ class BondBcmGriffith : public Bond {
   int slot_size;       // doubles per bond slot
   int iquat;           // atom->darray index of d2_bcm_quat
   bigint nevaluations;
+  FixBreakableSpecial *special;    // takes retired interfaces out of the special lists
 
   void allocate();
   void read_geometry(const std::string &file);

@@ -1,6 +1,7 @@
 #include "fix_breakable_special.h"
 
 #include "atom.h"
+#include "bond.h"
 #include "domain.h"
 #include "error.h"
 #include "force.h"
@@ -106,8 +107,9 @@ void FixBreakableSpecial::remove_special12(int i, tagint partner)
 
 /* ----------------------------------------------------------------------
    full resync at run setup: a partner whose only bonds with atom i are of
-   type 0 (broken) is not a 1-2 special neighbor. Covers special lists rebuilt
-   from the bond arrays since the break (read_restart, create_bonds, ...).
+   type 0 (broken) or released by the bond style is not a 1-2 special
+   neighbor. Covers special lists rebuilt from the bond arrays since the break
+   (read_restart, create_bonds, ...).
 ------------------------------------------------------------------------- */
 
 void FixBreakableSpecial::resync_special()
@@ -118,6 +120,7 @@ void FixBreakableSpecial::resync_special()
   const int *num_bond = atom->num_bond;
   int **bond_type = atom->bond_type;
   tagint **bond_atom = atom->bond_atom;
+  auto *released = dynamic_cast<SpecialReleasedBonds *>(force->bond);
 
   std::vector<tagint> drop;
   for (int i = 0; i < nlocal; i++) {
@@ -127,7 +130,8 @@ void FixBreakableSpecial::resync_special()
       bool broken = false, intact = false;
       for (int m = 0; m < num_bond[i]; m++) {
         if (bond_atom[i][m] != partner) continue;
-        if (bond_type[i][m] == 0)
+        const int type = bond_type[i][m];
+        if (type == 0 || (type > 0 && released && released->released(i, m)))
           broken = true;
         else
           intact = true;

@@ -1,12 +1,18 @@
-/* fix breakable/special: the bookkeeping shared by the breakable Clemmer-Robbins styles.
+/* fix breakable/special: the special-list bookkeeping of broken bonds, shared by the
+   breakable Clemmer-Robbins styles and bond_style bcm/griffith.
 
-   Created internally (id BREAKABLE_SPECIAL) by bond_style and angle_style breakable/cr.
+   Created internally (id BREAKABLE_SPECIAL) by bond_style and angle_style breakable/cr, and
+   by bond_style bcm/griffith (which hands retired interfaces over to the pair style).
    - Broken bonds leave the 1-2 special lists of their atoms at the next reneighboring
      (pre_exchange), and at every run setup the special lists are re-synchronised with the
      bond types (type 0 = broken), so restarts and special rebuilds cannot revive them.
+     A bond style that keeps some broken bonds at their type (bond_style bcm/griffith: a
+     retired interface keeps its counters) names them through SpecialReleasedBonds; the
+     resync drops those too.
    - Until then, pre_force clears the special bits of the broken pair in the perpetual pair
      neighbor lists, so the non-bonded repulsion acts from the step after the break.
-   - Global vector (cumulative, summed over ranks): [1] bonds broken, [2] angles broken.
+   - Global vector (cumulative, summed over ranks): [1] bonds broken, [2] angles broken
+     (breakable/cr; bond_style bcm/griffith counts its breaks in fix bcm/griffith).
      The count starts, at the first run, from the broken (type 0) bonds and angles the
      topology already holds, so that it carries on across write_restart / read_restart. */
 
@@ -19,6 +25,18 @@
 #include <vector>
 
 namespace LAMMPS_NS {
+
+// Implemented by a bond style whose bonds may stop joining their atoms while keeping a bond
+// type > 0: released(i, m) says whether bond slot m of owned atom i no longer makes its
+// atoms 1-2 special neighbours (it stays so through restarts: the style's own per-atom
+// state says it).
+class SpecialReleasedBonds {
+ public:
+  virtual bool released(int i, int m) = 0;
+
+ protected:
+  ~SpecialReleasedBonds() = default;    // never deleted through this interface
+};
 
 class FixBreakableSpecial : public Fix {
  public:
@@ -37,6 +55,7 @@ class FixBreakableSpecial : public Fix {
   double compute_vector(int) override;
 
   // called by the styles' single break path; count = 1 on exactly one rank per broken bond
+  // (count 0 for a bond released without being counted as a break)
   void add_broken_bond(tagint tag1, tagint tag2, int count);
   void add_broken_angle(int count) { nangles_local += count; }
 
