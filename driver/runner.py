@@ -376,8 +376,6 @@ def run_input(run_dir: Path, input_name: str = "in.lammps", np: int = 1,
     if progress is not None and show_progress:
         monitor = _Monitor(run_dir / progress.file, progress, console or Console(stderr=True))
         monitor.start()
-    with _registry_lock:
-        _active[run_dir] = control
     try:
         if np == 1:
             with _chdir(run_dir), Lammps(log="log.lammps") as lmp:

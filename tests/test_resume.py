@@ -257,11 +257,12 @@ def test_resume_after_an_interrupted_analysis_only_analyses(shear_reference, tmp
 
 
 def test_interrupted_sweep_resumes_its_interrupted_run(tmp_path, shear_reference):
-    """SIGINT stops a sweep inside its first run (checkpoint written, exit 130); running the same
-    sweep again resumes that run from its checkpoint and runs the rest."""
+    """SIGINT stops a sweep run one after the other in the driver's process (--workers 1) inside
+    its first run (checkpoint written, exit 130); running the same sweep again resumes that run
+    from its checkpoint and runs the rest. (On Dask workers: tests/test_sweep_files.py.)"""
     base = config_file(tmp_path, SHEAR, "base")
     out = tmp_path / "sweep"
-    cmd = ["sweep", str(base), "--set", "seed=3,4", "--out", str(out)]
+    cmd = ["sweep", str(base), "--set", "seed=3,4", "--out", str(out), "--workers", "1"]
     proc = driver(*cmd)
     first = out / "seed3"
     deadline = time.time() + 240
