@@ -93,8 +93,10 @@ def _execute_locked(cfg: RunConfig, rd: RunDir, action: str, source: Path | None
                            "started": time.strftime("%Y-%m-%dT%H:%M:%S")})
         atomic_write_json(rd.root / "provenance.json", prov)
         build, _ = _scenario(cfg.scenario.kind)
+        t_build = time.time()
         try:
             system, spec = build(cfg, rd, plugin)
+            prov["build_seconds"] = time.time() - t_build  # wall_seconds (below) is LAMMPS + analysis
         except RunInterrupted as exc:
             rd.set_state("interrupted", error=str(exc), phase="build", signal=exc.signum)
             raise
