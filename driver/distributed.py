@@ -104,7 +104,11 @@ def _local_cluster(workers: int):
     try:
         # Dask's statistical profiler samples the running task's stack every 10 ms and holds the
         # GIL while it does: about 8 % of a BCM run's wall time, for a profile nobody reads here
-        with dask.config.set({"distributed.worker.profile.enabled": False}):
+        # and its MALLOC_TRIM_THRESHOLD_ of 64 KiB (returning freed memory to the system at once,
+        # for long-lived workers holding data) costs a run a few % in system calls; the runs
+        # here free everything when their LAMMPS instance closes: glibc's own threshold is used
+        with dask.config.set({"distributed.worker.profile.enabled": False,
+                              "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
             return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
     finally:
         signal.signal(signal.SIGINT, old)
