@@ -142,7 +142,7 @@ def run_on_dask(todo: list[tuple[dict[str, Any], Any]], np_ranks: int | None, wo
         futures: dict[Any, Any] = {}
         token = uuid.uuid4().hex
         try:
-            futures = {client.submit(run_one, cfg.model_dump(mode="json"), np_ranks, token, pure=False,
+            futures = {client.submit(run_one, _task_config(cfg), np_ranks, token, pure=False,
                                      key=f"run-{cfg.run_dir().resolve()}"): (values, cfg) for values, cfg in todo}
             columns = [TextColumn("[bold]sweep"), BarColumn(), TextColumn("{task.completed}/{task.total} done"),
                        TextColumn("{task.fields[running]} running, {task.fields[failed]} failed, "
@@ -178,6 +178,14 @@ def run_on_dask(todo: list[tuple[dict[str, Any], Any]], np_ranks: int | None, wo
                 logging.getLogger("distributed.nanny").setLevel(logging.ERROR)
                 cluster.close()
     return records
+
+
+def _task_config(cfg) -> dict[str, Any]:
+    """A run's config as a task carries it: its run directory made absolute, since a worker
+    (on another node, or started elsewhere) resolves relative paths from its own directory."""
+    data = cfg.model_dump(mode="json")
+    data["output"]["dir"] = str(cfg.run_dir().resolve())
+    return data
 
 
 def _processing(client) -> set[str]:
