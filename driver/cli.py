@@ -311,6 +311,7 @@ def sweep(input_yaml: Path = typer.Argument(..., help="sweep file (base, axes, z
     from driver.rundir import SWEEP_MARKER, check_claimable, claim_dir  # noqa: PLC0415
     from driver.sweep import load_sweep, pending, plan, plan_summary, plan_table  # noqa: PLC0415
 
+    batch = None  # (dask-jobqueue cluster, jobs) of --cluster
     try:
         expanded = load_sweep(input_yaml, set_, out, scale)
         runs, sweep_dir = expanded.runs, expanded.directory
@@ -332,11 +333,12 @@ def sweep(input_yaml: Path = typer.Argument(..., help="sweep file (base, axes, z
         if cluster is not None:
             from driver.cluster import cluster_slots, make_cluster  # noqa: PLC0415
 
-            probe, jobs = make_cluster(cluster)  # the file is checked before anything is written
-            slots = cluster_slots(probe, jobs)
-            probe.close()
+            batch = make_cluster(cluster)  # the file is checked before anything is written; no job yet
+            slots = cluster_slots(*batch)
         claim_dir(sweep_dir, SWEEP_MARKER, "sweep directory")
     except (ConfigError, RunDirError) as exc:
+        if batch is not None:
+            batch[0].close()
         _fail(str(exc), 2)
     todo = pending(runs)
     if todo:
@@ -356,7 +358,7 @@ def sweep(input_yaml: Path = typer.Argument(..., help="sweep file (base, axes, z
               "cluster": str(cluster) if cluster else None, "np": np}
     t0 = time.time()
     if todo and (slots > 1 or scheduler or cluster):
-        failed = _sweep_on_dask(todo, np, slots, scheduler, cluster, sweep_dir, record)
+        failed = _sweep_on_dask(todo, np, slots, scheduler, batch, sweep_dir, record)
     else:
         failed = _sweep_in_process(todo, np)
     record.update(runs_seconds=time.time() - t0, failed=len(failed))
@@ -374,14 +376,14 @@ def _log_sweep(sweep_dir: Path, record: dict) -> None:
 
 
 def _sweep_on_dask(todo: list, np: int | None, workers: int, scheduler: str | None,
-                   cluster: Path | None, sweep_dir: Path, record: dict) -> list[str]:
+                   batch: tuple | None, sweep_dir: Path, record: dict) -> list[str]:
     """The runs as Dask tasks; the failed run dirs. Ctrl-C stops the running runs with a
     checkpoint and exits 130."""
     from driver.distributed import SweepInterrupted, run_on_dask  # noqa: PLC0415
 
     t0 = time.time()
     try:
-        records = run_on_dask(todo, np, workers, scheduler, err, cluster_file=cluster)
+        records = run_on_dask(todo, np, workers, scheduler, err, batch=batch)
     except SweepInterrupted as stop:
         by_state: dict[str, int] = {}
         for r in stop.records:
@@ -398,14 +400,12 @@ def _sweep_on_dask(todo: list, np: int | None, workers: int, scheduler: str | No
 def _sweep_in_process(todo: list, np: int | None) -> list[str]:
     """The runs one after the other in this process, with their progress bars; the failed run dirs."""
     from driver.pipeline import execute  # noqa: PLC0415
-    from driver.rundir import latest_checkpoint, read_status  # noqa: PLC0415
+    from driver.rundir import can_resume  # noqa: PLC0415
     from driver.runner import RunInterrupted  # noqa: PLC0415
 
     failed = []
     for values, cfg in todo:
-        # an interrupted run carries on from its checkpoint; any other unfinished one starts again
-        resume = latest_checkpoint(cfg.run_dir()) is not None or bool(
-            (read_status(cfg.run_dir()) or {}).get("lammps_done"))
+        resume = can_resume(cfg.run_dir())
         err.print(f"[bold]{'resume' if resume else 'run'}[/] {values}")
         try:
             execute(cfg, np_ranks=np, show_progress=True, console=err, resume=resume)

@@ -52,14 +52,14 @@ def run_one(cfg_data: dict[str, Any], np_ranks: int | None, token: str) -> dict[
     not started), error, seconds}."""
     from driver.config import parse_config  # noqa: PLC0415
     from driver.pipeline import execute  # noqa: PLC0415
-    from driver.rundir import latest_checkpoint, read_status  # noqa: PLC0415
+    from driver.rundir import can_resume  # noqa: PLC0415
     from driver.runner import RunInterrupted, bind_sweep_token  # noqa: PLC0415
 
     cfg = parse_config(cfg_data, f"sweep run {cfg_data.get('name')}")
     run_dir = cfg.run_dir()
     if not bind_sweep_token(run_dir, token):  # queued on this worker when the sweep was stopped
         return {"run_dir": str(run_dir), "state": "not started", "error": None, "seconds": 0.0}
-    resume = latest_checkpoint(run_dir) is not None or bool((read_status(run_dir) or {}).get("lammps_done"))
+    resume = can_resume(run_dir)
     t0 = time.time()
     try:
         execute(cfg, np_ranks=np_ranks, show_progress=False, resume=resume)
@@ -115,10 +115,10 @@ def _local_cluster(workers: int):
 
 
 def run_on_dask(todo: list[tuple[dict[str, Any], Any]], np_ranks: int | None, workers: int,
-                scheduler: str | None, console: Console, cluster_file: Any = None) -> list[dict[str, Any]]:
+                scheduler: str | None, console: Console, batch: tuple[Any, int] | None = None) -> list[dict[str, Any]]:
     """Run `todo` ((varied values, RunConfig) pairs) on Dask: a local cluster of `workers`
-    processes, the scheduler at `scheduler`, or the batch jobs of `cluster_file`
-    (driver/cluster.py). Returns one record per run, in the order they ended. Progress: done /
+    processes, the scheduler at `scheduler`, or `batch`, a (dask-jobqueue cluster, number of
+    jobs) pair from driver/cluster.py (closed here). Returns one record per run, in the order they ended. Progress: done /
     running / failed / pending and the ETA. Raises SweepInterrupted after Ctrl-C or SIGTERM,
     once the running runs stopped."""
     from distributed import Client, wait  # noqa: PLC0415
@@ -128,10 +128,8 @@ def run_on_dask(todo: list[tuple[dict[str, Any], Any]], np_ranks: int | None, wo
     with _sigterm_as_interrupt():
         if scheduler:
             client = Client(scheduler)
-        elif cluster_file is not None:
-            from driver.cluster import make_cluster  # noqa: PLC0415
-
-            cluster, jobs = make_cluster(cluster_file)
+        elif batch is not None:
+            cluster, jobs = batch
             cluster.scale(jobs=jobs)
             console.print(f"submitted {jobs} batch job(s) of Dask workers; runs start as they do")
             client = Client(cluster)

@@ -222,6 +222,12 @@ def run_state(run_dir: Path) -> dict[str, Any]:
     return st
 
 
+def can_resume(run_dir: Path) -> bool:
+    """An unfinished run carries on (`--resume`) when it has a checkpoint or its LAMMPS part
+    ended; any other one starts again."""
+    return latest_checkpoint(run_dir) is not None or bool((read_status(run_dir) or {}).get("lammps_done"))
+
+
 def latest_checkpoint(run_dir: Path) -> dict[str, Any] | None:
     """The newest complete checkpoint (its JSON record is written after its restart file)."""
     best = None
