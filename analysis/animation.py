@@ -10,9 +10,9 @@ from __future__ import annotations
 import json
 import tempfile
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
-import yaml
 from PIL import Image
 
 from analysis.dumps import bond_pairs, read_atom_dump, read_local_dump
@@ -31,14 +31,15 @@ def periodic_steps(dumps: Path, prefix: str) -> list[int]:
     return sorted(steps)
 
 
-def animate_run(run_dir: Path, max_frames: int = 60, frame_ms: int = 150) -> Path | None:
-    """Write plots/fragmentation.gif from the periodic dumps of a run directory (at most
-    max_frames, evenly picked); None when the run has fewer than two periodic dumps."""
+def animate_run(run_dir: Path, cfg: dict, prefix: str, draw: Callable[[Path, dict, int, Path], None],
+                max_frames: int = 60, frame_ms: int = 150) -> Path | None:
+    """Write plots/fragmentation.gif from the periodic dumps `<prefix>.<step>.lammpstrj` of a
+    run directory (at most max_frames, evenly picked), each frame drawn by draw(run_dir, cfg,
+    step, png) (particles_frame, cells_frame); None when the run has fewer than two periodic
+    dumps."""
     run_dir = Path(run_dir)
-    cfg = yaml.safe_load((run_dir / "config.resolved.yaml").read_text())
     dumps = run_dir / "dumps"
-    bcm = cfg["model"]["kind"] == "bcm"
-    steps = periodic_steps(dumps, "cells" if bcm else "atoms")
+    steps = periodic_steps(dumps, prefix)
     if len(steps) < 2:
         return None
     pick = np.unique(np.linspace(0, len(steps) - 1, min(max_frames, len(steps))).round().astype(int))
@@ -47,10 +48,7 @@ def animate_run(run_dir: Path, max_frames: int = 60, frame_ms: int = 150) -> Pat
         pngs = []
         for k, step in enumerate(steps):
             png = Path(tmp) / f"{k:04d}.png"
-            if bcm:
-                _cells_frame(run_dir, cfg, step, png)
-            else:
-                _particles_frame(run_dir, cfg, step, png)
+            draw(run_dir, cfg, step, png)
             pngs.append(png)
         out = run_dir / "plots" / "fragmentation.gif"
         write_gif(pngs, out, frame_ms)
@@ -71,7 +69,7 @@ def write_gif(pngs: list[Path], out: Path, frame_ms: int = 150) -> None:
                                               duration=frame_ms, loop=0))
 
 
-def _particles_frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
+def particles_frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
     atoms = read_atom_dump(run_dir / "dumps" / f"atoms.{step}.lammpstrj")[-1]
     bonds = read_local_dump(run_dir / "dumps" / f"bonds.{step}.lammpstrj")[-1]
     pairs, types = bond_pairs(bonds)
@@ -87,7 +85,7 @@ def _particles_frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
         render_particles_3d(atoms.positions, labels, png, title)
 
 
-def _cells_frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
+def cells_frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
     from analysis.impact import cell_shapes, fragments_of, read_interfaces  # noqa: PLC0415
     from analysis.shapes import vertices_in_space  # noqa: PLC0415
 

@@ -238,9 +238,9 @@ def bond_pairs(frame: LocalFrame) -> tuple[np.ndarray, np.ndarray]:
 # bare words, one of each role.
 BOND_NAMES = {"atom1": ("batom1", "atom1"), "atom2": ("batom2", "atom2"), "state": ("btype", "type", "state")}
 # `dump local` itself names a compute's vector c_ID[k]. Two layouts, the tool's own:
-#  - `compute ID property/local batom1 batom2 btype` (driver/scenarios/shear.py, ID bl):
+#  - `compute ID property/local batom1 batom2 btype` (driver/bpm/shear.py, ID bl):
 #    c_ID[1] c_ID[2] c_ID[3], for any ID whose vector has exactly these three components;
-#  - the impact scenario's (driver/scenarios/impact.py): `compute ifc property/local batom1
+#  - the impact scenario's (driver/bcm/impact.py): `compute ifc property/local batom1
 #    batom2` and `compute ifs bond/local b1 ... b6` of bond bcm/griffith, whose b1 is the
 #    interface state (1 intact, 0 broken): c_ifc[1] c_ifc[2] c_ifs[1].
 BCM_INTERFACE_NAMES = ("c_ifc[1]", "c_ifc[2]", "c_ifs[1]")

@@ -2,6 +2,10 @@
 the scaling tools of SPEC 2.5 for BPM shear runs and the sweep-level measures of SPEC 1.5 for
 BCM impacts, written as tables, plots and a one-page report.
 
+Which runs a set holds (survey_runs, load_runs) is decided here; which analysis a group of
+runs gets, by the scenario registry (driver/sets.py), which passes each analysis the
+parameters its runs are compared by (`params`: config mapping -> runs-table columns).
+
 Only the runs' result tables are read (never the dumps), so a set is analysed in seconds and
 a run re-analysed by `driver post` feeds the set with its new tables.
 """
@@ -11,6 +15,7 @@ from __future__ import annotations
 import json
 import re
 from pathlib import Path
+from typing import Callable, Iterable
 
 import numpy as np
 import pandas as pd
@@ -18,7 +23,7 @@ import yaml
 
 from analysis.impact import ENERGY_CHANNELS
 from analysis.plots import PlotGuard, plot_curves, plot_energy_split, plot_histograms, plot_mass_pdf, plot_measures
-from analysis.report import Report, clear_report, write_report
+from analysis.report import Report, write_report
 from analysis.scaling import (BREAKUP_FRACTION, Curve, Threshold, breakup_definitions, finite_rate_rescale,
                               finite_size_rescale, fit_finite_rate, fit_finite_size, fit_growth, fit_loglog,
                               fit_moment_collapse, fit_threshold_power, moment_curves, moment_rescale, omega_0, omega_1,
@@ -43,15 +48,17 @@ class RunSetError(ValueError):
 # Finding and loading runs
 
 
-# result tables each kind of set reads besides summary.json
-_REQUIRED_TABLES = {"impact": ("fragments",), "shear": ("frames", "nm", "grains")}
+#: the result tables a run's set analysis reads besides summary.json, from its config mapping
+TablesOf = Callable[[dict], Iterable[str]]
+#: the parameters a set compares runs by (columns of the runs table), from a config mapping
+ParamsOf = Callable[[dict], dict]
 
 
-def survey_runs(paths: list[Path]) -> tuple[list[Path], list[dict]]:
+def survey_runs(paths: list[Path], required: TablesOf | None = None) -> tuple[list[Path], list[dict]]:
     """The run directories among `paths` (a run directory itself, or a directory holding run
     directories, a sweep, searched one level down), split into those a set analysis can read
-    (finished, with their summary and result tables) and those it leaves out, each as
-    {run_dir, state, reason}."""
+    (finished, with their summary and the result tables `required` names for their config)
+    and those it leaves out, each as {run_dir, state, reason}."""
     finished: list[Path] = []
     left: dict[Path, dict] = {}
     for p in map(Path, paths):
@@ -62,7 +69,7 @@ def survey_runs(paths: list[Path]) -> tuple[list[Path], list[dict]]:
         else:
             raise RunSetError(f"{p}: neither a run directory nor a directory of runs")
         for q in cands:
-            state, reason = _left_out_reason(q)
+            state, reason = _left_out_reason(q, required)
             if reason is None:
                 finished.append(q)
             else:
@@ -70,21 +77,21 @@ def survey_runs(paths: list[Path]) -> tuple[list[Path], list[dict]]:
     return list(dict.fromkeys(finished)), list(left.values())
 
 
-def find_runs(paths: list[Path]) -> list[Path]:
+def find_runs(paths: list[Path], required: TablesOf | None = None) -> list[Path]:
     """The finished run directories among `paths` (survey_runs); none is an error that lists
     why each run was left out."""
-    finished, left = survey_runs(paths)
+    finished, left = survey_runs(paths, required)
     if not finished:
-        raise _no_runs(paths, left)
+        raise no_runs(paths, left)
     return finished
 
 
-def _no_runs(paths: list[Path], left: list[dict]) -> RunSetError:
+def no_runs(paths: list[Path], left: list[dict]) -> RunSetError:
     why = "; ".join(f"{r['run_dir']}: {r['reason']}" for r in left[:10])
     return RunSetError(f"no finished runs in {', '.join(map(str, paths))}" + (f" ({why})" if why else ""))
 
 
-def _left_out_reason(run_dir: Path) -> tuple[str, str | None]:
+def _left_out_reason(run_dir: Path, required: TablesOf | None) -> tuple[str, str | None]:
     """(state, why the run cannot enter a set analysis, or None when it can)."""
     status = run_dir / "status.json"
     if not status.exists():
@@ -107,10 +114,10 @@ def _left_out_reason(run_dir: Path) -> tuple[str, str | None]:
     except (OSError, ValueError) as exc:
         return state, f"results/summary.json unreadable ({exc})"
     try:
-        kind = yaml.safe_load((run_dir / "config.resolved.yaml").read_text())["scenario"]["kind"]
-    except (OSError, KeyError, TypeError, yaml.YAMLError) as exc:
+        tables = list(required(yaml.safe_load((run_dir / "config.resolved.yaml").read_text()))) if required else []
+    except (OSError, KeyError, TypeError, ValueError, yaml.YAMLError) as exc:
         return state, f"config.resolved.yaml unreadable ({exc})"
-    missing = [t for t in _REQUIRED_TABLES.get(kind, ()) if not (run_dir / "results" / f"{t}.parquet").exists()]
+    missing = [t for t in tables if not (run_dir / "results" / f"{t}.parquet").exists()]
     if missing:
         return state, (f"finished, but results/{', '.join(f'{t}.parquet' for t in missing)} missing "
                        "(driver post RUN_DIR rebuilds them)")
@@ -118,57 +125,28 @@ def _left_out_reason(run_dir: Path) -> tuple[str, str | None]:
 
 
 def load_runs(run_dirs: list[Path]) -> list[dict]:
-    """[{dir, cfg, summary}] of each run; all must share model and scenario kinds."""
-    runs = [{"dir": d, "cfg": yaml.safe_load((d / "config.resolved.yaml").read_text()),
+    """[{dir, cfg, summary}] of each run."""
+    return [{"dir": d, "cfg": yaml.safe_load((d / "config.resolved.yaml").read_text()),
              "summary": json.loads((d / "results" / "summary.json").read_text())} for d in run_dirs]
-    kinds = {(r["cfg"]["model"]["kind"], r["cfg"]["scenario"]["kind"]) for r in runs}
-    if len(kinds) > 1:
-        raise RunSetError(f"runs of different kinds cannot be analysed as one set: {sorted(kinds)}")
-    return runs
 
 
-def analyse_set(paths: list[Path], out: Path, plots: bool = True, strain: float | None = None,
-                n_bootstrap: int = 100, breakup_fraction: float = BREAKUP_FRACTION) -> dict:
-    """Tables, plots and report of a set of runs into `out`; returns the fitted figures and the
-    runs left out (left_out: run_dir, state, reason), which the runs table and the report
-    also list. breakup_fraction: impact sets, SPEC 1.5's break-up rule (largest fragment below
-    this fraction of the parent's mass)."""
+def check_breakup_fraction(breakup_fraction: float) -> None:
     if not 0 < breakup_fraction <= 1:
         raise RunSetError(f"break-up fraction {breakup_fraction:g}: must be in (0, 1]")
-    finished, left = survey_runs(paths)
-    if not finished:
-        raise _no_runs(paths, left)
-    runs = load_runs(finished)
-    out = Path(out)
-    clear_report(out)
-    kind = runs[0]["cfg"]["scenario"]["kind"]
-    if kind == "shear":
-        return analyse_shear_set(runs, out, plots, strain, n_bootstrap, left_out=left)
-    return analyse_impact_set(runs, out, plots, left_out=left, breakup_fraction=breakup_fraction)
 
 
-def _run_params(cfg: dict) -> dict:
-    """The parameters a set compares runs by (their columns in the runs table)."""
-    model, scen = cfg.get("model", {}), cfg.get("scenario", {})
-    if scen.get("kind") == "shear":
-        return {"L": float(model["L"]), "edot": float(scen["strain_rate"]), "k_A": model.get("k_A"),
-                "lambda_c": model.get("lambda_c"), "seed": cfg.get("seed")}
-    return {"G_c": float(model["interface"]["G_c"]), "velocity": float(scen["velocity"]), "seed": cfg.get("seed"),
-            "n_cells": model.get("n_cells")}
-
-
-def _run_row(r: dict) -> dict:
+def _run_row(r: dict, params: ParamsOf) -> dict:
     """One included run: name, directory, parameters, the summary's scalar entries, and the
     figures its analysis failed to draw and its energy flags (lists in the summary)."""
     summ = r["summary"]
     return {"run": r["cfg"]["name"], "run_dir": str(r["dir"]), "included": True, "state": "finished", "left_out": "",
-            **_run_params(r["cfg"]),
+            **params(r["cfg"]),
             **{k: v for k, v in summ.items() if not isinstance(v, (dict, list))},
             "plots_failed": ", ".join(f["plot"] for f in summ.get("plots_failed", [])),
             **({"energy_flags": len(summ["energy_flags"])} if "energy_flags" in summ else {})}
 
 
-def _left_out_rows(left: list[dict]) -> pd.DataFrame:
+def _left_out_rows(left: list[dict], params: ParamsOf) -> pd.DataFrame:
     """Rows of the runs table for the runs left out: name and parameters where the config
     reads, state and reason."""
     rows = []
@@ -177,16 +155,16 @@ def _left_out_rows(left: list[dict]) -> pd.DataFrame:
                "left_out": r["reason"]}
         try:
             cfg = yaml.safe_load((Path(r["run_dir"]) / "config.resolved.yaml").read_text())
-            row.update({"run": cfg["name"], **_run_params(cfg)})
+            row.update({"run": cfg["name"], **params(cfg)})
         except (OSError, KeyError, TypeError, ValueError, yaml.YAMLError):
             pass
         rows.append(row)
     return pd.DataFrame(rows)
 
 
-def _runs_table(table: pd.DataFrame, left: list[dict]) -> pd.DataFrame:
+def _runs_table(table: pd.DataFrame, left: list[dict], params: ParamsOf) -> pd.DataFrame:
     """The set's runs table: the runs analysed, then those left out with their reasons."""
-    return pd.concat([table, _left_out_rows(left)], ignore_index=True) if left else table
+    return pd.concat([table, _left_out_rows(left, params)], ignore_index=True) if left else table
 
 
 def _report_left_out(rep: Report, left: list[dict], n_used: int) -> None:
@@ -213,7 +191,7 @@ def _report_plot_failures(rep: Report, table: pd.DataFrame, guard: PlotGuard) ->
 
 
 def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: float | None = None,
-                      n_bootstrap: int = 100, left_out: list[dict] | None = None) -> dict:
+                      n_bootstrap: int = 100, left_out: list[dict] | None = None, *, params: ParamsOf) -> dict:
     """Growth exponent phi per run; tau, and the finite-size (alpha, gamma), finite-rate
     (nu alpha) and second-moment (alpha, nu) collapses of SPEC 2.5 wherever the set varies L
     and/or edot, at one strain (default: the largest measure strain all runs reached).
@@ -224,7 +202,7 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
         raise RunSetError("2D and 3D runs cannot be scaled together")
     d = dims.pop()
     cut = SMALL_GRAIN_CUT[d]
-    table = pd.DataFrame([_run_row(r) for r in runs])
+    table = pd.DataFrame([_run_row(r, params) for r in runs])
     # runs are keyed by their directory: names repeat across sweeps made from one base config
     frames = {str(r["dir"]): pd.read_parquet(r["dir"] / "results" / "frames.parquet") for r in runs}
     if strain is None:
@@ -267,7 +245,7 @@ def analyse_shear_set(runs: list[dict], out: Path, plots: bool = True, strain: f
         _scale_material(fits, collapses, material, table[table.run_dir.isin(members)], nm[nm.material == material],
                         masses, frames, strain, d, cut, n_bootstrap)
     fits_df = pd.DataFrame(fits, columns=["fit", "runs", "parameter", "value", "sigma", "quality", "method", "flag"])
-    save_table(_runs_table(table, left_out), out / "runs")
+    save_table(_runs_table(table, left_out, params), out / "runs")
     save_table(nm, out / "nm")
     save_table(fits_df, out / "fits")
     title = f"BPM {d}D shear, {len(runs)} runs, strain {strain:g}"
@@ -418,7 +396,7 @@ CRACKS = "cracks_D_w>0"  # the definition of omega_0: first cracks, D_w > 0
 
 
 def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True, left_out: list[dict] | None = None,
-                       breakup_fraction: float = BREAKUP_FRACTION) -> dict:
+                       breakup_fraction: float = BREAKUP_FRACTION, *, params: ParamsOf) -> dict:
     """Measures against v and omega per G_c (mean and standard deviation over tessellations),
     omega_0 and omega_1 located from the data under every definition (breakup_definitions:
     SPEC 1.5's largest fragment below breakup_fraction, the primary one, and the chip-based
@@ -429,7 +407,7 @@ def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True, left_out
     left_out = left_out or []
     definitions = breakup_definitions(breakup_fraction)
     primary, chips = list(definitions)
-    table = pd.DataFrame([_run_row(r) for r in runs])
+    table = pd.DataFrame([_run_row(r, params) for r in runs])
     if "largest_fragment_mass_fraction" in table:
         table[f"breakup_{primary}"] = table.largest_fragment_mass_fraction < breakup_fraction
     table[f"breakup_{chips}"] = table.n_fragments_multi_cell >= 2
@@ -526,7 +504,7 @@ def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True, left_out
     thresholds_df = pd.DataFrame(threshold_rows)
     mass_pdf = pd.concat([t.assign(label=k) for k, t in mass_tables.items()], ignore_index=True)
 
-    save_table(_runs_table(table, left_out), out / "runs")
+    save_table(_runs_table(table, left_out, params), out / "runs")
     save_table(points, out / "points")
     save_table(thresholds_df, out / "thresholds")
     save_table(fits_df, out / "fits")

@@ -28,14 +28,14 @@ from driver.config import parse_config
 from driver.engine import venv_bin
 from driver.plugin_build import plugin_library
 from driver.rundir import RunDir
-from driver.scenarios.impact import build_system, plan_and_input
+from driver.bcm.impact import build_system, render_inputs
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
 def bench_input(cfg, system: dict, steps: int) -> str:
     """The impact input up to its first `run 0`, then `run STEPS` (no settle loop, no print)."""
-    _, text = plan_and_input(cfg, Path("PLUGIN"), system)
+    text, _, _ = render_inputs(cfg, Path("PLUGIN"), system)
     head = text.split("\nrun             0")[0]
     lines = [ln for ln in head.splitlines() if not ln.startswith("fix             record")]
     return "\n".join(lines) + f"\nthermo {steps}\nrun {steps}\n"

@@ -204,9 +204,9 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
             for msg in summary.get("warnings", []):
                 err.print(f"[yellow]warning:[/] {msg}")
             if animate:
-                from analysis.animation import animate_run  # noqa: PLC0415
+                from driver.pipeline import animate as animate_gif  # noqa: PLC0415
 
-                gif = animate_run(run_dir)
+                gif = animate_gif(run_dir, cfg)
                 err.print(f"animation: {gif}" if gif else
                           "[yellow]no animation: the run has no periodic dumps (set scenario.dump_every)")
         else:
@@ -245,7 +245,8 @@ def scaling(paths: list[Path] = typer.Argument(..., help="run directories and/or
     """Scaling analysis of a set of finished runs: exponents, collapses, crossovers, report.
     Runs that did not finish are left out and listed, with the reason, in the runs table and
     the report."""
-    from analysis.runset import RunSetError, analyse_set  # noqa: PLC0415
+    from analysis.runset import RunSetError  # noqa: PLC0415
+    from driver.sets import analyse_set  # noqa: PLC0415
 
     if not 0 < breakup_fraction <= 1:
         _fail(f"--breakup-fraction {breakup_fraction:g}: must be in (0, 1]", 2)
@@ -433,7 +434,8 @@ def _sweep_results(expanded, columns: str) -> None:
     save_table(seed_points(table, expanded.keys), sweep_dir / "sweep_points")
     finished = table[table.state == "finished"]
     if len(finished):
-        from analysis.runset import RunSetError, analyse_set  # noqa: PLC0415
+        from analysis.runset import RunSetError  # noqa: PLC0415
+        from driver.sets import analyse_set  # noqa: PLC0415
 
         try:
             analyse_set([cfg.run_dir() for _, cfg in runs if cfg.run_dir().exists()], sweep_dir)

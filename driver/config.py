@@ -12,127 +12,17 @@ import os
 import re
 import reprlib
 from pathlib import Path
-from typing import Annotated, Any, Literal, Union
+from typing import Annotated, Any, Union
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import BaseModel, Field, ValidationError, field_validator, model_validator
 
-
-class ConfigError(ValueError):
-    """An input file was refused; the message names file, field, value and what is allowed."""
-
-
-class _Strict(BaseModel):
-    # allow_inf_nan=False: .inf/.nan are refused in every float field of every section, list
-    # items included (a non-finite damping or time hangs LAMMPS; tested in test_validation.py)
-    model_config = ConfigDict(extra="forbid", validate_default=True, allow_inf_nan=False)
-
-
-# ---------------------------------------------------------------------------- BPM (SPEC 2)
-class BPMModel(_Strict):
-    """Clemmer-Robbins bonded particle model (SPEC 2.1-2.2), LJ reduced units (a = m = u = 1)."""
-
-    kind: Literal["bpm"] = "bpm"
-    dimension: Literal[2, 3] = Field(2, description="2: bidisperse disks; 3: monodisperse spheres")
-    L: float = Field(24.0, ge=6.0, le=5000.0, description="periodic box side, in particle diameters a")
-    packing_fraction: float | None = Field(
-        None, gt=0.3, lt=0.95,
-        description="area/volume fraction before relaxation; default just above jamming (see packing.py)")
-    lambda_c: float = Field(1.05, gt=1.0, le=2.0, description="critical bond stretch r/r0 (Eq. 2)")
-    theta_c_deg: float = Field(10.0, gt=0.0, lt=180.0, description="critical angle change (Eq. 3), degrees")
-    k_A: float = Field(4.0, ge=0.0, le=100.0, description="angle stiffness (Eq. 3), units of u")
-    gamma: float = Field(50.0, ge=0.0, description="damping (Eq. 5), units sqrt(m u)/a")
-    timestep: float = Field(0.005, gt=0.0, le=0.02, description="velocity-Verlet step, units sqrt(m a^2/u)")
-    bond_max_length: float | None = Field(
-        None, gt=1.0, description="3D Delaunay edge cut; default 5/4 a (SPEC 2.1, see network.py); unused in 2D")
-    skin: float = Field(0.3, gt=0.0, le=2.0, description="neighbour-list skin, units of a")
-
-
-class ShearScenario(_Strict):
-    """Constant-volume shear at a true strain rate (SPEC 2.4): 2D pure shear, 3D triaxial."""
-
-    kind: Literal["shear"] = "shear"
-    strain_rate: float = Field(1e-3, gt=0.0, le=0.1, description="true strain rate edot, units 1/tau")
-    max_strain: float = Field(1.0, gt=0.0, le=3.0, description="final true strain eps = edot t")
-    measure_strains: list[Annotated[float, Field(gt=0.0)]] = Field(
-        default_factory=lambda: [0.1, 0.25, 0.5, 1.0],
-        description="strains at which bond snapshots are written and grains counted")
-    thermo_every: int = Field(200, ge=1, description="steps between stress/progress records")
-    dump_every: int = Field(0, ge=0, description="steps between atom+bond dumps; 0 = only at measure strains")
-
-    @model_validator(mode="after")
-    def _strains_within_run(self) -> "ShearScenario":
-        bad = [s for s in self.measure_strains if s > self.max_strain * (1 + 1e-12)]
-        if bad:
-            raise ValueError(f"measure_strains {bad} exceed max_strain = {self.max_strain}")
-        if sorted(self.measure_strains) != self.measure_strains or len(set(self.measure_strains)) != len(
-                self.measure_strains):
-            raise ValueError("measure_strains must be strictly increasing")
-        return self
-
-
-# ---------------------------------------------------------------------------- BCM (SPEC 1)
-class CohesiveInterface(_Strict):
-    """Glued face between two cells (SPEC 1.2-1.3), whole-interface values, SI units."""
-
-    kn: float = Field(1e7, gt=0.0, description="normal stiffness, N/m")
-    kt: float = Field(0.8e7, gt=0.0, description="tangential stiffness, N/m")
-    en2: float = Field(0.999, ge=0.0, le=1.0, description="squared normal restitution e_n^2")
-    G_c: float = Field(1.0, gt=0.0, description="fracture energy, J/m^2")
-
-
-class FrictionalContact(_Strict):
-    """Cohesionless contact: broken interfaces, cell-cell and cell-plane contacts (SPEC 1.2-1.3)."""
-
-    kn: float = Field(1e8, gt=0.0, description="normal stiffness, N/m")
-    kt: float = Field(8e7, gt=0.0, description="tangential stiffness, N/m")
-    en2: float = Field(0.001, ge=0.0, le=1.0, description="squared normal restitution e_n^2")
-    mu: float = Field(0.3, ge=0.0, description="Coulomb friction coefficient mu_s")
-
-
-class BCMModel(_Strict):
-    """Bonded cell method (SPEC 1): a particle tessellated into rigid Voronoi cells, SI units."""
-
-    kind: Literal["bcm"] = "bcm"
-    shape: Literal["truncated_pentakis_dodecahedron", "cube", "icosphere_like"] = "truncated_pentakis_dodecahedron"
-    diameter: float = Field(2e-3, gt=0.0, description="parent diameter, m")
-    diameter_kind: Literal["circumscribed", "equal_volume"] = "circumscribed"
-    n_cells: int = Field(1728, ge=2, le=200_000, description="number of Voronoi cells N_c")
-    density: float = Field(6000.0, gt=0.0, description="solid density rho_s, kg/m^3")
-    rounding: float = Field(0.02, ge=0.0, lt=0.3,
-                            description="rounding radius r_m as a fraction of the mean cell size h = (V/N_c)^(1/3)")
-    interface: CohesiveInterface = Field(default_factory=CohesiveInterface)
-    contact: FrictionalContact = Field(default_factory=FrictionalContact)
-    griffith_energy: Literal["stored", "rockable", "literal"] = Field(
-        "stored", description="energy in the Griffith criterion (SPEC 1.2): what the springs store (default), "
-                              "Rockable's N_p-fold sum, or Eq. 5 read literally (1/N_p)")
-    interface_stiffness: Literal["per_interface", "per_area"] = Field(
-        "per_interface", description="per_interface: every interface has the configured k_n, k_t (the published "
-                                     "model); per_area: k_n, k_t times S / <S>, the interface's area over the mean "
-                                     "bonded area, so the Griffith threshold is a stress criterion")
-    min_interface_area: float = Field(
-        0.0, ge=0.0, lt=1.0, description="shared faces smaller than this fraction of the median face area are not "
-                                         "bonded (their cells only touch as contacts); 0 = every face bonded, the "
-                                         "published model. A_0 and D_w count bonded interfaces only")
-    lloyd_tol: float = Field(2e-3, gt=0.0, lt=0.1, description="Lloyd stop: RMS seed step / h")
-    lloyd_max_iter: int = Field(400, ge=0, le=10_000)
-
-
-class ImpactScenario(_Strict):
-    """One particle hits a rigid plane (SPEC 1.4)."""
-
-    kind: Literal["impact"] = "impact"
-    velocity: float = Field(4.5, gt=0.0, le=100.0, description="impact velocity v_0 normal to the plane, m/s")
-    gap: float = Field(1e-3, ge=0.0, lt=1.0, description="initial gap to the plane, fraction of the diameter")
-    steps_per_period: float = Field(50.0, ge=10.0, description="time step = shortest contact period / this")
-    max_time: float = Field(5e-4, gt=0.0, description="hard stop on simulated time, s")
-    settle_window: float = Field(5e-6, gt=0.0, description="window over which the outcome must not change, s")
-    ke_tolerance: float = Field(1e-3, gt=0.0, lt=1.0,
-                                description="settled when kinetic energy changes by less than this fraction "
-                                            "over a window with no break and the plane unloaded")
-    thermo_every: int = Field(10, ge=1, description="steps between energy records: 10 samples a 2 µs contact "
-                                                   "at 50 points or more for time steps up to 4e-9 s")
-    dump_every: int = Field(0, ge=0, description="steps between cell dumps; 0 = start and end only")
+from driver.bcm.section import BCMModel, CohesiveInterface, FrictionalContact  # noqa: F401 (re-exported)
+from driver.bpm.section import BPMModel  # noqa: F401 (re-exported)
+from driver.registry import MODELS, SCENARIOS, unit
+from driver.schema import ConfigError, _Strict  # noqa: F401 (re-exported)
+from driver.scenarios.bcm_impact import ImpactScenario  # noqa: F401 (re-exported)
+from driver.scenarios.bpm_shear import ShearScenario  # noqa: F401 (re-exported)
 
 
 class Output(_Strict):
@@ -191,8 +81,11 @@ class Execution(_Strict):
         return None if unit == "steps" else value * {"s": 1.0, "min": 60.0, "h": 3600.0}[unit]
 
 
-MODEL_KINDS = ("bpm", "bcm")
-SCENARIO_KINDS = ("shear", "impact")
+MODEL_KINDS = tuple(MODELS)
+SCENARIO_KINDS = tuple(SCENARIOS)
+# the sections a config may hold, from the registry (driver/registry.py)
+ModelSection = Annotated[Union[tuple(MODELS.values())], Field(discriminator="kind")]
+ScenarioSection = Annotated[Union[tuple(SCENARIOS.values())], Field(discriminator="kind")]
 
 
 class RunConfig(_Strict):
@@ -202,9 +95,8 @@ class RunConfig(_Strict):
                       description="run name: a plain file name (letters, digits, _ . -; starts with a letter, "
                                   "digit or _, so never . or ..)")
     seed: int = Field(1, ge=1, le=2**31 - 1, description="seeds the packing/tessellation and orientations")
-    model: Annotated[Union[BPMModel, BCMModel], Field(discriminator="kind")] = Field(default_factory=BPMModel)
-    scenario: Annotated[Union[ShearScenario, ImpactScenario], Field(discriminator="kind")] = Field(
-        default_factory=ShearScenario)
+    model: ModelSection = Field(default_factory=BPMModel)
+    scenario: ScenarioSection = Field(default_factory=ShearScenario)
     output: Output = Field(default_factory=Output)
     execution: Execution = Field(default_factory=Execution)
 
@@ -221,17 +113,8 @@ class RunConfig(_Strict):
 
     @model_validator(mode="after")
     def _consistent(self) -> "RunConfig":
-        if self.scenario.kind == "shear" and self.model.kind != "bpm":
-            raise ValueError("scenario 'shear' needs model kind 'bpm' (BCM shear is not available yet)")
-        if self.scenario.kind == "impact" and self.model.kind != "bcm":
-            raise ValueError("scenario 'impact' needs model kind 'bcm' (BPM particle impact is not available yet)")
-        if self.output.animation and self.scenario.dump_every == 0:
-            raise ValueError("output.animation needs periodic dumps: set scenario.dump_every > 0 (steps between "
-                             "dumps), or animation: false")
-        if self.model.kind == "bpm" and self.scenario.kind == "shear":
-            steps = self.scenario.max_strain / (self.scenario.strain_rate * self.model.timestep)
-            if steps > 2e9:
-                raise ValueError(f"max_strain / (strain_rate * timestep) = {steps:.3g} steps is beyond 2e9")
+        # the pair must be registered; then its unit checks its sections together
+        unit(self.model.kind, self.scenario.kind).check(self)
         return self
 
     def run_dir(self) -> Path:

@@ -50,10 +50,9 @@ def longest_first(todo: list[tuple[dict[str, Any], Any]]) -> list[tuple[dict[str
     """`todo` in the order the runs should start: the longest expected first, so that no long
     run is left alone at the end of the sweep while the other workers idle (list scheduling,
     longest processing time first). Expected length: the size estimate's LAMMPS time, then,
-    among impacts of equal estimate, the impact energy per unit fracture energy v_0^2 / G_c
-    (a particle that breaks more has more contacts and settles later: 3 s at 0.5 m/s to 42 s
-    at 6.5 m/s in the 300-cell study, runs/bcm_impact_study_small)."""
+    among runs of equal estimate, their unit's `work` (impacts: v_0^2 / G_c)."""
     from driver.estimate import estimate  # noqa: PLC0415
+    from driver.registry import unit_of  # noqa: PLC0415
 
     def key(item: tuple[dict[str, Any], Any]) -> tuple[float, float]:
         cfg = item[1]
@@ -61,9 +60,7 @@ def longest_first(todo: list[tuple[dict[str, Any], Any]]) -> list[tuple[dict[str
             seconds = estimate(cfg).seconds
         except Exception:  # noqa: BLE001 - no estimate: keep its place among the unknowns
             seconds = 0.0
-        sc = cfg.scenario
-        energy = sc.velocity ** 2 / cfg.model.interface.G_c if getattr(sc, "kind", None) == "impact" else 0.0
-        return (float(f"{seconds:.2g}"), energy)  # estimates equal to 2 digits count as equal
+        return (float(f"{seconds:.2g}"), unit_of(cfg).work(cfg))  # estimates equal to 2 digits count as equal
 
     return sorted(todo, key=key, reverse=True)
 

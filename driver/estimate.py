@@ -139,7 +139,9 @@ def bcm_interfaces(n_cells: int) -> int:
     return int(round(max(per_cell, 0.5) * n_cells))
 
 
-def _bcm(cfg: RunConfig, ranks: int) -> SizeEstimate:
+def bcm_impact(cfg: RunConfig, ranks: int) -> SizeEstimate:
+    """A BCM impact: the cells, interfaces and contact points of the tessellation, at most
+    max_time / dt steps."""
     from driver.bcm.particle import parent_shape  # noqa: PLC0415 (geometry; not needed to validate)
 
     m, sc = cfg.model, cfg.scenario
@@ -159,7 +161,8 @@ def _bcm(cfg: RunConfig, ranks: int) -> SizeEstimate:
         steps=int(math.ceil(sc.max_time / dt)), ranks=ranks)
 
 
-def _bpm(cfg: RunConfig, ranks: int) -> SizeEstimate:
+def bpm_shear(cfg: RunConfig, ranks: int) -> SizeEstimate:
+    """A BPM shear run: the packing's particles, bonds and angles, max_strain / (rate dt) steps."""
     from driver.bpm.packing import DEFAULT_PHI, particle_count  # noqa: PLC0415 (imports scipy)
 
     m, sc = cfg.model, cfg.scenario
@@ -181,10 +184,10 @@ def estimate(cfg: RunConfig, np_ranks: int | None = None) -> SizeEstimate:
 
     np_ranks: MPI ranks (`--np`); default cfg.execution.np.
     """
+    from driver.registry import unit_of  # noqa: PLC0415
+
     ranks = np_ranks if np_ranks is not None else cfg.execution.np
-    if cfg.model.kind == "bcm":
-        return _bcm(cfg, ranks)
-    return _bpm(cfg, ranks)
+    return unit_of(cfg).estimate(cfg, ranks)
 
 
 def available_memory_bytes(meminfo: str | Path = "/proc/meminfo",

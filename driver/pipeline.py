@@ -20,6 +20,7 @@ import yaml
 from rich.console import Console
 
 from driver.config import RunConfig, resolved_yaml
+from driver.registry import unit_of
 from driver.plugin_build import plugin_library
 from driver.rundir import (LOCK, MARKER, STAGING, STAGING_MARKER, STATUS, RunDir, RunDirError, atomic_write_json, atomic_write_text,
                            check_claimable, latest_checkpoint, provenance, read_status)
@@ -27,16 +28,6 @@ from driver.runner import RunInterrupted, deferred_signals, interruptible, run_s
 
 # Keys that may change between an interrupted run and its resumption: how it runs, not what.
 RESUMABLE_CHANGES = ("execution.", "output.plots", "output.animation", "output.count_above", "output.dir")
-
-
-def _scenario(kind: str):
-    if kind == "shear":
-        from driver.scenarios import shear  # noqa: PLC0415
-
-        return shear.run_shear, shear.progress_spec
-    from driver.scenarios import impact  # noqa: PLC0415
-
-    return impact.run_impact, impact.progress_spec
 
 
 def execute(cfg: RunConfig, source: Path | None = None, force: bool = False, np_ranks: int | None = None,
@@ -76,8 +67,7 @@ def _execute_locked(cfg: RunConfig, rd: RunDir, action: str, source: Path | None
         console.print(f"[yellow]{rd.root}: resuming " + (
             "the analysis (its LAMMPS part had ended)" if lammps_done else f"from the checkpoint at step "
                                                                             f"{checkpoint['step']}"))
-        _, progress_spec = _scenario(cfg.scenario.kind)
-        spec = progress_spec(cfg, system)
+        spec = unit_of(cfg).progress(cfg, system)
     else:
         if action == "cleared":
             console.print(f"[yellow]{rd.root}: the earlier run's files were removed, starting clean")
@@ -92,10 +82,9 @@ def _execute_locked(cfg: RunConfig, rd: RunDir, action: str, source: Path | None
                            "plugin_library": str(plugin), "plugin_build_hash": plugin.parent.name,
                            "started": time.strftime("%Y-%m-%dT%H:%M:%S")})
         atomic_write_json(rd.root / "provenance.json", prov)
-        build, _ = _scenario(cfg.scenario.kind)
         t_build = time.time()
         try:
-            system, spec = build(cfg, rd, plugin)
+            system, spec = unit_of(cfg).build(cfg, rd, plugin)
             prov["build_seconds"] = time.time() - t_build  # wall_seconds (below) is LAMMPS + analysis
         except RunInterrupted as exc:
             rd.set_state("interrupted", error=str(exc), phase="build", signal=exc.signum)
@@ -247,16 +236,17 @@ def analyse_run(run_dir: Path, cfg: dict, partial: bool = False) -> dict:
 
 
 def _analyse(run_dir: Path, cfg: dict, partial: bool) -> dict:
-    if cfg["scenario"]["kind"] == "shear":
-        from analysis.shear import analyse_shear  # noqa: PLC0415
-
-        summary = analyse_shear(run_dir, cfg, plots=cfg["output"]["plots"], partial=partial)
-    else:
-        from analysis.impact import analyse_impact  # noqa: PLC0415
-
-        summary = analyse_impact(run_dir, cfg, plots=cfg["output"]["plots"], partial=partial)
+    scenario = unit_of(cfg)
+    summary = scenario.analyse(run_dir, cfg, cfg["output"]["plots"], partial)
     if cfg["output"].get("animation"):
-        from analysis.animation import animate_run  # noqa: PLC0415
-
-        animate_run(run_dir)
+        animate(run_dir, cfg)
     return summary
+
+
+def animate(run_dir: Path, cfg: dict) -> Path | None:
+    """plots/fragmentation.gif of a run from its periodic dumps, drawn by its unit's frames
+    (None when it has fewer than two periodic dumps)."""
+    from analysis.animation import animate_run  # noqa: PLC0415
+
+    prefix, draw = unit_of(cfg).frame
+    return animate_run(run_dir, cfg, prefix, draw)

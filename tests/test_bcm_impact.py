@@ -179,7 +179,7 @@ def conservative_particle(lmp, tmp_path: Path, n_cells: int, seed: int, v_rms: f
     write_cells(tmp_path / "cells.txt", part.core_vertices, part.core_faces)
     dt, _ = contact_timestep(part.masses, max(model.contact.kn, model.interface.kn), 50.0)
     skin = 0.1 * tess.mean_cell_size
-    # the generated input's settings (driver/scenarios/impact.py)
+    # the generated input's settings (driver/bcm/impact.py)
     cutoff = float(2.0 * part.bound_radius.max() * 1.05 + skin)
     lmp.commands(CONSERVATIVE_INPUT.format(
         dir=tmp_path, cutoff=cutoff, rm=float(part.r_m), skin=float(skin), dt=float(dt),

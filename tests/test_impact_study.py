@@ -20,7 +20,7 @@ import yaml
 
 import analysis.impact
 from analysis.impact import ENERGY_CHANNELS, fragment_counts
-from analysis.runset import analyse_set
+from driver.sets import analyse_set
 from driver.config import parse_config
 from driver.pipeline import execute
 

@@ -17,8 +17,9 @@ import pytest
 import yaml
 
 from analysis.powerlaw import sample_power_law
-from analysis.runset import RunSetError, analyse_set, find_runs
+from analysis.runset import RunSetError, find_runs
 from analysis.statistics import mass_distribution
+from driver.sets import analyse_set
 
 TAU, ALPHA, GAMMA, PHI, NU_ALPHA = 1.8, 1.0, 1.5, 0.7, 0.5
 STRAINS = [0.1, 0.2, 0.4, 0.8]
@@ -190,18 +191,33 @@ def test_impact_set_crossovers_and_fits(tmp_path):
     assert (out / "plots/measures_vs_omega.png").exists() and (out / "report.html").exists()
 
 
-def test_sets_refused_with_reasons(tmp_path, size_set):
+def test_sets_of_several_kinds_are_analysed_per_kind(tmp_path, size_set):
+    """A shear sweep and an impact run named together: each (model, scenario) group gets its
+    own analysis in its folder, and the top report lists the groups."""
     impact = fake_impact_run(tmp_path / "imp", 3.0, 1)
-    with pytest.raises(RunSetError, match="different kinds"):
-        analyse_set([size_set, impact], tmp_path / "o")
+    n_shear = len(find_runs([size_set]))
+    out = tmp_path / "o"
+    result = analyse_set([size_set, impact], out, n_bootstrap=0)
+    assert set(result["groups"]) == {"bpm_shear", "bcm_impact"}
+    assert len(pd.read_csv(out / "bpm_shear" / "runs.csv")) == n_shear
+    assert (out / "bcm_impact" / "report.md").exists() or "error" in result["groups"]["bcm_impact"]
+    top = (out / "report.md").read_text()
+    assert "bpm + shear: %d runs" % n_shear in top and "bcm + impact: 1 runs" in top
+    proc = subprocess.run([sys.executable, "-m", "driver.cli", "scaling", str(size_set), str(impact), "--out",
+                           str(tmp_path / "o2"), "--bootstrap", "0", "--no-plots"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "o2" / "bpm_shear" / "runs.csv").exists()
+
+
+def test_sets_refused_with_reasons(tmp_path):
     unfinished = tmp_path / "unfinished"
     fake_impact_run(unfinished / "a", 3.0, 1)
     (unfinished / "a" / "status.json").write_text(json.dumps({"state": "running"}))
     with pytest.raises(RunSetError, match="no finished runs.*not finished: running"):
         find_runs([unfinished])
-    proc = subprocess.run([sys.executable, "-m", "driver.cli", "scaling", str(size_set), str(impact), "--out",
+    proc = subprocess.run([sys.executable, "-m", "driver.cli", "scaling", str(unfinished), "--out",
                            str(tmp_path / "o2")], capture_output=True, text=True)
-    assert proc.returncode == 2 and "different kinds" in proc.stderr
+    assert proc.returncode == 2 and "no finished runs" in proc.stderr
     assert not (tmp_path / "o2").exists()
 
 

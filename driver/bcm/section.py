@@ -1,0 +1,55 @@
+"""The `model:` section of a BCM run (SPEC 1): its keys, defaults and limits."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field
+
+from driver.schema import _Strict
+
+
+class CohesiveInterface(_Strict):
+    """Glued face between two cells (SPEC 1.2-1.3), whole-interface values, SI units."""
+
+    kn: float = Field(1e7, gt=0.0, description="normal stiffness, N/m")
+    kt: float = Field(0.8e7, gt=0.0, description="tangential stiffness, N/m")
+    en2: float = Field(0.999, ge=0.0, le=1.0, description="squared normal restitution e_n^2")
+    G_c: float = Field(1.0, gt=0.0, description="fracture energy, J/m^2")
+
+
+class FrictionalContact(_Strict):
+    """Cohesionless contact: broken interfaces, cell-cell and cell-plane contacts (SPEC 1.2-1.3)."""
+
+    kn: float = Field(1e8, gt=0.0, description="normal stiffness, N/m")
+    kt: float = Field(8e7, gt=0.0, description="tangential stiffness, N/m")
+    en2: float = Field(0.001, ge=0.0, le=1.0, description="squared normal restitution e_n^2")
+    mu: float = Field(0.3, ge=0.0, description="Coulomb friction coefficient mu_s")
+
+
+class BCMModel(_Strict):
+    """Bonded cell method (SPEC 1): a particle tessellated into rigid Voronoi cells, SI units."""
+
+    kind: Literal["bcm"] = "bcm"
+    shape: Literal["truncated_pentakis_dodecahedron", "cube", "icosphere_like"] = "truncated_pentakis_dodecahedron"
+    diameter: float = Field(2e-3, gt=0.0, description="parent diameter, m")
+    diameter_kind: Literal["circumscribed", "equal_volume"] = "circumscribed"
+    n_cells: int = Field(1728, ge=2, le=200_000, description="number of Voronoi cells N_c")
+    density: float = Field(6000.0, gt=0.0, description="solid density rho_s, kg/m^3")
+    rounding: float = Field(0.02, ge=0.0, lt=0.3,
+                            description="rounding radius r_m as a fraction of the mean cell size h = (V/N_c)^(1/3)")
+    interface: CohesiveInterface = Field(default_factory=CohesiveInterface)
+    contact: FrictionalContact = Field(default_factory=FrictionalContact)
+    griffith_energy: Literal["stored", "rockable", "literal"] = Field(
+        "stored", description="energy in the Griffith criterion (SPEC 1.2): what the springs store (default), "
+                              "Rockable's N_p-fold sum, or Eq. 5 read literally (1/N_p)")
+    interface_stiffness: Literal["per_interface", "per_area"] = Field(
+        "per_interface", description="per_interface: every interface has the configured k_n, k_t (the published "
+                                     "model); per_area: k_n, k_t times S / <S>, the interface's area over the mean "
+                                     "bonded area, so the Griffith threshold is a stress criterion")
+    min_interface_area: float = Field(
+        0.0, ge=0.0, lt=1.0, description="shared faces smaller than this fraction of the median face area are not "
+                                         "bonded (their cells only touch as contacts); 0 = every face bonded, the "
+                                         "published model. A_0 and D_w count bonded interfaces only")
+    lloyd_tol: float = Field(2e-3, gt=0.0, lt=0.1, description="Lloyd stop: RMS seed step / h")
+    lloyd_max_iter: int = Field(400, ge=0, le=10_000)

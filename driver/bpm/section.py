@@ -1,0 +1,28 @@
+"""The `model:` section of a BPM run (SPEC 2.1-2.2): its keys, defaults and limits."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field
+
+from driver.schema import _Strict
+
+
+class BPMModel(_Strict):
+    """Clemmer-Robbins bonded particle model (SPEC 2.1-2.2), LJ reduced units (a = m = u = 1)."""
+
+    kind: Literal["bpm"] = "bpm"
+    dimension: Literal[2, 3] = Field(2, description="2: bidisperse disks; 3: monodisperse spheres")
+    L: float = Field(24.0, ge=6.0, le=5000.0, description="periodic box side, in particle diameters a")
+    packing_fraction: float | None = Field(
+        None, gt=0.3, lt=0.95,
+        description="area/volume fraction before relaxation; default just above jamming (see packing.py)")
+    lambda_c: float = Field(1.05, gt=1.0, le=2.0, description="critical bond stretch r/r0 (Eq. 2)")
+    theta_c_deg: float = Field(10.0, gt=0.0, lt=180.0, description="critical angle change (Eq. 3), degrees")
+    k_A: float = Field(4.0, ge=0.0, le=100.0, description="angle stiffness (Eq. 3), units of u")
+    gamma: float = Field(50.0, ge=0.0, description="damping (Eq. 5), units sqrt(m u)/a")
+    timestep: float = Field(0.005, gt=0.0, le=0.02, description="velocity-Verlet step, units sqrt(m a^2/u)")
+    bond_max_length: float | None = Field(
+        None, gt=1.0, description="3D Delaunay edge cut; default 5/4 a (SPEC 2.1, see network.py); unused in 2D")
+    skin: float = Field(0.3, gt=0.0, le=2.0, description="neighbour-list skin, units of a")
