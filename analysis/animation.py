@@ -18,7 +18,7 @@ from PIL import Image
 from analysis.dumps import bond_pairs, read_atom_dump, read_local_dump
 from analysis.grains import grains_from_bond_dump
 from analysis.pictures import render_cells, render_particles_2d, render_particles_3d
-from driver.rundir import atomic_save
+from runfiles.atomic import atomic_save
 
 
 def periodic_steps(dumps: Path, prefix: str) -> list[int]:
@@ -87,7 +87,7 @@ def particles_frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
 
 def cells_frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
     from analysis.impact import cell_shapes, fragments_of, read_interfaces  # noqa: PLC0415
-    from analysis.shapes import vertices_in_space  # noqa: PLC0415
+    from analysis.fragment_shapes import vertices_in_space  # noqa: PLC0415
 
     cells = read_atom_dump(run_dir / "dumps" / f"cells.{step}.lammpstrj")[-1]
     ifaces = read_interfaces(run_dir / "dumps" / f"interfaces.{step}.lammpstrj")

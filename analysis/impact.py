@@ -25,12 +25,12 @@ from analysis.grains import grain_labels
 from analysis.pictures import render_cells
 from analysis.plots import PlotGuard, plot_energies, plot_mass_pdf, plot_shapes
 from analysis.report import Report, clear_report, provenance_line, write_report
-from analysis.shapes import fragment_table, shape_averages, vertices_in_space
+from analysis.fragment_shapes import fragment_table, shape_averages, vertices_in_space
 from analysis.statistics import fit_mass_ratio_law, normalised_mass_distribution
 from analysis.tables import save_table
 from analysis.tracking import lineage_table
-from driver.bcm.lammps_files import read_cells
-from driver.rundir import display_dir
+from runfiles.cells import read_cells
+from runfiles.layout import display_dir
 
 
 W_F_TOLERANCE = 0.01  # |W_f_released - W_f| above this fraction of W_f is flagged

@@ -18,7 +18,7 @@ from matplotlib.collections import PatchCollection  # noqa: E402
 from matplotlib.patches import Circle  # noqa: E402
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
-from driver.rundir import atomic_save  # noqa: E402
+from runfiles.atomic import atomic_save  # noqa: E402
 
 _SINGLE = (0.85, 0.85, 0.85, 1.0)
 

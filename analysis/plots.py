@@ -16,7 +16,7 @@ import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from driver.rundir import atomic_save  # noqa: E402
+from runfiles.atomic import atomic_save  # noqa: E402
 
 _MARKERS = "osD^v<>ph*"
 _LINES = ["-", "--", "-.", ":"]

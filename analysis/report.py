@@ -20,7 +20,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from driver.rundir import atomic_write_text, display_dir
+from runfiles.atomic import atomic_write_text
+from runfiles.layout import display_dir
 
 
 @dataclass

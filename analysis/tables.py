@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from driver.rundir import atomic_save
+from runfiles.atomic import atomic_save
 
 
 def save_table(df: pd.DataFrame, path_without_suffix: Path) -> None:

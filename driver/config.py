@@ -26,7 +26,8 @@ from driver.scenarios.bpm_shear import ShearScenario  # noqa: F401 (re-exported)
 
 
 class Output(_Strict):
-    dir: Path | None = Field(None, description="run directory; default runs/<name>")
+    dir: Path | None = Field(None, description="run directory; default runs/<name> (filled in when the config is "
+                                               "read)")
     plots: bool = True
     count_above: list[Annotated[float, Field(ge=1)]] = Field(
         [10, 100], description="grain masses (in particle masses) whose grain counts per frame the frame table "
@@ -63,7 +64,8 @@ class Execution(_Strict):
                     "always written when a run is stopped (SIGINT, SIGTERM)")
     chunk_steps: int | None = Field(
         None, ge=1, description="steps per `run` command between which a stop or checkpoint can happen; default "
-                                "about one second of one core (driver/schedule.py)")
+                                "about one second of one core (driver/schedule.py; filled in when the config is "
+                                "read)")
 
     def _checkpoint(self) -> tuple[float, str]:
         text = self.checkpoint_every.strip()
@@ -114,11 +116,19 @@ class RunConfig(_Strict):
     @model_validator(mode="after")
     def _consistent(self) -> "RunConfig":
         # the pair must be registered; then its unit checks its sections together
-        unit(self.model.kind, self.scenario.kind).check(self)
+        scenario = unit(self.model.kind, self.scenario.kind)
+        scenario.check(self)
+        # config.resolved.yaml holds the values the run uses, not null
+        if self.output.dir is None:
+            self.output.dir = Path("runs") / self.name
+        if self.execution.chunk_steps is None:
+            from driver.schedule import chunk_steps  # noqa: PLC0415
+
+            self.execution.chunk_steps = chunk_steps(self.model.kind, scenario.elements(self), None)
         return self
 
     def run_dir(self) -> Path:
-        return self.output.dir if self.output.dir is not None else Path("runs") / self.name
+        return self.output.dir if self.output.dir is not None else Path("runs") / self.name  # before validation
 
 
 # ------------------------------------------------------------------------------ loading

@@ -163,12 +163,11 @@ def bcm_impact(cfg: RunConfig, ranks: int) -> SizeEstimate:
 
 def bpm_shear(cfg: RunConfig, ranks: int) -> SizeEstimate:
     """A BPM shear run: the packing's particles, bonds and angles, max_strain / (rate dt) steps."""
-    from driver.bpm.packing import DEFAULT_PHI, particle_count  # noqa: PLC0415 (imports scipy)
+    from driver.bpm.packing import particle_count  # noqa: PLC0415 (imports scipy)
 
     m, sc = cfg.model, cfg.scenario
     d = m.dimension
-    phi = m.packing_fraction if m.packing_fraction is not None else DEFAULT_PHI[d]
-    n = particle_count(d, m.L, phi)
+    n = particle_count(d, m.L, m.packing_fraction)
     bonds = int(round(BPM_BONDS_PER_PARTICLE[d] * n))
     angles = int(round(BPM_ANGLES_PER_PARTICLE[d] * n))
     return SizeEstimate(

@@ -20,11 +20,12 @@ import yaml
 from rich.console import Console
 
 from driver.config import RunConfig, resolved_yaml
-from driver.registry import unit_of
 from driver.plugin_build import plugin_library
-from driver.rundir import (LOCK, MARKER, STAGING, STAGING_MARKER, STATUS, RunDir, RunDirError, atomic_write_json, atomic_write_text,
-                           check_claimable, latest_checkpoint, provenance, read_status)
+from driver.registry import unit_of
+from driver.rundir import (LOCK, MARKER, STAGING, STAGING_MARKER, STATUS, RunDir, RunDirError, check_claimable,
+                           latest_checkpoint, provenance, read_status)
 from driver.runner import RunInterrupted, deferred_signals, interruptible, run_session
+from runfiles.atomic import atomic_write_json, atomic_write_text
 
 # Keys that may change between an interrupted run and its resumption: how it runs, not what.
 RESUMABLE_CHANGES = ("execution.", "output.plots", "output.animation", "output.count_above", "output.dir")

@@ -41,6 +41,7 @@ class Scenario:
     result_tables: result tables (results/<name>.parquet) a set analysis reads.
     analyse_set(runs, out, plots, left_out, options) -> figures: a set of runs of this pair.
     frame: (dump prefix, draw(run_dir, cfg: dict, step, png)) of an animation frame.
+    elements(cfg) -> particles or cells the system will hold (sizes the default chunk).
     check(cfg) -> None: consistency checks across sections (ValueError with the message).
     work(cfg) -> a number growing with a run's expected length among runs of equal estimate
         (sweeps start the longest first).
@@ -57,6 +58,7 @@ class Scenario:
     set_params: Callable[[dict], dict]
     analyse_set: Callable[..., dict]
     frame: tuple[str, Callable[[Path, dict, int, Path], None]]
+    elements: Callable[[RunConfig], int]
     result_tables: tuple[str, ...] = ()
     check: Callable[[RunConfig], None] = field(default=lambda cfg: None)
     work: Callable[[RunConfig], float] = field(default=lambda cfg: 0.0)

@@ -26,14 +26,15 @@ import shutil
 import socket
 import subprocess
 import sys
-import tempfile
 import time
 import uuid
 from dataclasses import InitVar, dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import driver
+from runfiles.atomic import FILE_MODE, atomic_write_json
+from runfiles.layout import STAGING
 
 STATUS = "status.json"
 MARKER = ".brittle-run"
@@ -41,12 +42,9 @@ LOCK = ".brittle-run.lock"
 SWEEP_MARKER = ".brittle-sweep"
 SET_MARKER = ".brittle-set"
 CHECKPOINTS = "checkpoints"
-STAGING = ".post-staging"  # where an analysis works before its results replace the run's
 STAGING_MARKER = ".brittle-staging"  # inside STAGING: the folder is an analysis of this tool's
 # a heartbeat older than this marks a run on another host as stale (its lock cannot be probed)
 STALE_AFTER_S = 600.0
-_UMASK = os.umask(0)
-os.umask(_UMASK)
 
 # What a run writes: top-level files (globs), and folders with the patterns of their files.
 LAYOUT_FILES = (STATUS, MARKER, LOCK, "input.yaml", "config.resolved.yaml", "provenance.json", "system.json",
@@ -65,36 +63,6 @@ LAYOUT_DIRS = {
 
 class RunDirError(RuntimeError):
     """The run directory cannot be used as asked (foreign folder, busy, finished without --force)."""
-
-
-# ------------------------------------------------------------------------- atomic writes
-def atomic_write_text(path: Path, text: str) -> None:
-    """Write a file so that readers see the old content or the whole new one, never a part."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes 0600; results are meant to be shared
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def atomic_write_json(path: Path, obj: Any) -> None:
-    atomic_write_text(path, json.dumps(obj, indent=2, default=str) + "\n")
-
-
-def atomic_save(path: Path, writer: Callable[[Path], Any]) -> None:
-    """Call writer(tmp_path) then move the result into place (tables, figures)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp{path.suffix}")
-    try:
-        writer(tmp)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
 
 
 # ------------------------------------------------------------------------------ location
@@ -126,12 +94,6 @@ def check_location(root: Path, what: str = "run directory") -> Path:
     return absolute
 
 
-
-
-def display_dir(path: str | os.PathLike) -> Path:
-    """The run directory a path stands for (an analysis works in its staging folder)."""
-    path = Path(path)
-    return path.parent if path.name == STAGING else path
 
 
 def has_marker(root: Path, marker: str = MARKER) -> bool:
@@ -276,7 +238,7 @@ class RunDir:
         """Claim the folder and take its lock; RunDirError (naming the holder) when busy."""
         if not has_marker(self.root):
             claim_dir(self.root, MARKER, "run directory")
-        fd = os.open(self.root / LOCK, os.O_RDWR | os.O_CREAT, 0o666 & ~_UMASK)
+        fd = os.open(self.root / LOCK, os.O_RDWR | os.O_CREAT, FILE_MODE)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError as exc:

@@ -16,7 +16,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from driver.rundir import atomic_write_json, atomic_write_text
+from runfiles.atomic import atomic_write_json, atomic_write_text
 
 # Element-steps per chunk when execution.chunk_steps is not set: about a second of one core
 # (BCM ~0.9e6 cell-steps/s, BPM 2D ~7e6 particle-steps/s, 3D ~1.5e6; bench/), so a stop

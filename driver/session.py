@@ -51,7 +51,7 @@ class StopRequested(Exception):
 def write_control(run_dir: Path, stop: bool = False, checkpoint: int = 0) -> None:
     """The driver's requests, read by the session at each chunk boundary (atomic: rank 0 must
     never read half a file)."""
-    from driver.rundir import atomic_write_text  # noqa: PLC0415
+    from runfiles.atomic import atomic_write_text  # noqa: PLC0415
 
     atomic_write_text(Path(run_dir) / CONTROL, f"variable ctl_stop equal {int(stop)}\n"
                                                f"variable ctl_checkpoint equal {int(checkpoint)}\n")
@@ -147,7 +147,7 @@ class Session:
     def _outcome(self, **facts: Any) -> None:
         """What the schedule ended with (outcome.json), for the analysis."""
         if self.rank == 0:
-            from driver.rundir import atomic_write_json  # noqa: PLC0415
+            from runfiles.atomic import atomic_write_json  # noqa: PLC0415
 
             atomic_write_json(self.run_dir / OUTCOME, {"end_step": self.step, **facts})
 
@@ -175,7 +175,7 @@ class Session:
         self.lmp.command(f"write_restart {partial}")
         if self.rank != 0:
             return
-        from driver.rundir import atomic_write_json  # noqa: PLC0415
+        from runfiles.atomic import atomic_write_json  # noqa: PLC0415
 
         os.replace(self.run_dir / partial, folder / name)
         variables = {v: self.lmp.extract_variable(v) for v in self.plan.get("checkpoint_variables", [])}
@@ -219,7 +219,7 @@ def main(argv: list[str] | None = None) -> int:
     except StopRequested:
         return EXIT_STOPPED
     except Exception as exc:  # noqa: BLE001 - reported to the driver, which raises it
-        from driver.rundir import atomic_write_json  # noqa: PLC0415
+        from runfiles.atomic import atomic_write_json  # noqa: PLC0415
 
         atomic_write_json(run_dir / ERROR_FILE, {"type": type(exc).__name__, "message": str(exc)})
         print(f"{type(exc).__name__}: {exc}", file=sys.stderr)

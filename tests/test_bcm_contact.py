@@ -21,6 +21,7 @@ import math
 import numpy as np
 import pytest
 
+from analysis.rotations import quat_to_matrix
 from driver.engine import LammpsError
 
 A = 5.0e-5            # core half-side of the test cubes
@@ -79,10 +80,7 @@ def quat_mul(p, q):
 
 def rot(q):
     """Rotation matrix (body -> space) of the unit quaternion q = (w, x, y, z)."""
-    w, x, y, z = q
-    return np.array([[w * w + x * x - y * y - z * z, 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), w * w - x * x + y * y - z * z, 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), w * w - x * x - y * y + z * z]])
+    return quat_to_matrix(q)
 
 
 def quat_from_to(a, b):

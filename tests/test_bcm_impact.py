@@ -19,7 +19,8 @@ from scipy.spatial.distance import pdist
 
 from analysis.dumps import read_atom_dump
 from analysis.impact import read_impact_thermo
-from driver.bcm.lammps_files import write_cell_data, write_cells, write_interfaces
+from driver.bcm.lammps_files import write_cell_data, write_interfaces
+from runfiles.cells import write_cells
 from driver.bcm.particle import build_particle, contact_timestep, parent_shape, particle_tessellation
 from driver.config import BCMModel, parse_config
 from driver.pipeline import execute

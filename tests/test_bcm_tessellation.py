@@ -412,7 +412,7 @@ def test_erosion_of_a_nearly_vanishing_face_stays_closed():
     still be a closed, consistently oriented polyhedron (every edge shared by two faces)."""
     from collections import Counter
 
-    from driver.bcm.shapes import truncated_pentakis_dodecahedron
+    from driver.bcm.polyhedra import truncated_pentakis_dodecahedron
     from driver.bcm.tessellation import erode, tessellate
 
     tess = tessellate(truncated_pentakis_dodecahedron(), n_cells=100, seed=4)

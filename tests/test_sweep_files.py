@@ -274,7 +274,7 @@ def test_sweep_on_a_local_dask_cluster_records_a_failed_run(tmp_path, plugin_pat
 
 
 def test_interrupting_a_dask_sweep_and_running_it_again_resumes_it(tmp_path, plugin_path):
-    """Four runs on 2 Dask workers; the client is interrupted (SIGINT) once the two short runs
+    """Four runs on 3 Dask workers; the client is interrupted (SIGINT) once the two short runs
     finished and the two long ones run: those write a checkpoint and stop. Running the same
     command again keeps the first two (their records untouched) and resumes the other two
     from their checkpoints (provenance 'resumed'), which then finish."""
@@ -290,13 +290,14 @@ def test_interrupting_a_dask_sweep_and_running_it_again_resumes_it(tmp_path, plu
                                                  "measure_strains": [0.01], "thermo_every": 200},
                                     "execution": {"chunk_steps": 500}, "output": {"plots": False}}))
     sweep = tmp_path / "sw.yaml"
-    sweep.write_text(yaml.safe_dump({"base": "base.yaml", "zip": [{"scenario.max_strain": [0.01, 0.6],
-                                                                   "scenario.measure_strains": [[0.01], [0.6]]}],
+    sweep.write_text(yaml.safe_dump({"base": "base.yaml", "zip": [{"scenario.max_strain": [0.01, 2.0],
+                                                                   "scenario.measure_strains": [[0.01], [2.0]]}],
                                      "seeds": 2}))
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "driver.cli", "sweep", str(sweep), "--out", str(out), "--workers", "2"]
+    # 3 workers: the two long runs start first (longest first), the short ones one after the other beside them
+    cmd = [sys.executable, "-m", "driver.cli", "sweep", str(sweep), "--out", str(out), "--workers", "3"]
     short = ["max_strain0.01_measure_strains0.01_seed1", "max_strain0.01_measure_strains0.01_seed2"]
-    long = ["max_strain0.6_measure_strains0.6_seed1", "max_strain0.6_measure_strains0.6_seed2"]
+    long = ["max_strain2_measure_strains2_seed1", "max_strain2_measure_strains2_seed2"]
 
     def status(name):
         try:
@@ -393,3 +394,20 @@ def test_study_files_expand(tmp_path, monkeypatch):
     assert len(small.runs) < len(full.runs)
     assert {cfg.model.dimension for _, cfg in full.runs} == {2}
     assert len({v["model.L"] for v, _ in full.runs}) >= 3 and len({v["model.k_A"] for v, _ in full.runs}) >= 2
+
+
+def test_sweeps_start_the_longest_runs_first():
+    """Runs are submitted by estimated LAMMPS time, then by their unit's work (impacts: v0^2 /
+    G_c), longest first: the bigger particle, then the fastest impact on the weakest material."""
+    from driver.config import parse_config
+    from driver.distributed import longest_first
+
+    def impact(n_cells, v, g_c):
+        return ({}, parse_config({"name": f"n{n_cells}v{v}g{g_c}", "model": {"kind": "bcm", "n_cells": n_cells,
+                                                                           "interface": {"G_c": g_c}},
+                                  "scenario": {"kind": "impact", "velocity": v}}))
+
+    todo = [impact(300, 1.0, 1.0), impact(300, 5.0, 1.0), impact(1000, 1.0, 1.0), impact(300, 3.0, 0.5),
+            impact(300, 0.5, 2.0)]
+    assert [c.name for _, c in longest_first(todo)] == ["n1000v1.0g1.0", "n300v5.0g1.0", "n300v3.0g0.5",
+                                                        "n300v1.0g1.0", "n300v0.5g2.0"]

@@ -12,11 +12,13 @@ import driver
 from analysis.plots import PlotGuard
 from analysis.tables import save_table
 from driver.bcm.cellstats import cell_statistics, plot_cell_stats
-from driver.bcm.lammps_files import write_cell_data, write_cells, write_interfaces
+from driver.bcm.lammps_files import write_cell_data, write_interfaces
+from runfiles.cells import write_cells
 from driver.bcm.particle import build_particle, contact_timestep, particle_tessellation
 from driver.config import RunConfig
 from driver.plugin_build import cache_base
-from driver.rundir import RunDir, atomic_write_json
+from runfiles.atomic import atomic_write_json
+from driver.rundir import RunDir
 from driver.runner import ProgressSpec
 from driver.schedule import chunk_steps, settle, settle_windows, write_session
 from driver.templates import render

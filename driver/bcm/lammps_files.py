@@ -12,21 +12,11 @@ All writes are atomic (temporary file, then rename).
 from __future__ import annotations
 
 import io
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-
-def _atomic(path: Path, text: str) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    with os.fdopen(fd, "w") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
-    return path
+from runfiles.atomic import atomic_write_text
 
 
 def _rows(arr: np.ndarray, fmt: str) -> str:
@@ -59,7 +49,7 @@ def write_cell_data(path: Path, centroids: np.ndarray, quats: np.ndarray, masses
     props = np.column_stack([ids, quats, moments, np.zeros((n, 3))])
     text = ("\n".join(head) + "\n" + body + "\nBonds\n\n" + _rows(bond_rows, "%d %d %d %d")
             + "\nBcmProps\n\n" + _rows(props, "%d" + " %.17g" * 10))
-    return _atomic(path, text)
+    return atomic_write_text(path, text)
 
 
 def write_interfaces(path: Path, pairs: np.ndarray, areas: np.ndarray, normals: np.ndarray,
@@ -72,37 +62,4 @@ def write_interfaces(path: Path, pairs: np.ndarray, areas: np.ndarray, normals: 
             i, j, nrm = j, i, -nrm
         pts = " ".join(f"{v:.17g}" for v in np.asarray(poly).ravel())
         lines.append(f"{i + 1} {j + 1} {s:.17g} {nrm[0]:.17g} {nrm[1]:.17g} {nrm[2]:.17g} {len(poly)} {pts}")
-    return _atomic(path, "\n".join(lines) + "\n")
-
-
-def write_cells(path: Path, vertices: list[np.ndarray], faces: list[list[np.ndarray]]) -> Path:
-    """Cell cores in their body frames for `pair_style bcm/contact` and `fix bcm/wall`
-    (format of plugins/src/bcm_cells.cpp): `bcm/cells NCELLS`, then per cell `TAG NV NF`,
-    NV lines `x y z`, NF lines `K i0 .. i(K-1)` (0-based, counter-clockwise from outside)."""
-    out = [f"bcm/cells {len(vertices)}"]
-    for tag, (verts, fcs) in enumerate(zip(vertices, faces), start=1):
-        out.append(f"{tag} {len(verts)} {len(fcs)}")
-        out.append(_rows(np.asarray(verts), "%.17g %.17g %.17g").rstrip("\n"))
-        out.extend(f"{len(f)} " + " ".join(str(int(i)) for i in f) for f in fcs)
-    return _atomic(path, "\n".join(out) + "\n")
-
-
-def read_cells(path: Path) -> tuple[list[np.ndarray], list[list[np.ndarray]]]:
-    """Inverse of write_cells: (body-frame vertices per cell, faces per cell), in tag order."""
-    tok = Path(path).read_text().split()
-    if tok[0] != "bcm/cells":
-        raise ValueError(f"{path}: not a cells file (starts with {tok[0]!r})")
-    n, pos = int(tok[1]), 2
-    verts, faces = [None] * n, [None] * n
-    for _ in range(n):
-        tag, nv, nf = int(tok[pos]), int(tok[pos + 1]), int(tok[pos + 2])
-        pos += 3
-        verts[tag - 1] = np.array(tok[pos:pos + 3 * nv], dtype=float).reshape(nv, 3)
-        pos += 3 * nv
-        fl = []
-        for _ in range(nf):
-            k = int(tok[pos])
-            fl.append(np.array(tok[pos + 1:pos + 1 + k], dtype=int))
-            pos += 1 + k
-        faces[tag - 1] = fl
-    return verts, faces
+    return atomic_write_text(path, "\n".join(lines) + "\n")

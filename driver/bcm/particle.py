@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from driver.bcm.placement import Placement, impact_placement, random_rotation
-from driver.bcm.shapes import ConvexShape, build_shape
+from driver.bcm.polyhedra import ConvexShape, build_shape
 from driver.bcm.tessellation import Tessellation, cached_tessellation, erode
 
 

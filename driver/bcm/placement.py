@@ -6,7 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from driver.bcm.shapes import rotation_to_quaternion
+from analysis.rotations import quat_to_matrix
+from driver.bcm.polyhedra import rotation_to_quaternion
 
 
 def random_rotation(rng: np.random.Generator) -> np.ndarray:
@@ -16,17 +17,6 @@ def random_rotation(rng: np.random.Generator) -> np.ndarray:
     q = np.array([np.sqrt(1 - u1) * np.sin(2 * np.pi * u2), np.sqrt(1 - u1) * np.cos(2 * np.pi * u2),
                   np.sqrt(u1) * np.sin(2 * np.pi * u3), np.sqrt(u1) * np.cos(2 * np.pi * u3)])
     return quat_to_matrix(q)
-
-
-def quat_to_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices of unit quaternions (..., 4) = (w, x, y, z): x_lab = R x_body."""
-    q = np.asarray(q, dtype=float)
-    w, x, y, z = np.moveaxis(q, -1, 0)
-    return np.stack([
-        np.stack([w * w + x * x - y * y - z * z, 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        np.stack([2 * (x * y + w * z), w * w - x * x + y * y - z * z, 2 * (y * z - w * x)], -1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), w * w - x * x - y * y + z * z], -1),
-    ], -2)
 
 
 @dataclass

@@ -42,16 +42,16 @@ import hashlib
 import itertools
 import json
 import os
-import tempfile
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
 from scipy.spatial import Delaunay, Voronoi
 
-from driver.bcm.shapes import (ConvexShape, build_shape, chebyshev_center, halfspace_polyhedron,
+from driver.bcm.polyhedra import (ConvexShape, build_shape, chebyshev_center, halfspace_polyhedron,
                                merge_close_points, polygon_vector_area, polyhedron_mass_properties,
                                principal_axes, rotation_to_quaternion, tetra_mass_properties)
+from runfiles.atomic import atomic_save
 
 #: Bumped whenever the algorithm changes what a given (shape, n_cells, seed, tol) produces;
 #: part of the cache key.
@@ -219,20 +219,10 @@ class Tessellation:
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write all arrays and parameters to ``path`` (.npz), atomically."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
         meta = {k: getattr(self, k) for k in self._META}
         arrays = {f.name: getattr(self, f.name) for f in fields(self)
                   if f.name not in self._META and not f.name.startswith("_")}
-        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".npz")
-        os.close(fd)
-        try:
-            np.savez(tmp, meta=np.array(json.dumps(meta, sort_keys=True)), **arrays)
-            os.replace(tmp, path)
-        finally:
-            if os.path.exists(tmp):
-                os.remove(tmp)
-        return path
+        return atomic_save(path, lambda tmp: np.savez(tmp, meta=np.array(json.dumps(meta, sort_keys=True)), **arrays))
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "Tessellation":

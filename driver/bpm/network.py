@@ -27,13 +27,10 @@ import numpy as np
 from scipy.spatial import Delaunay
 
 from driver.bpm.packing import Packing
+from driver.bpm.section import MAX_BOND_LENGTH_3D  # noqa: F401 (the default lives with the config)
 
 #: SPEC 2.1: in 3D only Delaunay edges shorter than 5/4 * 2^(1/6) sigma become bonds, where
 #: sigma = 2^(-1/6) a is the Lennard-Jones length of the repulsion (r_min = a): the cut is 5/4 a.
-#: SPEC writes "5/4 * 2^(1/6) a", but its expected counts (about 11 bonds and 24 angles per
-#: particle) and the issue's reference network (11.3, 25.6) are those of 5/4 a; 5/4 * 2^(1/6) a
-#: would give 13.4 and 33.8 (measured). Configurable as model.bond_max_length.
-MAX_BOND_LENGTH_3D = 1.25
 
 #: Smallest box edge, in largest diameters, for which minimum images are unambiguous.
 MIN_BOX_DIAMETERS = 4.0

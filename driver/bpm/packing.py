@@ -31,8 +31,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -40,10 +38,10 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import cKDTree
 
+from driver.bpm.section import DEFAULT_PHI
 from driver.engine import Lammps
+from runfiles.atomic import atomic_save
 
-#: Default nominal packing fractions, just above jamming (see module docstring).
-DEFAULT_PHI = {2: 0.86, 3: 0.66}
 
 #: 2D bidisperse mixture (SPEC 2.1): diameters of type 1 (small) and type 2 (large).
 DIAMETER_SMALL_2D = 3.0 / 5.0
@@ -247,10 +245,7 @@ def cached_packing(cache_dir: str | Path, dimension: int, L: float, seed: int, p
                            box=(z["lo"], z["hi"]), dimension=dimension,
                            relaxation=json.loads(str(z["relaxation"])))
     pack = make_packing(dimension, L, seed, phi)
-    cache_dir.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=".packing.", suffix=".npz", dir=cache_dir)
-    os.close(fd)
-    np.savez(tmp, positions=pack.positions, radii=pack.radii, types=pack.types, lo=pack.box[0], hi=pack.box[1],
-             relaxation=json.dumps(pack.relaxation, default=float))
-    os.replace(tmp, path)
+    atomic_save(path, lambda tmp: np.savez(tmp, positions=pack.positions, radii=pack.radii, types=pack.types,
+                                            lo=pack.box[0], hi=pack.box[1],
+                                            relaxation=json.dumps(pack.relaxation, default=float)))
     return pack

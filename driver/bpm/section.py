@@ -4,9 +4,16 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from driver.schema import _Strict
+
+#: Default nominal packing fractions, just above jamming (see driver/bpm/packing.py).
+DEFAULT_PHI = {2: 0.86, 3: 0.66}
+#: SPEC writes "5/4 * 2^(1/6) a", but its expected counts (about 11 bonds and 24 angles per
+#: particle) and the issue's reference network (11.3, 25.6) are those of 5/4 a; 5/4 * 2^(1/6) a
+#: would give 13.4 and 33.8 (measured). Configurable as model.bond_max_length.
+MAX_BOND_LENGTH_3D = 1.25
 
 
 class BPMModel(_Strict):
@@ -17,12 +24,23 @@ class BPMModel(_Strict):
     L: float = Field(24.0, ge=6.0, le=5000.0, description="periodic box side, in particle diameters a")
     packing_fraction: float | None = Field(
         None, gt=0.3, lt=0.95,
-        description="area/volume fraction before relaxation; default just above jamming (see packing.py)")
+        description="area/volume fraction before relaxation; default just above jamming, DEFAULT_PHI (filled "
+                    "in when the config is read)")
     lambda_c: float = Field(1.05, gt=1.0, le=2.0, description="critical bond stretch r/r0 (Eq. 2)")
     theta_c_deg: float = Field(10.0, gt=0.0, lt=180.0, description="critical angle change (Eq. 3), degrees")
     k_A: float = Field(4.0, ge=0.0, le=100.0, description="angle stiffness (Eq. 3), units of u")
     gamma: float = Field(50.0, ge=0.0, description="damping (Eq. 5), units sqrt(m u)/a")
     timestep: float = Field(0.005, gt=0.0, le=0.02, description="velocity-Verlet step, units sqrt(m a^2/u)")
     bond_max_length: float | None = Field(
-        None, gt=1.0, description="3D Delaunay edge cut; default 5/4 a (SPEC 2.1, see network.py); unused in 2D")
+        None, gt=1.0, description="3D Delaunay edge cut; default 5/4 a (SPEC 2.1, MAX_BOND_LENGTH_3D, filled in "
+                                  "when the config is read); not used in 2D, where it stays empty")
     skin: float = Field(0.3, gt=0.0, le=2.0, description="neighbour-list skin, units of a")
+
+    @model_validator(mode="after")
+    def _resolve_defaults(self) -> "BPMModel":
+        # config.resolved.yaml holds the values the run uses, not null
+        if self.packing_fraction is None:
+            self.packing_fraction = DEFAULT_PHI[self.dimension]
+        if self.dimension == 3 and self.bond_max_length is None:
+            self.bond_max_length = MAX_BOND_LENGTH_3D
+        return self

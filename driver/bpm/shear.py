@@ -14,7 +14,8 @@ from driver.bpm.network import MAX_BOND_LENGTH_3D, delaunay_network
 from driver.bpm.packing import cached_packing
 from driver.config import RunConfig, steps_for_strain
 from driver.plugin_build import cache_base
-from driver.rundir import RunDir, atomic_write_json
+from runfiles.atomic import atomic_write_json
+from driver.rundir import RunDir
 from driver.runner import ProgressSpec
 from driver.schedule import chunk_steps, segments, write_session
 from driver.templates import render

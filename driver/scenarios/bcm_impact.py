@@ -74,6 +74,10 @@ def _frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
     cells_frame(run_dir, cfg, step, png)
 
 
+def _elements(cfg) -> int:
+    return cfg.model.n_cells
+
+
 def _check(cfg) -> None:
     if cfg.output.animation and cfg.scenario.dump_every == 0:
         raise ValueError("output.animation needs periodic dumps: set scenario.dump_every > 0 (steps between "
@@ -90,4 +94,4 @@ UNIT = Scenario(
     model="bcm", scenario="impact", section=ImpactScenario,
     description="a BCM particle hits a rigid plane (SPEC 1.4)",
     build=_build, progress=_progress, estimate=_estimate, analyse=_analyse, set_params=_set_params,
-    analyse_set=_analyse_set, frame=("cells", _frame), result_tables=("fragments",), check=_check, work=_work)
+    analyse_set=_analyse_set, frame=("cells", _frame), elements=_elements, result_tables=("fragments",), check=_check, work=_work)

@@ -83,6 +83,12 @@ def _frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
     particles_frame(run_dir, cfg, step, png)
 
 
+def _elements(cfg) -> int:
+    from driver.bpm.packing import particle_count  # noqa: PLC0415
+
+    return particle_count(cfg.model.dimension, cfg.model.L, cfg.model.packing_fraction)
+
+
 def _check(cfg) -> None:
     if cfg.output.animation and cfg.scenario.dump_every == 0:
         raise ValueError("output.animation needs periodic dumps: set scenario.dump_every > 0 (steps between "
@@ -96,4 +102,4 @@ UNIT = Scenario(
     model="bpm", scenario="shear", section=ShearScenario,
     description="a periodic BPM solid sheared at constant volume until it fragments (SPEC 2.4)",
     build=_build, progress=_progress, estimate=_estimate, analyse=_analyse, set_params=_set_params,
-    analyse_set=_analyse_set, frame=("atoms", _frame), result_tables=("frames", "nm", "grains"), check=_check)
+    analyse_set=_analyse_set, frame=("atoms", _frame), elements=_elements, result_tables=("frames", "nm", "grains"), check=_check)

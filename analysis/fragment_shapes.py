@@ -24,6 +24,8 @@ import numpy as np
 import pandas as pd
 from scipy.spatial import ConvexHull, QhullError
 
+from analysis.rotations import quat_to_matrix
+
 _CHUNK_PAIRS = 4_000_000  # distances evaluated per block in the O(h^2) search
 
 
@@ -197,12 +199,6 @@ def vertices_in_space(body_vertices: np.ndarray, offsets: np.ndarray, positions:
     (MathExtra::quat_to_mat); normalised here.
     """
     q = np.asarray(quaternions, dtype=float)
-    q = q / np.linalg.norm(q, axis=1, keepdims=True)
-    w, x, y, z = q.T
-    rot = np.stack([
-        np.stack([w * w + x * x - y * y - z * z, 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        np.stack([2 * (x * y + w * z), w * w - x * x + y * y - z * z, 2 * (y * z - w * x)], -1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), w * w - x * x - y * y + z * z], -1),
-    ], 1)  # (n, 3, 3)
-    cell = np.repeat(np.arange(len(q)), np.diff(np.asarray(offsets)))
+    rot = quat_to_matrix(q / np.linalg.norm(q, axis=1, keepdims=True))  # (n, 3, 3)
+    cell = np.repeat(np.arange(len(rot)), np.diff(np.asarray(offsets)))
     return np.asarray(positions, dtype=float)[cell] + np.einsum("vij,vj->vi", rot[cell], body_vertices)

@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.shapes import box_dimensions, fragment_table, shape_averages, shape_factor, vertices_in_space
+from analysis.fragment_shapes import box_dimensions, fragment_table, shape_averages, shape_factor, vertices_in_space
 
 
 def cuboid(lx, ly, lz, origin=(0.0, 0.0, 0.0)):
