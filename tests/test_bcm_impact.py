@@ -122,16 +122,23 @@ def test_rebound_without_breakage(tmp_path, plugin_path):
 
 
 @pytest.mark.mpi
-def test_one_vs_two_ranks_same_breakage(small_impact, tmp_path):
-    """The same impact on 2 MPI ranks breaks the same interfaces. The forces are summed in a
-    different order, so the trajectories differ by round-off; over this run (5100 steps,
-    ~360 breaks) that does not change a single break."""
-    one = json.loads((small_impact / "results" / "summary.json").read_text())
-    two = run_impact(tmp_path / "r2", ranks=2, **SMALL)
-    assert one["broken_interfaces"] > 100
-    assert two["broken_interfaces"] == one["broken_interfaces"]
-    assert two["A"] == pytest.approx(one["A"], rel=1e-9)
-    assert two["n_fragments"] == one["n_fragments"]
+def test_one_vs_two_ranks_differ_by_round_off_only(small_impact, tmp_path):
+    """The same impact on 2 MPI ranks. The domain decomposition changes only the order in which
+    forces are summed, so every energy record agrees with the 1-rank run to round-off, and
+    every break happens in the same record: measured here, the records are bit-identical through
+    the whole fracture phase (all ~360 breaks by step 800) and differ by 1.4e-11 (relative
+    kinetic energy) at the end of the 5100 steps, round-off amplified by the free fragments'
+    collisions. The bound 1e-9 leaves a factor 70; a decomposition bug (a force counted twice or
+    missed across the boundary, an interface decided differently on its two ranks) shows at once."""
+    two_dir = tmp_path / "r2"
+    two = run_impact(two_dir, ranks=2, **SMALL)
+    a = read_impact_thermo(small_impact / "thermo.dat")
+    b = read_impact_thermo(two_dir / "thermo.dat")
+    assert list(a.step) == list(b.step)
+    ke_a, ke_b = (a.ke_trans + a.ke_rot).to_numpy(), (b.ke_trans + b.ke_rot).to_numpy()
+    assert np.max(np.abs(ke_b - ke_a) / ke_a) < 1e-9
+    assert list(a.broken) == list(b.broken) and a.broken.iloc[-1] > 300
+    assert np.max(np.abs(b.W_f.to_numpy() - a.W_f.to_numpy())) <= 1e-9 * a.W_f.iloc[-1]
     assert abs(two["balance_residual"]) < 1e-3
 
 
