@@ -31,6 +31,7 @@ from analysis.tables import save_table
 from analysis.tracking import lineage_table
 from runfiles.cells import read_cells
 from runfiles.layout import display_dir
+from runfiles.records import IMPACT_RECORD, read_record
 
 
 W_F_TOLERANCE = 0.01  # |W_f_released - W_f| above this fraction of W_f is flagged
@@ -132,10 +133,6 @@ def negative_dissipation_flags(measures: dict, wk_minus: float, channels: list[s
 
 
 # ----------------------------------------------------------------------- run directory
-THERMO_COLUMNS = ["step", "time", "ke_trans", "ke_rot", "intact", "broken", "broken_area", "W_f", "E_interfaces",
-                  "W_damp", "W_friction", "W_switch", "wall_contacts", "wall_force", "W_wall", "E_wall",
-                  "W_wall_damp", "W_wall_friction", "W_wall_npoints", "work_wall",
-                  "E_contacts", "W_contact_damp", "W_contact_friction", "W_contact_npoints", "work_contacts"]
 INTERFACE_COLUMNS = ["atom1", "atom2", "state", "area", "energy", "break_step", "break_time", "energy_at_break"]
 
 
@@ -154,8 +151,7 @@ def read_impact_thermo(path: Path) -> pd.DataFrame:
     dissipated: dissipated_damping, dissipated_friction, dissipated_npoints (W_switch apart).
     work_wall and work_contacts, the work of those styles' forces on the cells, are a check:
     work + change of stored + dissipated = 0 for each."""
-    df = pd.read_csv(path, sep=r"\s+", comment="#", names=THERMO_COLUMNS, header=None)
-    df = df.drop_duplicates("step", keep="last").reset_index(drop=True)
+    df = read_record(path, IMPACT_RECORD.names)  # columns by the file's title (runfiles/records.py)
     df["kinetic"] = df.ke_trans + df.ke_rot
     df["elastic"] = df.E_interfaces + df.E_wall + df.E_contacts
     df["dissipated_damping"] = df.W_damp + df.W_wall_damp + df.W_contact_damp

@@ -18,16 +18,12 @@ from analysis.statistics import SMALL_GRAIN_CUT, fit_grain_tau, frame_measures, 
 from analysis.stress import N_BLOCKS, STRESS_WINDOW, inertial_number, stress_measures, stress_windows
 from analysis.tables import save_table
 from analysis.tracking import lineage_table
-
-THERMO_COLUMNS = ["step", "strain", "pxx", "pyy", "pzz", "pxy", "pxz", "pyz", "pe", "ke", "vol",
-                  "bonds_broken", "angles_broken"]
-
+from runfiles.records import SHEAR_RECORD, read_record
 
 def read_thermo(path: Path) -> pd.DataFrame:
-    """The `fix print` record of a shear run (one row per record)."""
-    df = pd.read_csv(path, sep=r"\s+", comment="#", names=THERMO_COLUMNS, header=None)
-    # Each `run` prints its first step again at setup: keep the latest record of a step.
-    return df.drop_duplicates("step", keep="last").reset_index(drop=True)
+    """The `fix print` record of a shear run (one row per record, columns by the file's title;
+    runfiles/records.py SHEAR_RECORD)."""
+    return read_record(path, SHEAR_RECORD.names)
 
 
 def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = False) -> dict:

@@ -11,7 +11,7 @@ from collections import Counter
 import numpy as np
 import pytest
 
-from driver.bcm import shapes as S
+from driver.bcm import polyhedra as S
 from driver.bcm import tessellation as T
 from driver.bcm.cellstats import cell_statistics, plot_cell_stats
 

@@ -62,7 +62,10 @@ def test_channel_split_sums_to_measured_dissipation(tmp_path):
     friction and number-of-points changes, interface damping, friction on broken interfaces,
     switch) sum to the measured dissipation, and the summary's W_c_<channel> entries to
     W_c_measured; fracture, kinetic and elastic energy complete W_k^-."""
-    from analysis.impact import ENERGY_CHANNELS, THERMO_COLUMNS, energy_channels, read_impact_thermo
+    from analysis.impact import ENERGY_CHANNELS, energy_channels, read_impact_thermo
+    from runfiles.records import IMPACT_RECORD
+
+    columns = IMPACT_RECORD.names[::-1]  # read by the title, not by position
 
     values = {"step": 100, "time": 1e-6, "ke_trans": 0.30, "ke_rot": 0.05, "intact": 10, "broken": 3,
               "broken_area": 0.05, "W_f": 0.1, "E_interfaces": 0.01, "W_damp": 0.02, "W_friction": 0.03,
@@ -70,9 +73,10 @@ def test_channel_split_sums_to_measured_dissipation(tmp_path):
               "W_wall_damp": 0.2965, "W_wall_friction": 0.1, "W_wall_npoints": 0.002, "work_wall": -0.3985,
               "E_contacts": 0.004, "W_contact_damp": 0.04, "W_contact_friction": 0.05, "W_contact_npoints": -0.002,
               "work_contacts": 0.0}
-    first = {k: 0.0 for k in THERMO_COLUMNS} | {"ke_trans": 1.0, "intact": 13}
+    first = {k: 0.0 for k in columns} | {"ke_trans": 1.0, "intact": 13}
     path = tmp_path / "thermo.dat"
-    path.write_text("# record\n" + "\n".join(" ".join(str(row[c]) for c in THERMO_COLUMNS) for row in (first, values)))
+    path.write_text(f"# {' '.join(columns)}\n" + "\n".join(" ".join(str(row[c]) for c in columns)
+                                                          for row in (first, values)))
     thermo = read_impact_thermo(path)
     last = thermo.iloc[-1]
     split = energy_channels(last, wk_minus=1.0)

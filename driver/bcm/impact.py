@@ -22,6 +22,7 @@ from driver.rundir import RunDir
 from driver.runner import ProgressSpec
 from driver.schedule import chunk_steps, settle, settle_windows, write_session
 from driver.templates import render
+from runfiles.records import IMPACT_RECORD
 
 CELL_COLUMNS = ("id mass x y z vx vy vz omegax omegay omegaz "
                 "d2_bcm_quat[1] d2_bcm_quat[2] d2_bcm_quat[3] d2_bcm_quat[4]")
@@ -102,9 +103,6 @@ read_data       system.data fix cellprops NULL BcmProps"""
 # arrays come back when their fix is defined again with the same id.
 SYSTEM_RESUME = """read_restart    ${checkpoint}
 fix             cellprops all property/atom d2_bcm_quat 4 d2_bcm_inertia 3 d2_bcm_angmom 3 ghost yes"""
-RECORD_TITLE = ('title "# step time ke_trans ke_rot intact broken broken_area W_f E_interfaces W_damp W_friction '
-                'W_switch wall_contacts wall_force W_wall E_wall W_wall_damp W_wall_friction W_wall_npoints work_wall '
-                'E_contacts W_contact_damp W_contact_friction W_contact_npoints work_contacts"')
 
 
 def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str, str, dict]:
@@ -130,7 +128,8 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
         kn_c=m.contact.kn, kt_c=m.contact.kt, en2_c=m.contact.en2, mu=m.contact.mu,
         skin=f"{skin:.9g}", steps_per_period=f"{sc.steps_per_period:g}",
         period=f"{system['shortest_period']:.6g}", timestep=f"{dt:.12g}",
-        thermo_every=sc.thermo_every, periodic_dumps=periodic, record_title=RECORD_TITLE,
+        thermo_every=sc.thermo_every, periodic_dumps=periodic, record_print=IMPACT_RECORD.print_text(),
+        record_title=IMPACT_RECORD.title(),
         window_steps=window, max_windows=max_windows, ke_tolerance=sc.ke_tolerance)
     setup = render(
         "bcm_impact.in", role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).",
@@ -197,4 +196,4 @@ def run_impact(cfg: RunConfig, rd: RunDir, plugin_path: Path) -> tuple[dict, dic
 
 def progress_spec(cfg: RunConfig, system: dict) -> ProgressSpec:
     return ProgressSpec(file="thermo.dat", total_steps=system["max_steps"], label=cfg.name,
-                        columns={"time": 1, "broken": 5})
+                        columns={name: IMPACT_RECORD.column(name) for name in ("time", "broken")})

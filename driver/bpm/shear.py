@@ -19,6 +19,7 @@ from driver.rundir import RunDir
 from driver.runner import ProgressSpec
 from driver.schedule import chunk_steps, segments, write_session
 from driver.templates import render
+from runfiles.records import SHEAR_RECORD
 
 @dataclass
 class Snapshot:
@@ -103,7 +104,8 @@ def plan_and_input(cfg: RunConfig, plugin_path: Path, type_diameters: dict[int, 
         comm_cutoff=f"{comm_cutoff:.6g}", skin=m.skin, timestep=m.timestep,
         enforce2d="fix             planar all enforce2d" if m.dimension == 2 else "",
         deform_args=deform_args(m.dimension, sc.strain_rate), strain_rate=sc.strain_rate,
-        thermo_every=sc.thermo_every, periodic_dumps=periodic)
+        thermo_every=sc.thermo_every, periodic_dumps=periodic,
+        record_print=SHEAR_RECORD.print_text(), record_title=SHEAR_RECORD.title())
     setup = render(
         "bpm_shear.in", role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).",
         system=SYSTEM_FRESH.format(dimension=m.dimension),
@@ -160,4 +162,4 @@ def run_shear(cfg: RunConfig, rd: RunDir, plugin_path: Path) -> tuple[dict, Prog
 
 def progress_spec(cfg: RunConfig, system: dict) -> ProgressSpec:
     return ProgressSpec(file="thermo.dat", total_steps=system["total_steps"], label=cfg.name,
-                        columns={"strain": 1, "broken": 11})
+                        columns={"strain": SHEAR_RECORD.column("strain"), "broken": SHEAR_RECORD.column("bonds_broken")})

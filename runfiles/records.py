@@ -1,0 +1,130 @@
+"""The records LAMMPS writes for the analysis (`fix print` into thermo.dat), declared once: each
+field's name, unit, meaning and the LAMMPS expression that prints it.
+
+The input templates render a record as its `fix print` line with a title line holding the
+field names (`# step time ...`); read_record maps the columns by that title, never by
+position, and refuses a file whose title lacks a field the reader needs or whose title lines
+disagree (a run resumed by another version of the tool appends its own title).
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+
+@dataclass(frozen=True)
+class Field:
+    """One column: name (the title's word), unit, meaning, and the `$(...)` body that prints it."""
+
+    name: str
+    unit: str
+    meaning: str
+    lammps: str
+
+
+@dataclass(frozen=True)
+class Record:
+    """A `fix print` record: its fields in print order."""
+
+    name: str
+    fields: tuple[Field, ...]
+
+    @property
+    def names(self) -> list[str]:
+        return [f.name for f in self.fields]
+
+    def print_text(self) -> str:
+        """The quoted text of the `fix print` command."""
+        return '"' + " ".join(f"$({f.lammps})" for f in self.fields) + '"'
+
+    def title(self) -> str:
+        """The `title` keyword of the `fix print` command: '# ' and the field names."""
+        return f'title "# {" ".join(self.names)}"'
+
+    def column(self, name: str) -> int:
+        """Position of a field (the progress display reads the last line by position)."""
+        return self.names.index(name)
+
+    def describe(self) -> str:
+        """A Markdown table of the fields (name, unit, meaning), for the docs."""
+        rows = [f"| `{f.name}` | {f.unit or '-'} | {f.meaning} |" for f in self.fields]
+        return "\n".join(["| field | unit | meaning |", "|---|---|---|", *rows])
+
+
+class RecordError(ValueError):
+    """A record file that cannot be read by its header."""
+
+
+def _g(expr: str, digits: int = 12) -> str:
+    return f"{expr}:%.{digits}g"
+
+
+# ---------------------------------------------------------------------- BCM impact (SPEC 1.4-1.5)
+# f_BCM_GRIFFITH: bond bcm/griffith's sums (plugins/doc/bond_bcm_griffith.md); f_plane: fix
+# bcm/wall's (fix_bcm_wall.md); c_cpair: pair bcm/contact's (pair_bcm_contact.md).
+IMPACT_RECORD = Record("impact", (
+    Field("step", "", "time step", "step"),
+    Field("time", "s", "simulated time", _g("time", 10)),
+    Field("ke_trans", "J", "translational kinetic energy of the cells", _g("c_ket")),
+    Field("ke_rot", "J", "rotational kinetic energy of the cells (fix bcm/rigid)", _g("f_integrate")),
+    Field("intact", "", "intact interfaces", "f_BCM_GRIFFITH[1]"),
+    Field("broken", "", "broken interfaces", "f_BCM_GRIFFITH[2]"),
+    Field("broken_area", "m^2", "area of the broken interfaces, A", _g("f_BCM_GRIFFITH[3]")),
+    Field("W_f", "J", "fracture energy booked at the breaks (Griffith convention)", _g("f_BCM_GRIFFITH[4]")),
+    Field("E_interfaces", "J", "elastic energy stored in the interfaces now", _g("f_BCM_GRIFFITH[5]")),
+    Field("W_damp", "J", "energy dissipated by the interfaces' damping", _g("f_BCM_GRIFFITH[6]")),
+    Field("W_friction", "J", "energy dissipated by friction on broken interfaces", _g("f_BCM_GRIFFITH[7]")),
+    Field("W_switch", "J", "energy lost when interfaces switch (break, retire)", _g("f_BCM_GRIFFITH[8]")),
+    Field("wall_contacts", "", "cells touching the plane", "f_plane[1]"),
+    Field("wall_force", "N", "normal force of the plane", _g("f_plane[2]")),
+    Field("W_wall", "J", "energy dissipated by the plane (all channels)", _g("f_plane[3]")),
+    Field("E_wall", "J", "elastic energy stored in the plane's contacts", _g("f_plane[4]")),
+    Field("W_wall_damp", "J", "plane: damping", _g("f_plane[5]")),
+    Field("W_wall_friction", "J", "plane: friction", _g("f_plane[6]")),
+    Field("W_wall_npoints", "J", "plane: changes of a contact's number of points (0 under the per-point law)",
+          _g("f_plane[7]")),
+    Field("work_wall", "J", "work of the plane's forces on the cells (a check)", _g("f_plane[8]")),
+    Field("E_contacts", "J", "elastic energy stored in cell-cell contacts", _g("c_cpair")),
+    Field("W_contact_damp", "J", "cell-cell contacts: damping", _g("c_cpair[4]")),
+    Field("W_contact_friction", "J", "cell-cell contacts: friction", _g("c_cpair[5]")),
+    Field("W_contact_npoints", "J", "cell-cell contacts: changes of the number of points", _g("c_cpair[6]")),
+    Field("work_contacts", "J", "work of the cell-cell contact forces on the cells (a check)", _g("c_cpair[7]")),
+))
+
+# ------------------------------------------------------------------------ BPM shear (SPEC 2.4-2.5)
+# pressure tensor: virial + kinetic parts (compute pressure of thermo_style), LJ units
+SHEAR_RECORD = Record("shear", (
+    Field("step", "", "time step", "step"),
+    Field("strain", "", "true strain eps = edot t", _g("v_strain", 8)),
+    *(Field(f"p{ij}", "u/a^d", f"pressure tensor component {ij} (virial + kinetic)", _g(f"c_thermo_press[{k}]", 10))
+      for k, ij in enumerate(("xx", "yy", "zz", "xy", "xz", "yz"), start=1)),
+    Field("pe", "u", "potential energy per particle", _g("pe", 10)),
+    Field("ke", "u", "kinetic energy per particle", _g("ke", 10)),
+    Field("vol", "a^d", "box volume (area in 2D)", _g("vol", 10)),
+    Field("bonds_broken", "", "broken bonds", "f_BREAKABLE_SPECIAL[1]"),
+    Field("angles_broken", "", "broken angles", "f_BREAKABLE_SPECIAL[2]"),
+))
+
+
+def read_record(path: str | Path, needed: list[str]) -> pd.DataFrame:
+    """The record file `path` as a table whose columns are named by its title line; RecordError
+    when it has no title, when its title lines differ, or when a `needed` field is missing.
+    Each `run` command prints its first step again: the latest record of a step is kept."""
+    path = Path(path)
+    text = path.read_text()
+    titles = sorted({ln for ln in text.splitlines() if ln.startswith("#")})
+    if not titles:
+        raise RecordError(f"{path}: no title line ('# name name ...'): cannot tell its columns")
+    if len(titles) > 1:
+        raise RecordError(f"{path}: its title lines differ ({' | '.join(t[:80] for t in titles)}): records of "
+                          "two layouts in one file")
+    names = titles[0][1:].split()
+    missing = [n for n in needed if n not in names]
+    if missing:
+        raise RecordError(f"{path}: no column {', '.join(missing)} in its title ({' '.join(names)})")
+    df = pd.read_csv(io.StringIO(text), sep=r"\s+", comment="#", names=names, header=None)
+    return df.drop_duplicates("step", keep="last").reset_index(drop=True)
