@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from analysis.dumps import read_atom_dump, read_local_dump
+from analysis.dumps import DumpError, read_atom_dump, read_local_dump
 from analysis.grain_table import grain_table
 from analysis.grains import grain_labels
 from analysis.pictures import render_cells
@@ -31,7 +31,7 @@ from analysis.tables import save_table
 from analysis.tracking import lineage_table
 from runfiles.cells import read_cells
 from runfiles.layout import display_dir
-from runfiles.records import IMPACT_RECORD, read_record
+from runfiles.records import IMPACT_RECORD, INTERFACES_DUMP, read_record
 
 
 W_F_TOLERANCE = 0.01  # |W_f_released - W_f| above this fraction of W_f is flagged
@@ -133,7 +133,9 @@ def negative_dissipation_flags(measures: dict, wk_minus: float, channels: list[s
 
 
 # ----------------------------------------------------------------------- run directory
-INTERFACE_COLUMNS = ["atom1", "atom2", "state", "area", "energy", "break_step", "break_time", "energy_at_break"]
+#: the interface dump's columns as runs before named columns (0.x) wrote them, by position
+_UNNAMED_INTERFACE_COLUMNS = dict(zip(("c_ifc[1]", "c_ifc[2]", *(f"c_ifs[{k}]" for k in range(1, 7))),
+                                      INTERFACES_DUMP.names))
 
 
 def read_impact_thermo(path: Path) -> pd.DataFrame:
@@ -199,9 +201,17 @@ def held_fracture_energy(interfaces: pd.DataFrame) -> float | None:
 
 
 def read_interfaces(path: Path) -> pd.DataFrame:
+    """The last frame of an interface dump, columns by their header names (INTERFACES_DUMP,
+    or the compute names of older runs), as atom1 atom2 state area energy break_step
+    break_time energy_at_break; DumpError naming the columns found when one is missing."""
     frame = read_local_dump(path)[-1]
-    cols = list(frame.columns.values())
-    return pd.DataFrame({name: col for name, col in zip(INTERFACE_COLUMNS, cols)})
+    cols = {_UNNAMED_INTERFACE_COLUMNS.get(k, k): v for k, v in frame.columns.items()}
+    missing = [n for n in INTERFACES_DUMP.names if n not in cols]
+    if missing:
+        raise DumpError(f"interface dump: no column {', '.join(missing)} (found: {' '.join(frame.columns)})",
+                        path=path)
+    return pd.DataFrame({name: cols[name] for name in INTERFACES_DUMP.names}).rename(
+        columns={"batom1": "atom1", "batom2": "atom2"})
 
 
 def fragments_of(n_cells: int, interfaces: pd.DataFrame) -> np.ndarray:

@@ -128,3 +128,84 @@ def read_record(path: str | Path, needed: list[str]) -> pd.DataFrame:
         raise RecordError(f"{path}: no column {', '.join(missing)} in its title ({' '.join(names)})")
     df = pd.read_csv(io.StringIO(text), sep=r"\s+", comment="#", names=names, header=None)
     return df.drop_duplicates("step", keep="last").reset_index(drop=True)
+
+
+# ------------------------------------------------------------------------------------ dumps
+@dataclass(frozen=True)
+class Column:
+    """One dump column: its name in the file (one OVITO maps by itself where it has one), unit,
+    meaning, and the dump argument that writes it (renamed with dump_modify colname)."""
+
+    name: str
+    unit: str
+    meaning: str
+    lammps: str = ""
+
+    @property
+    def arg(self) -> str:
+        return self.lammps or self.name
+
+
+@dataclass(frozen=True)
+class Dump:
+    """The columns of one kind of dump file, in order."""
+
+    name: str
+    columns: tuple[Column, ...]
+
+    @property
+    def names(self) -> list[str]:
+        return [c.name for c in self.columns]
+
+    def args(self) -> str:
+        """The dump command's column arguments."""
+        return " ".join(c.arg for c in self.columns)
+
+    def modify(self) -> str:
+        """dump_modify keywords giving each renamed column its name (`colname N name`)."""
+        return " ".join(f"colname {k} {c.name}" for k, c in enumerate(self.columns, start=1) if c.arg != c.name)
+
+
+# BCM: one atom per cell (SPEC 1.1); the orientation is fix property/atom d2_bcm_quat, named
+# as OVITO's and atom_style ellipsoid's quaternion columns; radius: the cell's bounding sphere
+CELLS_DUMP = Dump("cells", (
+    Column("id", "", "cell id"), Column("mass", "kg", "cell mass"),
+    Column("x", "m", "centroid x"), Column("y", "m", "centroid y"), Column("z", "m", "centroid z"),
+    Column("vx", "m/s", "velocity x"), Column("vy", "m/s", "velocity y"), Column("vz", "m/s", "velocity z"),
+    Column("omegax", "1/s", "angular velocity x"), Column("omegay", "1/s", "angular velocity y"),
+    Column("omegaz", "1/s", "angular velocity z"),
+    Column("radius", "m", "radius of the cell's bounding sphere (neighbour lists)"),
+    *(Column(f"quat{c}", "", f"orientation quaternion, component {c} (body to space)", f"d2_bcm_quat[{k}]")
+      for k, c in enumerate("wijk", start=1)),
+))
+# BCM interfaces (dump local of compute property/local batom1 batom2 and compute bond/local
+# b1..b6 of bond bcm/griffith, plugins/doc/bond_bcm_griffith.md)
+INTERFACES_DUMP = Dump("interfaces", (
+    Column("batom1", "", "cell 1 (smaller id)", "c_ifc[1]"),
+    Column("batom2", "", "cell 2", "c_ifc[2]"),
+    Column("state", "", "1 intact, 0 broken", "c_ifs[1]"),
+    Column("area", "m^2", "interface area", "c_ifs[2]"),
+    Column("energy", "J", "elastic energy stored now", "c_ifs[3]"),
+    Column("break_step", "", "step of the break (-1 intact)", "c_ifs[4]"),
+    Column("break_time", "s", "time of the break", "c_ifs[5]"),
+    Column("energy_at_break", "J", "elastic energy stored just before the break", "c_ifs[6]"),
+))
+
+
+def atoms_dump(dimension: int) -> Dump:
+    """BPM particles: 2D dumps have no z and no vz column, which OVITO takes as a 2D cell."""
+    axes = "xy" if dimension == 2 else "xyz"
+    return Dump("atoms", (
+        Column("id", "", "particle id"), Column("type", "", "particle type (2D: 1 small, 2 large)"),
+        *(Column(a, "a", f"position {a}") for a in axes),
+        *(Column(f"v{a}", "a/tau", f"velocity {a}") for a in axes),
+        Column("radius", "a", "particle radius", "v_radius"),
+    ))
+
+
+# BPM bonds (dump local of compute property/local batom1 batom2 btype, ID bl): intact bonds
+BONDS_DUMP = Dump("bonds", (
+    Column("batom1", "", "particle 1", "c_bl[1]"),
+    Column("batom2", "", "particle 2", "c_bl[2]"),
+    Column("btype", "", "bond type (broken bonds are not listed)", "c_bl[3]"),
+))

@@ -22,18 +22,18 @@ from driver.rundir import RunDir
 from driver.runner import ProgressSpec
 from driver.schedule import chunk_steps, settle, settle_windows, write_session
 from driver.templates import render
-from runfiles.records import IMPACT_RECORD
+from runfiles.records import CELLS_DUMP, IMPACT_RECORD, INTERFACES_DUMP
 
-CELL_COLUMNS = ("id mass x y z vx vy vz omegax omegay omegaz "
-                "d2_bcm_quat[1] d2_bcm_quat[2] d2_bcm_quat[3] d2_bcm_quat[4]")
 # the plane has "loaded" the particle once it has given back this fraction of the incoming momentum
 LOADED_FRACTION = 0.5
-INTERFACE_COLUMNS = "c_ifc[1] c_ifc[2] c_ifs[1] c_ifs[2] c_ifs[3] c_ifs[4] c_ifs[5] c_ifs[6]"
 
 
 def _dump_commands(name: str) -> str:
-    return (f"write_dump      all custom dumps/cells.{name}.lammpstrj {CELL_COLUMNS} modify sort id\n"
-            f"write_dump      all local dumps/interfaces.{name}.lammpstrj {INTERFACE_COLUMNS}")
+    # columns named as runfiles/records.py declares them (OVITO maps them by name)
+    return (f"write_dump      all custom dumps/cells.{name}.lammpstrj {CELLS_DUMP.args()} modify sort id "
+            f"{CELLS_DUMP.modify()}\n"
+            f"write_dump      all local dumps/interfaces.{name}.lammpstrj {INTERFACES_DUMP.args()} modify "
+            f"{INTERFACES_DUMP.modify()}")
 
 
 def bonded_interfaces(areas: np.ndarray, min_fraction: float) -> np.ndarray:
@@ -115,10 +115,11 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
     periodic = ("compute         ifc all property/local batom1 batom2\n"
                 "compute         ifs all bond/local b1 b2 b3 b4 b5 b6")
     if sc.dump_every > 0:
-        periodic += (f"\ndump            cells all custom {sc.dump_every} dumps/cells.*.lammpstrj {CELL_COLUMNS}\n"
-                     f"dump_modify     cells sort id\n"
+        periodic += (f"\ndump            cells all custom {sc.dump_every} dumps/cells.*.lammpstrj {CELLS_DUMP.args()}\n"
+                     f"dump_modify     cells sort id {CELLS_DUMP.modify()}\n"
                      f"dump            ifaces all local {sc.dump_every} dumps/interfaces.*.lammpstrj "
-                     f"{INTERFACE_COLUMNS}")
+                     f"{INTERFACES_DUMP.args()}\n"
+                     f"dump_modify     ifaces {INTERFACES_DUMP.modify()}")
     skin = 0.1 * system["mean_cell_size"]
     # ghosts must hold every bonded partner: two bounding radii plus the skin
     comm_cutoff = 2.0 * system["max_bound_radius"] * 1.05 + skin

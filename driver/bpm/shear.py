@@ -19,7 +19,7 @@ from driver.rundir import RunDir
 from driver.runner import ProgressSpec
 from driver.schedule import chunk_steps, segments, write_session
 from driver.templates import render
-from runfiles.records import SHEAR_RECORD
+from runfiles.records import BONDS_DUMP, SHEAR_RECORD, atoms_dump
 
 @dataclass
 class Snapshot:
@@ -57,9 +57,18 @@ def pair_coeff_lines(type_diameters: dict[int, float], gamma: float) -> tuple[st
     return "\n".join(lines), max_abar
 
 
-def snapshot_commands(snap: Snapshot) -> str:
-    return (f"write_dump      all custom {snap.atoms} id type x y z vx vy vz modify sort id\n"
-            f"write_dump      all local {snap.bonds} c_bl[1] c_bl[2] c_bl[3]\n")
+def snapshot_commands(snap: Snapshot, dimension: int) -> str:
+    # columns named as runfiles/records.py declares them (OVITO maps them by name; 2D without z)
+    atoms = atoms_dump(dimension)
+    return (f"write_dump      all custom {snap.atoms} {atoms.args()} modify sort id {atoms.modify()}\n"
+            f"write_dump      all local {snap.bonds} {BONDS_DUMP.args()} modify {BONDS_DUMP.modify()}\n")
+
+
+def radius_variable(type_diameters: dict[int, float]) -> str:
+    """`variable radius atom ...`: each particle's radius from its type (the dumps' radius)."""
+    terms = "+".join(f"{0.5 * d:.12g}*(type=={t})" for t, d in sorted(type_diameters.items()))
+    return f'variable        radius atom "{terms}"'
+
 
 
 SYSTEM_FRESH = """units           lj
@@ -91,11 +100,13 @@ def plan_and_input(cfg: RunConfig, plugin_path: Path, type_diameters: dict[int, 
             continue
         snaps.append(Snapshot(eps, step, f"dumps/atoms.{step}.lammpstrj", f"dumps/bonds.{step}.lammpstrj"))
     total = snaps[-1].step
-    periodic = ""
+    periodic = radius_variable(type_diameters)
     if sc.dump_every > 0:
-        periodic = (f"dump            atoms all custom {sc.dump_every} dumps/atoms.*.lammpstrj id type x y z vx vy vz\n"
-                    f"dump_modify     atoms sort id\n"
-                    f"dump            bonds all local {sc.dump_every} dumps/bonds.*.lammpstrj c_bl[1] c_bl[2] c_bl[3]")
+        atoms = atoms_dump(m.dimension)
+        periodic += (f"\ndump            atoms all custom {sc.dump_every} dumps/atoms.*.lammpstrj {atoms.args()}\n"
+                     f"dump_modify     atoms sort id {atoms.modify()}\n"
+                     f"dump            bonds all local {sc.dump_every} dumps/bonds.*.lammpstrj {BONDS_DUMP.args()}\n"
+                     f"dump_modify     bonds {BONDS_DUMP.modify()}")
     pair_lines, max_abar = pair_coeff_lines(type_diameters, m.gamma)
     # Ghosts must reach both arms of every angle: two stretched bonds plus the skin.
     comm_cutoff = max(2.0 * m.lambda_c * max_r0, max_abar) + m.skin
@@ -112,13 +123,14 @@ def plan_and_input(cfg: RunConfig, plugin_path: Path, type_diameters: dict[int, 
         styles=(f"pair_style      cr/repulsion\n{pair_lines}\n\n"
                 f"bond_style      breakable/cr\nbond_coeff      1 {m.lambda_c} {m.gamma}\n"
                 f"angle_style     breakable/cr\nangle_coeff     1 {m.k_A} {m.theta_c_deg} {m.lambda_c}"),
-        record_target="file thermo.dat", start="run             0\n" + snapshot_commands(snaps[0]), **common)
+        record_target="file thermo.dat", start="run             0\n" + snapshot_commands(snaps[0], m.dimension),
+        **common)
     resume = render(
         "bpm_shear.in", role="Start from a checkpoint (resume.lammps: -var checkpoint FILE).",
         system=SYSTEM_RESUME, styles="# pair, bond and angle styles with their coefficients: from the checkpoint",
         record_target="append thermo.dat", start="", **common)
     chunk = chunk_steps("bpm", n_particles, cfg.execution.chunk_steps)
-    schedule = segments(total, chunk, {s.step: snapshot_commands(s).splitlines() for s in snaps[1:]})
+    schedule = segments(total, chunk, {s.step: snapshot_commands(s, m.dimension).splitlines() for s in snaps[1:]})
     return ShearPlan(total_steps=total, snapshots=snaps), setup, resume, schedule
 
 
