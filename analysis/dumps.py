@@ -33,6 +33,7 @@ from __future__ import annotations
 import io
 import mmap
 import os
+import tempfile
 import warnings
 import zlib
 from dataclasses import dataclass, field
@@ -617,16 +618,43 @@ def _unscale(s: np.ndarray, box: np.ndarray, tilt: np.ndarray | None) -> np.ndar
     return box[:d, 0] + s @ h.T
 
 
-def _positions_from_mdanalysis(path: Path, frames: list[AtomFrame]) -> None:
-    """Replace positions/velocities by MDAnalysis' (float32) values, in place."""
+def _append_z_column(path: Path, out: Path, name: str) -> None:
+    """Copy of the atom dump `path` (plain or gzip) with a column `name` of zeros last."""
+    import gzip  # noqa: PLC0415
+
+    opener = gzip.open if path.suffix == ".gz" else open
+    with opener(path, "rt") as src, open(out, "w") as dst:
+        atoms = False
+        for line in src:
+            if line.startswith("ITEM:"):
+                atoms = line.startswith("ITEM: ATOMS")
+                dst.write(line.rstrip("\n") + (f" {name}\n" if atoms else "\n"))
+            elif atoms and line.strip():
+                dst.write(line.rstrip("\n") + " 0\n")
+            else:
+                dst.write(line)
+
+
+def _positions_from_mdanalysis(path: Path, frames: list[AtomFrame], flat: bool = False) -> None:
+    """Replace positions/velocities by MDAnalysis' (float32) values, in place. flat: `path`
+    is a 2D dump's copy with z = 0 added (the frames keep x, y)."""
     from MDAnalysis.coordinates.LAMMPS import DumpReader  # noqa: PLC0415 (optional engine)
 
     n0, conv = len(frames[0]), frames[0].coordinate_convention
     if any(len(fr) != n0 or fr.coordinate_convention != conv for fr in frames):
         raise ValueError("engine='mdanalysis' needs the same atoms and coordinate columns in every "
                          "frame (MDAnalysis indexes frames by a fixed line count); use engine='numpy'")
-    if conv is None or any(fr.positions.shape[1] != 3 for fr in frames):
-        raise ValueError("engine='mdanalysis' needs x, y and z columns (or xs ys zs, xu yu zu ...)")
+    if conv is None:
+        raise ValueError("engine='mdanalysis' needs coordinate columns (x y [z], or xs ys [zs], xu yu [zu] ...)")
+    if frames[0].positions.shape[1] == 2 and not flat:
+        # a 2D dump has no z column (so OVITO reads it as 2D); MDAnalysis needs one: it reads
+        # a copy with z = 0 appended, and its x and y are compared as usual
+        with tempfile.TemporaryDirectory() as tmp:
+            padded = Path(tmp) / "dump.lammpstrj"
+            _append_z_column(path, padded, "zs" if conv.startswith("scaled") else "z")
+            _positions_from_mdanalysis(padded, frames, flat=True)
+        return
+
     if conv.startswith("scaled") and any(np.any(fr.box[:, 0] != 0) for fr in frames):
         # MDAnalysis 2.x converts scaled coordinates as L*xs - xlo instead of L*xs + xlo
         # (MDAnalysis issue #4788, open): its positions would be off by twice the box origin.
@@ -640,8 +668,9 @@ def _positions_from_mdanalysis(path: Path, frames: list[AtomFrame]) -> None:
                 if ts.data["step"] != fr.timestep:
                     raise ValueError(f"MDAnalysis frame at step {ts.data['step']}, ours at {fr.timestep}")
                 # MDAnalysis moves the box origin to 0: put the LAMMPS origin back.
-                fr.positions = ts.positions.astype(np.float64) + fr.box[:, 0]
-                if fr.velocities is not None and ts.has_velocities:
+                pos = ts.positions.astype(np.float64) + fr.box[:, 0]
+                fr.positions = pos[:, :2] if flat else pos
+                if fr.velocities is not None and ts.has_velocities and not flat:
                     fr.velocities = ts.velocities.astype(np.float64)
         finally:
             reader.close()

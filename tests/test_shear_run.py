@@ -111,9 +111,17 @@ def test_grain_table_and_tracking_consistent(finished_run):
         assert g["mass"].max() == row["largest_grain"]
         # kinetic energy of a grain's atoms >= that of its centre of mass
         assert (g.ke - g.ke_cm >= -1e-12).all()
-        # a grain that does not wrap the box has a centre of mass inside the box
+        # a grain that does not wrap the box has a centre of mass and a radius of gyration:
+        # rg^2 is the trace of its gyration tensor, a lone particle has rg = 0, and two
+        # particles joined by one bond of length r have rg = r / 2, with r near r0 = 0.6 to
+        # 1.0 a (the pair's mean diameter, SPEC 2.1): between 0.8 r0 (compressed) and
+        # lambda_c r0 = 1.05 r0 (the bond breaks beyond)
         ok = g[~g.percolating]
-        assert ok[["x", "y"]].notna().all().all() and (ok.rg >= 0).all()
+        assert ok[["x", "y"]].notna().all().all()
+        np.testing.assert_allclose(ok.rg ** 2, ok.gxx + ok.gyy, rtol=1e-9, atol=1e-12)
+        assert (ok[ok["size"] == 1].rg == 0).all()
+        pair_rg = ok[ok["size"] == 2].rg
+        assert ((pair_rg > 0.5 * 0.8 * 0.6) & (pair_rg < 0.5 * 1.05 * 1.0)).all(), pair_rg.describe()
     tracking = pd.read_parquet(finished_run / "results/tracking.parquet")
     assert set(tracking.columns) >= {"strain_parent", "strain_child", "child", "parent", "shared_mass"}
     for (eps, child), t in tracking.groupby(["strain_child", "child"]):
