@@ -686,6 +686,7 @@ def test_two_ranks_retire_and_hand_over_alike(plugin_path, tmp_path):
 
 # ============================================================== (c) the impact that blew up
 
+@pytest.mark.slow
 def test_seed2_impact_at_10_m_s_finishes_with_its_energy_balance(tmp_path, plugin_path):
     """`driver run examples/bcm_impact_quick.yaml` at v = 10 m/s, G_c = 0.2, seed 2 (about
     25 s). It crashed ("Too many neighbor bins") after a spurious edge-edge point had created

@@ -736,6 +736,7 @@ def run_lmp(tmp_path, nprocs, text):
     return np.array([float(t) for t in line.split()[1:]])
 
 
+@pytest.mark.mpi
 @pytest.mark.parametrize("newton", ["on", "off"])
 @pytest.mark.parametrize("layout,sign", [("split", 1.0), ("split", -1.0), ("migrate", 1.0)])
 def test_history_follows_cells_across_ranks(plugin_path, tmp_path, newton, layout, sign):

@@ -254,6 +254,7 @@ def test_vibrating_particle_conserves_energy_and_momenta(lmp, tmp_path):
     check_conservation(lmp, tmp_path, n_cells=100, steps=4000, chunk=200)
 
 
+@pytest.mark.slow
 def test_vibrating_particle_conserves_energy_and_momenta_1728(lmp, tmp_path):
     """SPEC 1.3's 1728 cells, 2000 steps."""
     check_conservation(lmp, tmp_path, n_cells=1728, steps=2000, chunk=200)

@@ -578,6 +578,7 @@ def run_lmp(tmp_path, nprocs, text):
     return float(start.split()[1]), np.array([float(t) for t in result.split()[1:]])
 
 
+@pytest.mark.mpi
 def test_two_ranks_follow_one_rank(plugin_path, tmp_path):
     """A 6x2x2 block of bonded cells drifts across the boundary between two ranks while it
     vibrates, breaks part of its interfaces and slides on them: every interface is computed
@@ -599,6 +600,7 @@ def test_two_ranks_follow_one_rank(plugin_path, tmp_path):
         assert result[0] == pytest.approx(start, rel=1e-4)
 
 
+@pytest.mark.mpi
 def test_fragments_part_across_ranks(plugin_path, tmp_path):
     """A burst breaks every interface and the cells fly apart, farther than the
     communication cutoff: the broken bonds stay in the topology, so LAMMPS must be told to

@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from driver import plugin_build
 from driver.plugin_build import plugin_source_dir, source_hash
 
@@ -22,6 +24,7 @@ def test_hash_changes_with_source(tmp_path):
     assert source_hash(src) != h0
 
 
+@pytest.mark.slow
 def test_concurrent_first_builds_share_one_library(tmp_path):
     """Two runs starting at once on a fresh cache: one build, both get the same whole file."""
     env = {**os.environ, "BRITTLE_CACHE": str(tmp_path / "cache")}

@@ -151,6 +151,7 @@ def test_sigint_stops_bcm_impact_and_resume_is_identical(tmp_path, plugin_path):
     assert_same_results(ref, out)
 
 
+@pytest.mark.slow
 @pytest.mark.mpi
 def test_sigint_stops_two_rank_run_and_resume_completes(tmp_path, plugin_path):
     """2 ranks: the stop request reaches every rank through rank 0 (include control.lmp); the
@@ -297,6 +298,7 @@ def test_stop_during_the_last_chunk_keeps_the_finished_simulation(tmp_path, shea
     assert (out / "log.lammps").read_bytes() == log and read_status(out)["state"] == "finished"
 
 
+@pytest.mark.slow
 @pytest.mark.mpi
 def test_sigint_stops_two_rank_bcm_impact_and_resume_completes(tmp_path, plugin_path):
     ref, out = reference_interrupted_resumed(config_file(tmp_path, IMPACT, "impact2", np=2), tmp_path,

@@ -273,6 +273,7 @@ def test_sweep_on_a_local_dask_cluster_records_a_failed_run(tmp_path, plugin_pat
     assert sorted(points["model.n_cells"]) == [16, 20, 24] and (points.n_runs == 1).all()
 
 
+@pytest.mark.slow
 def test_interrupting_a_dask_sweep_and_running_it_again_resumes_it(tmp_path, plugin_path):
     """Four runs on 3 Dask workers; the client is interrupted (SIGINT) once the two short runs
     finished and the two long ones run: those write a checkpoint and stop. Running the same
