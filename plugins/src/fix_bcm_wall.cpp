@@ -203,10 +203,8 @@ void FixBcmWall::wall_forces(bool advance)
     const double hc = side * (x[i][axis] - coord);
     if (hc - c->rbound >= rm) continue;
 
-    double q[4] = {quat[i][0], quat[i][1], quat[i][2], quat[i][3]};
-    BcmRigid::normalize_quat(q);
     double R[3][3];
-    BcmRigid::quat_to_mat(q, R);
+    BcmRigid::rotation(quat[i], R);
     const double *bv = &table->vert[3 * c->v0];
     touching.clear();
     for (int k = 0; k < c->nv; k++) {
