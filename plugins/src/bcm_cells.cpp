@@ -370,15 +370,6 @@ void LAMMPS_NS::bcm_place_cell(const BcmCells &table, const BcmCells::Cell &c, c
   }
 }
 
-/* ---------------------------------------------------------------------- */
-
-double LAMMPS_NS::bcm_damping_alpha(double en2)
-{
-  // SPEC 1.2, Eq. 2
-  if (en2 <= 0.0) return 1.0;
-  const double ln_e = 0.5 * std::log(en2);
-  return -ln_e / std::sqrt(ln_e * ln_e + M_PI * M_PI);
-}
 
 /* ---------------------------------------------------------------------- */
 

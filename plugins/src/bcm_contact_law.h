@@ -32,6 +32,15 @@
 
 namespace BcmContactLaw {
 
+// SPEC 1.2 Eq. 2: damping ratio alpha from the restitution coefficient e = sqrt(e^2)
+// (alpha = 1, critical, for e = 0)
+inline double damping_ratio(double e2)
+{
+  if (e2 <= 0.0) return 1.0;
+  const double le = std::log(std::sqrt(e2));
+  return -le / std::sqrt(le * le + M_PI * M_PI);
+}
+
 // SPEC 1.2 Eq. 1: damping coefficient of one point of a contact of np points, reduced mass m
 inline double damping(double alpha, double kn, double m, int np)
 {

@@ -14,6 +14,7 @@
 #include "bond_bcm_griffith.h"
 
 #include "atom.h"
+#include "bcm_contact_law.h"
 #include "bcm_griffith.h"
 #include "bcm_interface_contact.h"
 #include "bcm_interface_state.h"
@@ -40,19 +41,7 @@ using BcmRigid::dot;
 
 static const char *const STORE_FIX_ID = "BCM_GRIFFITH_STATE";
 static const char *const STORE_NAME = "bcm_griffith_state";
-static constexpr double MY_PI = 3.14159265358979323846;
-
-namespace {
-
-// SPEC 1.2 Eq. 2: damping ratio from the restitution coefficient e = sqrt(e^2)
-double damping_ratio(double e2)
-{
-  if (e2 <= 0.0) return 1.0;
-  const double le = std::log(std::sqrt(e2));
-  return -le / std::sqrt(le * le + MY_PI * MY_PI);
-}
-
-}    // namespace
+using BcmContactLaw::damping_ratio;
 
 /* ---------------------------------------------------------------------- */
 

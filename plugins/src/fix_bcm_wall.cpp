@@ -83,7 +83,7 @@ FixBcmWall::FixBcmWall(LAMMPS *_lmp, int narg, char **arg) :
   if (!(en2 >= 0.0 && en2 <= 1.0)) error->all(FLERR, "fix bcm/wall: en2 must be in [0, 1]");
   if (!(mu >= 0.0)) error->all(FLERR, "fix bcm/wall: mu must be >= 0");
   if (nslots < 1) error->all(FLERR, "fix bcm/wall: slots must be >= 1");
-  alpha = bcm_damping_alpha(en2);
+  alpha = BcmContactLaw::damping_ratio(en2);
 
   table = BcmCells::load(lmp, cells_file);
 
