@@ -356,7 +356,9 @@ void BondBcmGriffith::set_constants(const Entry &e, int type, double *rec) const
   rec[K_CP] = 2.0 * alpha[type] * std::sqrt(f * kn[type] * mred) / np;
   rec[K_KC] = kn_c[type] / np;
   rec[K_KTC] = kt_c[type] / np;
-  rec[K_CC] = 2.0 * alpha_c[type] * std::sqrt(kn_c[type] * mred) / np;
+  // the contact law's damping (SPEC 1.2 Eq. 1): the point's k_n,c / N_p and the pair's
+  // reduced mass shared by the N_p points
+  rec[K_CC] = BcmContactLaw::damping(alpha_c[type], rec[K_KC], mred, np);
 }
 
 /* ----------------------------------------------------------------------

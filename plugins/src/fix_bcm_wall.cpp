@@ -269,7 +269,7 @@ void FixBcmWall::wall_forces(bool advance)
           s[S_VERTEX] = k + 1;
           s[S_STEP] = now;
           for (int d = 0; d < 3; d++) s[S_U + d] = u[d];
-          s[S_FT] = std::sqrt(dot(pt.ft, pt.ft));
+          s[S_FT] = pt.ftm;
         } else if (!warned_slots) {
           warned_slots = true;
           error->warning(FLERR, "fix bcm/wall: cell {} touches with more than {} vertices: "
@@ -313,7 +313,7 @@ void FixBcmWall::wall_forces(bool advance)
       for (int m = 0; m < nslots; m++) {
         double *s = h + SLOT * m;
         if (s[S_VERTEX] != 0.0 && s[S_STEP] == before) {
-          fric += 0.5 * s[S_FT] * std::sqrt(dot(s + S_U, s + S_U));
+          fric += BcmFriction::release(s[S_FT], s + S_U);
           s[S_VERTEX] = 0.0;
         }
       }

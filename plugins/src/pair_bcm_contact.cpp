@@ -425,7 +425,7 @@ void PairBcmContact::compute(int eflag, int vflag)
             dst[S_KEY] = key;
             dst[S_STEP] = static_cast<double>(step);
             for (int d = 0; d < 3; d++) dst[S_U + d] = u[d];
-            dst[S_FT] = std::sqrt(dot(pt.ft, pt.ft));
+            dst[S_FT] = pt.ftm;
           } else {
             nlost++;
           }
