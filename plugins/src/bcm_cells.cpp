@@ -356,10 +356,8 @@ double BcmCells::memory_usage() const
 void LAMMPS_NS::bcm_place_cell(const BcmCells &table, const BcmCells::Cell &c, const double *x,
                                const double *q, double *vert, double *plane)
 {
-  double qn[4] = {q[0], q[1], q[2], q[3]};
-  BcmRigid::normalize_quat(qn);
   double R[3][3];
-  BcmRigid::quat_to_mat(qn, R);
+  BcmRigid::rotation(q, R);
   const double *bv = &table.vert[3 * c.v0];
   for (int k = 0; k < c.nv; k++) {
     BcmRigid::rotate(R, bv + 3 * k, vert + 3 * k);
@@ -372,15 +370,6 @@ void LAMMPS_NS::bcm_place_cell(const BcmCells &table, const BcmCells::Cell &c, c
   }
 }
 
-/* ---------------------------------------------------------------------- */
-
-double LAMMPS_NS::bcm_damping_alpha(double en2)
-{
-  // SPEC 1.2, Eq. 2
-  if (en2 <= 0.0) return 1.0;
-  const double ln_e = 0.5 * std::log(en2);
-  return -ln_e / std::sqrt(ln_e * ln_e + M_PI * M_PI);
-}
 
 /* ---------------------------------------------------------------------- */
 

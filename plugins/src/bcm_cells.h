@@ -108,9 +108,6 @@ struct BcmContactWork {
 int bcm_find_contacts(const BcmSpaceCell &A, const BcmSpaceCell &B, double dcut,
                       BcmContactWork &work, std::vector<BcmContactPoint> &out);
 
-/* SPEC 1.2, Eq. 2: damping ratio alpha of a restitution coefficient e_n (given as e_n^2). */
-double bcm_damping_alpha(double en2);
-
 /* Index into atom->darray of a per-atom array `name` (ncols columns) kept by a hidden
    fix property/atom of id fix_id (created if absent), so that it migrates with the atoms,
    follows sorting and goes to restart files; ghost = also communicated to ghost atoms at

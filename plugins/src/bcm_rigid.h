@@ -61,10 +61,24 @@ inline double dot(const double *a, const double *b)
   return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
 
+inline double quat_norm2(const double *q)
+{
+  return q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+}
+
 inline void normalize_quat(double *q)
 {
-  const double n = 1.0 / std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  const double n = 1.0 / std::sqrt(quat_norm2(q));
   for (int k = 0; k < 4; k++) q[k] *= n;
+}
+
+/* R of a stored orientation q, normalised first (q itself is left as it is); a zero q (a
+   cell without orientation) gives R = 0 */
+inline void rotation(const double *q, double R[3][3])
+{
+  double u[4] = {q[0], q[1], q[2], q[3]};
+  if (quat_norm2(u) > 0.0) normalize_quat(u);
+  quat_to_mat(u, R);
 }
 
 }    // namespace BcmRigid

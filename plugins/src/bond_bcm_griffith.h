@@ -9,18 +9,17 @@
 #ifndef BRITTLE_BOND_BCM_GRIFFITH_H
 #define BRITTLE_BOND_BCM_GRIFFITH_H
 
+#include "bcm_interface_kinematics.h"
+#include "bcm_interface_table.h"
 #include "bond.h"
 #include "fix_breakable_special.h"
 
-#include <string>
-#include <unordered_map>
 #include <vector>
 
 namespace LAMMPS_NS {
 
 class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
  public:
-  static constexpr int MAX_POINTS = 16;    // contact points per interface
   static constexpr int NVECTOR = 8;        // global vector of fix bcm/griffith
 
   BondBcmGriffith(class LAMMPS *);
@@ -53,32 +52,15 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   bool released(int i, int m) override;
 
  private:
-  enum Convention { STORED, ROCKABLE, LITERAL };
   enum Stiffness { PER_INTERFACE, PER_AREA };
 
   // per type: bond_coeff values and derived damping ratios (SPEC Eq. 2)
   double *kn, *kt, *en2, *gc, *kn_c, *kt_c, *en2_c, *mu;
   double *alpha, *alpha_c;
 
-  // interface geometry, identical on every rank
-  struct Interface {
-    tagint tag1, tag2;
-    int npts;
-    double area;
-    long soff;      // into space: normal (3), then the points (3 npts)
-    long boff;      // into body: normal (3), points in cell 1's frame, then in cell 2's
-  };
-  std::vector<Interface> interfaces;
-  std::vector<double> space;    // reference state, space frame, from the geometry file
-  std::vector<double> body;     // normal in cell 1's frame, points in cell 1's, then cell 2's
-  std::unordered_map<long long, int> lookup;    // (tag1, tag2) -> interface
-  std::string geometry_file;
-  int convention;
-  int stiffness;          // PER_INTERFACE (the published model) or PER_AREA (k times S / <S>)
-  double mean_area;       // <S>, the mean area of the interfaces of the geometry file
-  int maxpts;             // largest npts of the geometry: sets the per-slot store size
-  int reference_taken;    // body-frame geometry computed (first init after the file was read)
-  double span_max;        // largest distance between bonded centres, reference state
+  BcmInterfaceTable table;    // the geometry of every interface, identical on every rank
+  int convention;             // BcmGriffith::Convention
+  int stiffness;              // PER_INTERFACE (the published model) or PER_AREA (k times S / <S>)
 
   // Working copy of the interfaces of the bond list, rebuilt with it (at each
   // reneighbouring): per entry one contiguous record in bondlist order holding the per-point
@@ -103,8 +85,7 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   double *cache_store;               // store row 0 when the cache was built
   bool cache_valid;
   bool dirty;                        // the working copy is ahead of the store
-  // per owned and ghost cell, this evaluation: centre, velocity, angular velocity, rotation
-  static constexpr int CELL_STRIDE = 18;
+  // per owned and ghost cell, this evaluation: BcmInterfaceKinematics::pack_cell()
   std::vector<double> cells;
 
   int store_index;     // atom->darray index of the per-slot state
@@ -113,16 +94,33 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   bigint nevaluations;
   FixBreakableSpecial *special;    // takes retired interfaces out of the special lists
 
+  // what a force evaluation is: it decides which half kicks use its damping force
+  struct Clock {
+    int kind;    // EvalKind
+    double dt, time;
+    bigint step;
+  };
+  using Pair = BcmInterfaceKinematics::Pair;
+  using Point = BcmInterfaceKinematics::Point;
+  // one evaluation of one interface: its forces on cell 2, the energy its springs store and
+  // the power -sum F_d . dv of its damping forces
+  struct Result {
+    BcmInterfaceKinematics::Load load;
+    double stored = 0.0, pd = 0.0;
+  };
+
   void allocate();
-  void read_geometry(const std::string &file);
-  void broadcast_geometry();
-  void index_geometry();
-  void take_reference();
   void rebuild_cache();
   void set_constants(const Entry &e, int type, double *rec) const;
-  int find_interface(tagint t1, tagint t2) const;
   const double *slot_of(int i, int j) const;
-  static long long key(tagint t1, tagint t2);
+  double intact_forces(const Entry &e, double *rec, const Pair &p, const Point *pts,
+                       Result &r) const;
+  void break_interface(const Entry &e, double *rec, const Pair &p, const Point *pts,
+                       double stored, const Clock &now);
+  void contact_forces(const Entry &e, int type, double *rec, const Pair &p, const Point *pts,
+                      bool just_broke, double e_before, const Clock &now, Result &r);
+  void retire(const Entry &e, double *rec, double held, const Clock &now, Result &r);
+  void apply(const Entry &e, const Pair &p, const Result &r);
 };
 
 }    // namespace LAMMPS_NS

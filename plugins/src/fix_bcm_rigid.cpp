@@ -120,8 +120,7 @@ void FixBcmRigid::init()
     if (!(in[0] > 0.0 && in[1] > 0.0 && in[2] > 0.0 && std::isfinite(in[0] + in[1] + in[2])))
       bad_moment = std::min(bad_moment, tag[i]);
     if (!(rmass[i] > 0.0)) bad_mass = std::min(bad_mass, tag[i]);
-    const double *q = quat[i];
-    const double qq = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+    const double qq = BcmRigid::quat_norm2(quat[i]);
     if (!(qq > 0.0) || !std::isfinite(qq)) bad_quat = std::min(bad_quat, tag[i]);
   }
   tagint local[3] = {bad_moment, bad_quat, bad_mass}, global[3];
@@ -140,9 +139,8 @@ void FixBcmRigid::init()
   // write_restart between two runs) does not change a run's trajectory in the last bit.
   for (int i = 0; i < nlocal; i++)
     if (mask[i] & groupbit) {
-      const double *q = quat[i];
-      const double qq = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
-      if (std::fabs(qq - 1.0) > 1e-14) BcmRigid::normalize_quat(quat[i]);
+      if (std::fabs(BcmRigid::quat_norm2(quat[i]) - 1.0) > 1e-14)
+        BcmRigid::normalize_quat(quat[i]);
       set_omega(i);
     }
 }

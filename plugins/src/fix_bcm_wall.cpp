@@ -83,7 +83,7 @@ FixBcmWall::FixBcmWall(LAMMPS *_lmp, int narg, char **arg) :
   if (!(en2 >= 0.0 && en2 <= 1.0)) error->all(FLERR, "fix bcm/wall: en2 must be in [0, 1]");
   if (!(mu >= 0.0)) error->all(FLERR, "fix bcm/wall: mu must be >= 0");
   if (nslots < 1) error->all(FLERR, "fix bcm/wall: slots must be >= 1");
-  alpha = bcm_damping_alpha(en2);
+  alpha = BcmContactLaw::damping_ratio(en2);
 
   table = BcmCells::load(lmp, cells_file);
 
@@ -203,10 +203,8 @@ void FixBcmWall::wall_forces(bool advance)
     const double hc = side * (x[i][axis] - coord);
     if (hc - c->rbound >= rm) continue;
 
-    double q[4] = {quat[i][0], quat[i][1], quat[i][2], quat[i][3]};
-    BcmRigid::normalize_quat(q);
     double R[3][3];
-    BcmRigid::quat_to_mat(q, R);
+    BcmRigid::rotation(quat[i], R);
     const double *bv = &table->vert[3 * c->v0];
     touching.clear();
     for (int k = 0; k < c->nv; k++) {
@@ -271,7 +269,7 @@ void FixBcmWall::wall_forces(bool advance)
           s[S_VERTEX] = k + 1;
           s[S_STEP] = now;
           for (int d = 0; d < 3; d++) s[S_U + d] = u[d];
-          s[S_FT] = std::sqrt(dot(pt.ft, pt.ft));
+          s[S_FT] = pt.ftm;
         } else if (!warned_slots) {
           warned_slots = true;
           error->warning(FLERR, "fix bcm/wall: cell {} touches with more than {} vertices: "
@@ -315,7 +313,7 @@ void FixBcmWall::wall_forces(bool advance)
       for (int m = 0; m < nslots; m++) {
         double *s = h + SLOT * m;
         if (s[S_VERTEX] != 0.0 && s[S_STEP] == before) {
-          fric += 0.5 * s[S_FT] * std::sqrt(dot(s + S_U, s + S_U));
+          fric += BcmFriction::release(s[S_FT], s + S_U);
           s[S_VERTEX] = 0.0;
         }
       }

@@ -169,7 +169,7 @@ void PairBcmContact::coeff(int narg, char **arg)
       kt[i][j] = kt_one;
       en2[i][j] = en2_one;
       mu[i][j] = mu_one;
-      alpha[i][j] = bcm_damping_alpha(en2_one);
+      alpha[i][j] = BcmContactLaw::damping_ratio(en2_one);
       setflag[i][j] = 1;
       count++;
     }
@@ -425,7 +425,7 @@ void PairBcmContact::compute(int eflag, int vflag)
             dst[S_KEY] = key;
             dst[S_STEP] = static_cast<double>(step);
             for (int d = 0; d < 3; d++) dst[S_U + d] = u[d];
-            dst[S_FT] = std::sqrt(dot(pt.ft, pt.ft));
+            dst[S_FT] = pt.ftm;
           } else {
             nlost++;
           }
@@ -550,7 +550,7 @@ void PairBcmContact::read_restart(FILE *fp)
         if (root) utils::sfread(FLERR, &a[i][j], sizeof(double), 1, fp, nullptr, error);
         MPI_Bcast(&a[i][j], 1, MPI_DOUBLE, 0, world);
       }
-      alpha[i][j] = bcm_damping_alpha(en2[i][j]);
+      alpha[i][j] = BcmContactLaw::damping_ratio(en2[i][j]);
     }
 }
 
