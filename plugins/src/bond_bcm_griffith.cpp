@@ -39,6 +39,7 @@
 
 #include "atom.h"
 #include "bcm_rigid.h"
+#include "break_events.h"
 #include "breakable_util.h"
 #include "comm.h"
 #include "domain.h"
@@ -911,6 +912,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
         slot[H_BREAK_STEP] = (double) step;
         slot[H_BREAK_TIME] = time;
         slot[H_E_BREAK] = e_total;
+        BreakPath::interface(lmp, special, c1, c2, e_total, area);    // the event log
         // the switch (SPEC 1.2): a point in compression keeps its normal force,
         // k_c (dn - s) = k_p dn, and its tangential force, u_t = (k_tp / k_tc) dt
         double *cb = &contact[e.coff];
