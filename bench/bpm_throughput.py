@@ -76,6 +76,8 @@ VARIANTS = {
 
 def script(data: Path, variant: str, plugin: Path, steps: int, seed: int) -> str:
     body = VARIANTS[variant].format(seed=seed, sigma=2 ** (-1 / 6))
+    if "breakable/cr" in body:  # r0 and theta0 from the builder's file next to the data file
+        body += f"fix references all breakable/references {data.with_suffix('.refs')}\n"
     common = COMMON.format(data=data, seed=seed)
     # read_data must precede pair/bond styles that need box; settings that LAMMPS wants
     # before read_data (none here) would go first.

@@ -51,6 +51,7 @@ LAYOUT_FILES = (STATUS, MARKER, LOCK, "input.yaml", "config.resolved.yaml", "pro
                 "system.data", "in.lammps", "setup.lammps", "resume.lammps", "session.json", "control.lmp",
                 "log.lammps", "log.*.lammps", "thermo.dat", "interfaces.txt", "cells.txt", "voronoi_cells.txt",
                 "snapshots.json", "outcome.json", "log.session.txt", "report.md", "report.html", ".session_error.json",
+                "system.refs", "breaks.dat",  # BPM reference geometry; break-event log (BPM and BCM)
                 ".*.tmp*")
 LAYOUT_DIRS = {
     "dumps": ("*.lammpstrj", "*.lammpstrj.gz", ".*.tmp*"),

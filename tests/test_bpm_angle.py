@@ -6,9 +6,13 @@ The energy E = k_A S (dth^2/2 - dth^4/(4 theta_c^2)) is the integral of the torq
 
 from __future__ import annotations
 
+import tempfile
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+from driver.bpm.datafile import write_references
 from driver.engine import LammpsError
 
 K_A, THETA_C_DEG, LAMBDA_C = 3.0, 10.0, 1.05
@@ -86,6 +90,13 @@ def configuration(dth=0.0, l1=1.0, l2=1.0):
 
 
 # ---------------------------------------------------------------- helpers
+def give_references(lmp, positions, bonds, angles=()):
+    """fix breakable/references with the reference geometry (SPEC 2.2) of `positions`: the
+    styles take r0 and theta0 from the input only. The file is read when the fix is defined."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = write_references(Path(folder) / "system.refs", positions, bonds, angles)
+        lmp.command(f"fix references all breakable/references {path}")
+
 
 def make_angle(lmp, newton="on off", bonds=False, k=K_A, thc=THETA_C_DEG, lam=LAMBDA_C,
                run=True):
@@ -93,8 +104,9 @@ def make_angle(lmp, newton="on off", bonds=False, k=K_A, thc=THETA_C_DEG, lam=LA
     lmp.commands(SETUP.format(p=p, newton=newton, k=k, thc=thc, lam=lam))
     if bonds:
         lmp.commands(BONDS.format(lam=lam))
+    give_references(lmp, np.array(p), [(0, 1), (1, 2)] if bonds else [], [(0, 1, 2)])
     if run:
-        lmp.command("run 0")  # references taken here
+        lmp.command("run 0")
 
 
 def by_tag(lmp, name):
@@ -246,6 +258,8 @@ def test_breaks_at_theta_c(lmp, sign):
 
 
 def test_breaks_with_its_bond_in_the_same_step(lmp):
+    """The bond breaks (Eq. 2) and takes the angle with it at the end of the same step; in
+    that step the angle already exerts nothing (S = 0 past lambda_c, Eq. 4)."""
     make_angle(lmp, bonds=True)
     evaluate(lmp, configuration(0.0, 1.0, LAMBDA_C * (1 - 1e-9)))
     assert counters(lmp) == (0, 0)
@@ -257,10 +271,17 @@ def test_breaks_with_its_bond_in_the_same_step(lmp):
     assert e == 0.0
 
 
-def test_stretched_arm_breaks_angle_without_bond_style(lmp):
+def test_stretched_arm_without_bond_softens_but_does_not_break(lmp):
+    """Breaking by stretch is the bond's decision: with no bond style, an arm past lambda_c
+    only makes S = 0 (Eq. 4): no energy, no force, and the angle acts again once the arm
+    comes back."""
     make_angle(lmp)
-    evaluate(lmp, configuration(0.0, LAMBDA_C * (1 + 1e-9), 1.0))
-    assert counters(lmp) == (0, 1)
+    e, f = evaluate(lmp, configuration(np.radians(4.0), LAMBDA_C * (1 + 1e-9), 1.0))
+    assert counters(lmp) == (0, 0)
+    assert angle_types(lmp) == (1, 1, 1)
+    assert e == 0.0 and np.abs(f).max() == 0.0
+    e, _ = evaluate(lmp, configuration(np.radians(4.0), 1.0, 1.0))
+    assert e == pytest.approx(energy(np.radians(4.0), 1.0), rel=1e-9)
 
 
 # ---------------------------------------------------------------- prerequisites

@@ -6,10 +6,14 @@ as the function whose finite-difference derivative must be its own force.
 
 from __future__ import annotations
 
+import tempfile
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.integrate import quad
 
+from driver.bpm.datafile import write_references
 from driver.engine import Lammps, LammpsError
 
 TWO23 = 2.0 ** (2.0 / 3.0)
@@ -38,6 +42,14 @@ thermo_modify norm no
 """
 
 WCA = "pair_style lj/cut 1.0\npair_coeff * * 1.0 {} 1.0\npair_modify shift yes".format(2 ** (-1 / 6))
+
+
+def give_references(lmp, positions, bonds, angles=()):
+    """fix breakable/references with the reference geometry (SPEC 2.2) of `positions`: the
+    styles take r0 and theta0 from the input only. The file is read when the fix is defined."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = write_references(Path(folder) / "system.refs", positions, bonds, angles)
+        lmp.command(f"fix references all breakable/references {path}")
 
 
 # ---------------------------------------------------------------- SPEC expectations
@@ -74,8 +86,9 @@ def make_pair(lmp, r0=1.1, coeffs="1.05 0.0", pair="pair_style zero 2.0\npair_co
     p1, p2 = ORIGIN, ORIGIN + r0 * DIRECTION
     lmp.commands(SETUP.format(x1=p1[0], y1=p1[1], z1=p1[2], x2=p2[0], y2=p2[1], z2=p2[2],
                               pair=pair, coeffs=coeffs, newton=newton))
+    give_references(lmp, np.array([p1, p2]), [(0, 1)])
     if run:
-        lmp.command("run 0")  # the reference length is taken here
+        lmp.command("run 0")
 
 
 def by_tag(lmp, name):
@@ -244,7 +257,7 @@ def test_restart_keeps_reference_lengths_breaks_and_counts(lmp, plugin_path, tmp
 
     other = reopen(plugin_path, tmp_path / "intact.restart")
     try:
-        other.command("run 0")  # r0 comes back from the restart file, it is not taken again
+        other.command("run 0")  # r0 comes back from the restart file (no references fix)
         assert other.get_thermo("ebond") == pytest.approx(e_stretched, rel=1e-12)
     finally:
         other.close()

@@ -16,6 +16,8 @@ import numpy as np
 import pytest
 from scipy.spatial import Delaunay
 
+from driver.bpm.datafile import write_references
+
 CELLS = 3
 BOND_CUT = 1.25 * 2 ** (1 / 6)
 
@@ -93,9 +95,11 @@ def test_nve_conserves_energy_and_momentum(lmp, tmp_path, periodic):
     if periodic:
         x, bonds, angles, length = periodic_solid()
         write_data(data, x, bonds, angles, box=(0.0, length))
+        write_references(tmp_path / "solid.refs", x, bonds, angles, np.full(3, length))
     else:
         x, bonds, angles = bonded_solid()
         write_data(data, x, bonds, angles)
+        write_references(tmp_path / "solid.refs", x, bonds, angles)
     lmp.commands(f"""
         units lj
         atom_style angle
@@ -111,6 +115,7 @@ def test_nve_conserves_energy_and_momentum(lmp, tmp_path, periodic):
         bond_coeff 1 1.2 0.0
         angle_style breakable/cr
         angle_coeff 1 2.0 30.0 1.2
+        fix references all breakable/references {tmp_path / "solid.refs"}
         velocity all create 0.02 4928 mom yes rot yes dist gaussian
         fix integrate all nve
         timestep 0.005
@@ -120,7 +125,7 @@ def test_nve_conserves_energy_and_momentum(lmp, tmp_path, periodic):
     """)
     e0 = lmp.get_thermo("etotal")
     ke0 = lmp.get_thermo("ke")
-    assert abs(lmp.get_thermo("pe")) < 1e-12  # references taken from the starting geometry
+    assert abs(lmp.get_thermo("pe")) < 1e-12  # references of the starting geometry
 
     energies = []
     for _ in range(100):

@@ -242,7 +242,20 @@ def test_data_file_round_trip(which, request, tmp_path):
     p = request.getfixturevalue(f"pack{which}")
     net = request.getfixturevalue(f"net{which}")
     path = write_data(tmp_path / "solid.data", p, net)
-    assert [f.name for f in tmp_path.iterdir()] == ["solid.data"]  # no temp file left
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["solid.data", "solid.refs"]  # no temp file
+    # the references of fix breakable/references: the network's r0 and theta0, ids 1-based
+    refs = [line.split() for line in (tmp_path / "solid.refs").read_text().splitlines()
+            if not line.startswith("#")]
+    bonds = np.array([[int(w) for w in r[1:3]] for r in refs if r[0] == "bond"])
+    angles = np.array([[int(w) for w in r[1:4]] for r in refs if r[0] == "angle"])
+    values = np.array([[float(w) for w in r[4:]] for r in refs if r[0] == "angle"])
+    np.testing.assert_array_equal(bonds, net.bonds + 1)
+    np.testing.assert_allclose([float(r[3]) for r in refs if r[0] == "bond"], net.r0, rtol=1e-14)
+    np.testing.assert_array_equal(angles, net.angles + 1)
+    np.testing.assert_allclose(values[:, 0], net.theta0, atol=1e-9)
+    lengths = dict(zip(map(tuple, net.bonds.tolist()), net.r0))
+    arm = [lengths[tuple(sorted(pair))] for pair in net.angles[:, [0, 1]].tolist()]
+    np.testing.assert_allclose(values[:, 1], arm, rtol=1e-14)
     lmod = lammps_module()
     with Lammps() as lmp:
         lmp.commands(f"""

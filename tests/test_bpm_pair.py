@@ -8,9 +8,13 @@ that exclusion, scaling, mixing, damping and every tally path are compared.
 
 from __future__ import annotations
 
+import tempfile
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+from driver.bpm.datafile import write_references
 from driver.engine import Lammps, LammpsError
 
 GAMMA = 50.0
@@ -223,10 +227,20 @@ DIRECTION = np.array([0.48, 0.6, 0.64])
 ORIGIN = np.array([-0.3, 0.2, 0.1])
 
 
+def give_references(lmp, positions, bonds, angles=()):
+    """fix breakable/references with the reference geometry (SPEC 2.2) of `positions`: the
+    styles take r0 and theta0 from the input only. The file is read when the fix is defined."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = write_references(Path(folder) / "system.refs", positions, bonds, angles)
+        lmp.command(f"fix references all breakable/references {path}")
+
+
 def make_two(lmp, r=0.9, u=1.3, abar=1.1, gamma=GAMMA, bond=False):
     p1, p2 = ORIGIN, ORIGIN + r * DIRECTION
     lmp.commands(TWO.format(p1=p1.tolist(), p2=p2.tolist(), u=u, abar=abar, gamma=gamma,
                             bond=BOND if bond else ""))
+    if bond:
+        give_references(lmp, np.array([p1, p2]), [(0, 1)])
     lmp.command("run 0")
 
 

@@ -69,7 +69,7 @@ def test_generated_input_runs_standalone_with_lmp(finished_run, tmp_path, plugin
 
     from driver.engine import venv_bin
 
-    for name in ("in.lammps", "setup.lammps", "system.data"):
+    for name in ("in.lammps", "setup.lammps", "system.data", "system.refs"):
         shutil.copy(finished_run / name, tmp_path / name)
     (tmp_path / "dumps").mkdir()
     proc = subprocess.run([venv_bin("lmp"), "-in", "in.lammps", "-var", "plugin", plugin_path, "-screen", "none"],

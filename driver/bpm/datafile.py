@@ -1,9 +1,17 @@
-"""LAMMPS data file (atom_style angle) of a BPM packing and its bond network.
+"""LAMMPS data file (atom_style angle) of a BPM packing and its bond network, and the
+reference geometry of its bonds and angles.
 
 Atoms lines are ``atom-ID molecule-ID atom-type x y z`` (molecule 0, ids 1-based in packing
 order); Angles lines are ``id type atom1 atom2 atom3`` with atom2 the vertex, as LAMMPS's
-angle styles expect. Coordinates are written with 17 significant digits so that LAMMPS
-recomputes exactly the r0 and theta0 of the network.
+angle styles expect. Coordinates are written with 17 significant digits.
+
+Next to the data file, ``<stem>.refs`` holds what ``fix breakable/references`` reads (SPEC 2.2:
+r0 of every bond; theta0 and the arm lengths r1_0, r2_0 of every angle), computed here from
+the packing with the minimum-image convention, so that every MPI rank uses the same values
+whatever periodic image it sees an atom through:
+
+    bond  id1 id2 r0
+    angle id1 id2 id3 theta0 r1_0 r2_0      (id2 = vertex, radians; r1_0 = r0 of bond 1-2)
 """
 
 from __future__ import annotations
@@ -18,6 +26,7 @@ import pandas as pd
 
 from driver.bpm.network import Network
 from driver.bpm.packing import Packing
+from driver.rundir import atomic_save
 
 
 def write_data(path: str | os.PathLike, packing: Packing, network: Network,
@@ -25,7 +34,8 @@ def write_data(path: str | os.PathLike, packing: Packing, network: Network,
     """Write the data file atomically (temporary file in the same folder, then os.replace).
 
     bond_type / angle_type: one type for all, or one per bond / angle (1-based).
-    Returns the path written.
+    Also writes the reference file ``path.with_suffix(".refs")`` (see write_references).
+    Returns the path of the data file.
     """
     path = Path(path)
     n = packing.n
@@ -85,6 +95,58 @@ def write_data(path: str | os.PathLike, packing: Packing, network: Network,
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+    lengths = np.full(3, np.inf)
+    lengths[:packing.dimension] = np.asarray(packing.lengths, dtype=np.float64)[:packing.dimension]
+    write_references(path.with_suffix(".refs"), packing.positions, network.bonds, network.angles,
+                     lengths)
+    return path
+
+
+def references(positions: np.ndarray, bonds: np.ndarray, angles: np.ndarray,
+               lengths: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Reference geometry of a bond network (SPEC 2.2), with the minimum-image convention.
+
+    positions: (N, 3); bonds: (Nb, 2) and angles: (Na, 3) 0-based, angle rows (i, vertex, k);
+    lengths: periodic box edges (3,), inf (or None) along a non-periodic axis.
+    Returns r0 (Nb,) and an (Na, 3) array of theta0 (radians, from atan2 of |u x w| and
+    u . w, accurate near 0 and pi), r1_0 = |u|, r2_0 = |w| with u = x_i - x_vertex,
+    w = x_k - x_vertex. An arm's length is the r0 of its bond to the last bit (a separation
+    and its negative have the same norm), so that an angle's S(l) of Eq. 4 and its bond's
+    break test of Eq. 2 use one reference.
+    """
+    x = np.asarray(positions, dtype=np.float64)
+    bonds = np.asarray(bonds, dtype=np.int64).reshape(-1, 2)
+    angles = np.asarray(angles, dtype=np.int64).reshape(-1, 3)
+    L = np.full(3, np.inf) if lengths is None else np.asarray(lengths, dtype=np.float64)
+
+    def separation(i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        d = x[i] - x[j]
+        periodic = np.isfinite(L)
+        d[:, periodic] -= L[periodic] * np.round(d[:, periodic] / L[periodic])
+        return d
+
+    r0 = np.linalg.norm(separation(bonds[:, 0], bonds[:, 1]), axis=1)
+    u = separation(angles[:, 0], angles[:, 1])
+    w = separation(angles[:, 2], angles[:, 1])
+    theta0 = np.arctan2(np.linalg.norm(np.cross(u, w), axis=1), np.einsum("ij,ij->i", u, w))
+    return r0, np.stack([theta0, np.linalg.norm(u, axis=1), np.linalg.norm(w, axis=1)], axis=1)
+
+
+def write_references(path: str | os.PathLike, positions: np.ndarray, bonds: np.ndarray,
+                     angles: np.ndarray, lengths: np.ndarray | None = None) -> Path:
+    """Write the file of fix breakable/references (module docstring; atom IDs 1-based,
+    17 significant digits), atomically. Arguments as for references()."""
+    path = Path(path)
+    r0, ang = references(positions, bonds, angles, lengths)
+    bonds = np.asarray(bonds, dtype=np.int64).reshape(-1, 2) + 1
+    angles = np.asarray(angles, dtype=np.int64).reshape(-1, 3) + 1
+    out = io.StringIO()
+    out.write("# reference geometry (SPEC 2.2) for fix breakable/references (driver.bpm.datafile)\n"
+              "# bond id1 id2 r0 | angle id1 id2(vertex) id3 theta0(rad) r1_0 r2_0\n")
+    out.writelines(f"bond {a} {b} {r!r}\n" for (a, b), r in zip(bonds.tolist(), r0.tolist()))
+    out.writelines(f"angle {a} {v} {b} {t!r} {r1!r} {r2!r}\n"
+                   for (a, v, b), (t, r1, r2) in zip(angles.tolist(), ang.tolist()))
+    atomic_save(path, lambda p: Path(p).write_text(out.getvalue()))
     return path
 
 

@@ -19,20 +19,23 @@
    (every intact angle of a type with theta_c below 17 degrees), atan2(sin dth, cos dth)
    otherwise. Both are exact to rounding, and theta - theta0 lies in [-pi, pi].
 
-   The angle breaks (type set to 0 for good) when |dth| >= theta_c, or when an arm's stretch
-   r * (1/r0) exceeds lambda_c: the test bond_style breakable/cr makes on the same pair, with
-   the same arithmetic, so an angle goes in the step its bond does (when both use the same
-   lambda_c; across periodic images the two references may differ by rounding). Every rank
-   holding a copy decides with the same arithmetic on the same coordinates.
+   The angle breaks (type set to 0 for good, through the single break path of
+   break_events.h) when |dth| >= theta_c (SPEC Eq. 3), and when either of its arm bonds
+   breaks: bond_style breakable/cr decides that, and fix breakable/special hands the break to
+   every rank at the end of the step (break_with_bond), which breaks the angle with the
+   bond's step. This style does not test the stretch itself: past lambda_c an arm has S = 0,
+   so the angle exerts no force in the step its bond breaks.
 
    Storage: theta0, r1_0, r2_0 per atom and angle slot in a hidden fix property/atom (every
-   atom of an angle holds a copy of it, newton_bond being off); compute() reads a copy of the
-   intact entries of neighbor->anglelist. A stored r1_0 of 0 is the value of a fresh slot: it
-   marks an angle whose references have not been taken yet. */
+   atom of an angle holds a copy of it, newton_bond being off), filled from the input by fix
+   breakable/references (r1_0, r2_0 are the r0 of the two arm bonds); compute() reads a copy
+   of the intact entries of neighbor->anglelist. A stored r1_0 of 0 is the value of a slot no
+   reference was given for: an error. */
 
 #include "angle_breakable_cr.h"
 
 #include "atom.h"
+#include "break_events.h"
 #include "breakable_util.h"
 #include "comm.h"
 #include "domain.h"
@@ -41,6 +44,7 @@
 #include "force.h"
 #include "memory.h"
 #include "neighbor.h"
+#include "update.h"
 
 #include <algorithm>
 #include <cmath>
@@ -50,8 +54,6 @@ using namespace LAMMPS_NS;
 
 static constexpr double PI = 3.14159265358979323846;
 static constexpr double SMALL = 0.001;    // floor of sin(theta), as in angle_style harmonic
-static const char *const STORE_FIX_ID = "BREAKABLE_CR_ANGLE_REF";
-static const char *const STORE_NAME = "breakable_cr_angle_ref";
 
 namespace {
 
@@ -118,8 +120,8 @@ template <class T> struct Angle3 {
     const T inv_r1 = r2 * inv_r12;
     const T inv_r2 = r1 * inv_r12;
 
-    // S of the more stretched arm, and dS/dl. eps is clamped at 0 (S = 1, dS = 0); q at 0
-    // only matters by rounding, the arms being within lambda_c r0 here.
+    // S of the more stretched arm, and dS/dl. eps is clamped at 0 (S = 1, dS = 0), q at 0:
+    // an arm past lambda_c r0 (its bond breaks in this step) gives S = dS = 0, no force.
     const T eps = vmax(vmax(l1, l2) - 1.0, T{});
     const T q = vmax(1.0 - eps * eps * inv_ec2, T{});
     const T s_fac = q * q;
@@ -272,8 +274,9 @@ void AngleBreakableCR::init_style()
   if (atom->molecular != Atom::MOLECULAR)
     error->all(FLERR, "angle_style breakable/cr requires a molecular atom style (not a template)");
 
-  store_index =
-      BreakableUtil::peratom_array(lmp, STORE_FIX_ID, STORE_NAME, 3 * atom->angle_per_atom);
+  store_index = BreakableUtil::peratom_array(lmp, BreakableUtil::ANGLE_REF_FIX_ID,
+                                             BreakableUtil::ANGLE_REF_NAME,
+                                             3 * atom->angle_per_atom);
   special = FixBreakableSpecial::get_or_create(lmp);
   cached_nanglelist = -1;
 }
@@ -317,8 +320,8 @@ inline void AngleBreakableCR::apply(const Ref &R, double a11, double a12, double
 }
 
 /* ----------------------------------------------------------------------
-   one angle, every case: its break (stretched arm, or bend past theta_c), or
-   its forces with dth by the polynomial or by atan2
+   one angle, every case: its break (bend past theta_c), or its forces with
+   dth by the polynomial or by atan2
 ------------------------------------------------------------------------- */
 
 template <bool EVFLAG>
@@ -332,20 +335,13 @@ void AngleBreakableCR::exact(Ref &R, const double *const *x, double *const *f, i
   A.inv_r1_0 = R.inv_r1_0;
   A.inv_r2_0 = R.inv_r2_0;
   A.geometry();
-
-  // breaking with an arm's bond (SPEC 2.2: "or when either of its bonds breaks"): the
-  // stretch l = r / r0 is computed as the bond style does (r times the same 1/r0)
-  if ((A.l1 > P.lambda_c) | (A.l2 > P.lambda_c)) {
-    break_angle(R);
-    return;
-  }
-  // breaking by bending (SPEC 2.2 Eq. 3: |dtheta| >= theta_c)
   const double dth = delta_theta(A.sd, A.cd);
+  A.forces(dth, P.k, P.inv_thc2, P.inv_ec2);
+  // breaking by bending (SPEC 2.2 Eq. 3: |dtheta| >= theta_c), holding the energy of Eq. 3-4
   if (fabs(dth) >= P.theta_c) {
-    break_angle(R);
+    break_angle(R, A.energy);
     return;
   }
-  A.forces(dth, P.k, P.inv_thc2, P.inv_ec2);
   const double d[6] = {A.d1x, A.d1y, A.d1z, A.d2x, A.d2y, A.d2z};
   apply<EVFLAG>(R, A.a11, A.a12, A.a22, d, A.energy, f, nlocal);
 }
@@ -393,11 +389,9 @@ template <bool EVFLAG> void AngleBreakableCR::loop()
     A.geometry();
 
     // the decisions of exact(), for the common case only
-    const Lanes2 lambda_c = {Pa.lambda_c, Pb.lambda_c};
     const Lanes2 theta_c = {Pa.theta_c, Pb.theta_c};
     const Lanes2 dth = asin_small(A.sd);
-    const Mask2 ok = ~((A.l1 > lambda_c) | (A.l2 > lambda_c)) & (vabs(A.sd) < xmax) &
-        (A.cd > zero) & ~(vabs(dth) >= theta_c);
+    const Mask2 ok = (vabs(A.sd) < xmax) & (A.cd > zero) & ~(vabs(dth) >= theta_c);
 
     A.forces(dth, Lanes2{Pa.k, Pb.k}, Lanes2{Pa.inv_thc2, Pb.inv_thc2},
              Lanes2{Pa.inv_ec2, Pb.inv_ec2});
@@ -436,46 +430,63 @@ void AngleBreakableCR::compute(int eflag, int vflag)
 }
 
 /* ----------------------------------------------------------------------
-   the single break path: type 0 in the cache, the list and every owned copy;
-   the rank owning the atom with the smallest tag counts it, so it counts once
+   the cache entry, then the single break path
 ------------------------------------------------------------------------- */
 
-void AngleBreakableCR::break_angle(Ref &R)
+void AngleBreakableCR::break_angle(Ref &R, double energy, bigint step, double time)
 {
-  const int nlocal = atom->nlocal;
-  const tagint *tag = atom->tag;
-  const int i1 = R.i1, i2 = R.i2, i3 = R.i3;
-  const tagint t1 = tag[i1], t2 = tag[i2], t3 = tag[i3];
   R.type = 0;
-  neighbor->anglelist[R.n][3] = 0;
-  for (int idx : {i1, i2, i3}) {
-    if (idx >= nlocal) continue;
-    const int m = BreakableUtil::angle_slot(atom, idx, t1, t2, t3);
-    if (m >= 0) atom->angle_type[idx][m] = 0;
-  }
-  int lowest = i1;
-  if (t2 < tag[lowest]) lowest = i2;
-  if (t3 < tag[lowest]) lowest = i3;
-  special->add_broken_angle(lowest < nlocal ? 1 : 0);
+  BreakPath::angle(lmp, special, R.n, energy, step, time);
+}
+
+void AngleBreakableCR::break_angle(Ref &R, double energy)
+{
+  break_angle(R, energy, update->ntimestep, BreakPath::current_time(lmp));
 }
 
 /* ----------------------------------------------------------------------
-   theta0, r1_0, r2_0 of the angle a1-a2-a3 (closest images) from the current
-   geometry, with the arithmetic of compute()
+   the bond of ev (broken on some rank in this step, fix breakable/special)
+   takes every angle having it as an arm with it: the angles at vertex id1
+   with an arm to id2 and those at id2 with an arm to id1, found through the
+   vertex index over every image of the vertex. Recorded with the bond's step
+   and the energy the angle held in this step's evaluation.
 ------------------------------------------------------------------------- */
 
-void AngleBreakableCR::capture(int a1, int a2, int a3, double *dest)
+void AngleBreakableCR::break_with_bond(const BreakEvent &ev)
 {
+  if (cached_nanglelist < 0) return;    // no angle computed yet: none of this rank's
+  const tagint *tag = atom->tag;
+  const tagint ta = (tagint) ev.id1, tb = (tagint) ev.id2;
+  for (int side = 0; side < 2; side++) {
+    const tagint vertex = side ? tb : ta, other = side ? ta : tb;
+    for (int j = atom->map(vertex); j >= 0; j = atom->sametag[j]) {
+      if (j >= (int) vertex_head.size()) continue;
+      for (int e = vertex_head[j]; e >= 0; e = vertex_next[e]) {
+        Ref &R = cache[e];
+        if (R.type <= 0 || (tag[R.i1] != other && tag[R.i3] != other)) continue;
+        break_angle(R, energy_now(R), (bigint) ev.step, ev.time);
+      }
+    }
+  }
+}
+
+/* ----------------------------------------------------------------------
+   energy of an intact cache entry now, with the arithmetic of compute()
+------------------------------------------------------------------------- */
+
+double AngleBreakableCR::energy_now(const Ref &R) const
+{
+  const TypeParams &P = params[R.type];
   double **x = atom->x;
-  Angle3<double> A = {};
-  arms(x[a1], x[a2], x[a3], A);
+  Angle3<double> A;
+  arms(x[R.i1], x[R.i2], x[R.i3], A);
+  A.cos0 = R.cos0;
+  A.sin0 = R.sin0;
+  A.inv_r1_0 = R.inv_r1_0;
+  A.inv_r2_0 = R.inv_r2_0;
   A.geometry();
-  if (!(A.r1 > 0.0 && A.r2 > 0.0))
-    error->one(FLERR, "angle_style breakable/cr: angle {}-{}-{} has an arm of zero length",
-               atom->tag[a1], atom->tag[a2], atom->tag[a3]);
-  dest[0] = atan2(A.s, A.c);
-  dest[1] = A.r1;
-  dest[2] = A.r2;
+  A.forces(delta_theta(A.sd, A.cd), P.k, P.inv_thc2, P.inv_ec2);
+  return A.energy;
 }
 
 /* ----------------------------------------------------------------------
@@ -484,9 +495,9 @@ void AngleBreakableCR::capture(int a1, int a2, int a3, double *dest)
    with the smallest local index (the smallest of the entry's three indices),
    walking that atom's angle slots in order: a cursor over its slots finds each
    entry's slot with tag compares only, falling back to a full search when the
-   order differs. An angle whose references are not yet taken gets them here
-   from the current geometry (in the setup of its first run), in every copy
-   owned on this rank. Broken entries (type 0) are left out of the cache.
+   order differs. Broken entries (type 0) are left out of the cache; an intact
+   one without references is an error. The vertex index lists the entries by
+   the local index of their vertex (break_with_bond).
 ------------------------------------------------------------------------- */
 
 void AngleBreakableCR::rebuild_cache()
@@ -520,22 +531,14 @@ void AngleBreakableCR::rebuild_cache()
     if (m == num_angle[i] && (m = BreakableUtil::angle_slot(atom, i, t1, t2, t3)) < 0)
       error->one(FLERR, "angle_style breakable/cr: angle {}-{}-{} of the angle list is not in "
                  "the atom's angle arrays", t1, t2, t3);
-    double *src = &refs[i][3 * m];
+    const double *src = &refs[i][3 * m];
     m++;
     if (type <= 0) continue;
 
-    if (src[1] == 0.0) {
-      capture(a1, a2, a3, src);
-      for (int other : {a1, a2, a3}) {
-        int slot;
-        if (other == i || other >= nlocal ||
-            (slot = BreakableUtil::angle_slot(atom, other, t1, t2, t3)) < 0)
-          continue;
-        double *copy = &refs[other][3 * slot];
-        if (copy[1] == 0.0)
-          for (int c = 0; c < 3; c++) copy[c] = src[c];
-      }
-    }
+    if (!(src[1] > 0.0 && src[2] > 0.0))
+      error->one(FLERR, "angle_style breakable/cr: angle {}-{}-{} has no reference geometry: "
+                 "the references file of fix breakable/references does not list it", t1, t2,
+                 t3);
 
     Ref &R = cache[nref++];
     R.i1 = a1;
@@ -550,6 +553,13 @@ void AngleBreakableCR::rebuild_cache()
   cache.resize(nref);
   deferred.resize(nref);
   cached_nanglelist = nanglelist;
+
+  vertex_head.assign(atom->nlocal + atom->nghost, -1);
+  vertex_next.resize(nref);
+  for (int e = nref - 1; e >= 0; e--) {
+    vertex_next[e] = vertex_head[cache[e].i2];
+    vertex_head[cache[e].i2] = e;
+  }
 }
 
 /* ----------------------------------------------------------------------
@@ -603,14 +613,14 @@ void AngleBreakableCR::write_data(FILE *fp)
 
 /* ----------------------------------------------------------------------
    energy of the angle i1-i2-i3 (closest images), references from an owned
-   atom's copy; zero once a breaking criterion is met
+   atom's copy; zero once bent past theta_c (S = 0 makes it zero past lambda_c)
 ------------------------------------------------------------------------- */
 
 double AngleBreakableCR::single(int type, int i1, int i2, int i3)
 {
   if (type <= 0) return 0.0;
   if (store_index < 0)
-    error->one(FLERR, "angle_style breakable/cr: references are taken in the first run");
+    error->one(FLERR, "angle_style breakable/cr: single() before the first run");
   double **refs = atom->darray[store_index];
   const tagint *tag = atom->tag;
   const double *ref = nullptr;
@@ -632,7 +642,6 @@ double AngleBreakableCR::single(int type, int i1, int i2, int i3)
   A.inv_r1_0 = 1.0 / ref[1];
   A.inv_r2_0 = 1.0 / ref[2];
   A.geometry();
-  if ((A.l1 > P.lambda_c) | (A.l2 > P.lambda_c)) return 0.0;
   const double dth = delta_theta(A.sd, A.cd);
   if (fabs(dth) >= P.theta_c) return 0.0;
   A.forces(dth, P.k, P.inv_thc2, P.inv_ec2);
@@ -644,5 +653,6 @@ double AngleBreakableCR::single(int type, int i1, int i2, int i3)
 double AngleBreakableCR::memory_usage()
 {
   return Angle::memory_usage() + (double) cache.capacity() * sizeof(Ref) +
-      (double) deferred.capacity() * sizeof(int) + (double) params.capacity() * sizeof(TypeParams);
+      (double) (deferred.capacity() + vertex_head.capacity() + vertex_next.capacity()) *
+      sizeof(int) + (double) params.capacity() * sizeof(TypeParams);
 }

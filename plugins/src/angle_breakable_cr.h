@@ -1,8 +1,8 @@
 /* angle_style breakable/cr: the breakable three-body angle of Clemmer & Robbins
-   (SPEC 2.2 Eq. 3-4). Per-angle references theta0 and arm lengths r1_0, r2_0 = the values
-   when the style first computes the angle; the angle breaks for good when
-   |theta - theta0| >= theta_c or when an arm is stretched past lambda_c times its reference.
-   See plugins/doc/angle_breakable_cr.md. */
+   (SPEC 2.2 Eq. 3-4). Per-angle references theta0 and arm lengths r1_0, r2_0 from the input
+   (fix breakable/references); the angle breaks for good when |theta - theta0| >= theta_c,
+   or with either of its arm bonds (break_with_bond), through the single break path
+   (break_events.h). See plugins/doc/angle_breakable_cr.md. */
 
 #ifndef BRITTLE_ANGLE_BREAKABLE_CR_H
 #define BRITTLE_ANGLE_BREAKABLE_CR_H
@@ -12,6 +12,8 @@
 #include <vector>
 
 namespace LAMMPS_NS {
+
+struct BreakEvent;
 
 class AngleBreakableCR : public Angle {
  public:
@@ -28,8 +30,12 @@ class AngleBreakableCR : public Angle {
   double single(int, int, int, int) override;
   double memory_usage() override;
 
+  // fix breakable/special, end of step: the bond of ev broke on some rank in this step;
+  // the angles having it as an arm break with it
+  void break_with_bond(const BreakEvent &ev);
+
  private:
-  // per type: coefficients (theta_c in radians)
+  // per type: coefficients (theta_c in radians; lambda_c only shapes S of Eq. 4)
   double *k, *theta_c, *lambda_c;
 
   // per type, packed for the force loop (derive())
@@ -51,6 +57,8 @@ class AngleBreakableCR : public Angle {
   std::vector<Ref> cache;
   std::vector<int> deferred;    // cache entries the fast pass leaves to the exact one
   int cached_nanglelist;        // size of the anglelist the cache was built from, -1 = none
+  std::vector<int> vertex_head;    // per local atom: first cache entry with it as vertex, or -1
+  std::vector<int> vertex_next;    // per cache entry: next entry with the same vertex, or -1
 
   int store_index;    // atom->darray index: theta0, r1_0, r2_0 per atom and angle slot
   class FixBreakableSpecial *special;
@@ -58,8 +66,9 @@ class AngleBreakableCR : public Angle {
   void allocate();
   void derive(int type);
   void rebuild_cache();
-  void capture(int a1, int a2, int a3, double *dest);
-  void break_angle(Ref &R);
+  void break_angle(Ref &R, double energy);
+  void break_angle(Ref &R, double energy, bigint step, double time);
+  double energy_now(const Ref &R) const;
   template <bool EVFLAG>
   void apply(const Ref &R, double a11, double a12, double a22, const double *d, double eangle,
              double *const *f, int nlocal);

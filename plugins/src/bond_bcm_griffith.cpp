@@ -19,6 +19,7 @@
 #include "bcm_interface_contact.h"
 #include "bcm_interface_state.h"
 #include "bcm_rigid.h"
+#include "break_events.h"
 #include "breakable_util.h"
 #include "comm.h"
 #include "domain.h"
@@ -542,6 +543,7 @@ void BondBcmGriffith::break_interface(const Entry &e, double *rec, const Pair &p
   slot[H_BREAK_STEP] = (double) now.step;
   slot[H_BREAK_TIME] = now.time;
   slot[H_E_BREAK] = stored;
+  BreakPath::interface(lmp, special, e.c1, e.c2, stored, rec[K_AREA]);    // the event log
 
   const double kp = rec[K_KP], ktp = rec[K_KTP];
   double *cb = &contact[e.coff];

@@ -8,15 +8,21 @@
      r > lambda_c r0:       the bond breaks (no force from then on); tested as r (1/r0) > lambda_c.
    Damping (not in the energy): F_D = -gamma (1 - r / (lambda_c r0))^2 (rhat . (v_i - v_j)) rhat.
 
-   Storage: r0 per atom and bond slot in a hidden fix property/atom, so it migrates with atoms
-   and goes to restart files; compute() reads a copy of the intact entries of
-   neighbor->bondlist with their r0, two bonds at a time. A stored r0 of 0 is the value
-   fix property/atom gives a fresh slot: no bond has zero length, so it marks a bond whose
-   reference length has not been taken yet. */
+   Reference lengths: r0 of every bond comes from the input (fix breakable/references, from the
+   builder's table), the same value on every rank; this style never measures it. It is kept
+   per atom and bond slot in a hidden fix property/atom, so it migrates with atoms and goes to
+   restart files; compute() reads a copy of the intact entries of neighbor->bondlist with their
+   r0, two bonds at a time. A stored r0 of 0 is the value of a slot no reference was given for.
+
+   Breaking goes through the single break path (break_events.h), which records the event with
+   the energy of Eq. 2 at the breaking stretch. r is the same for both orders of the pair, so
+   the ranks holding a bond decide alike up to the rounding of periodic images; fix
+   breakable/special reconciles them at the end of the step. */
 
 #include "bond_breakable_cr.h"
 
 #include "atom.h"
+#include "break_events.h"
 #include "breakable_util.h"
 #include "comm.h"
 #include "domain.h"
@@ -34,8 +40,6 @@
 using namespace LAMMPS_NS;
 
 static constexpr double TWO_TWO_THIRDS = 1.5874010519681994;    // 2^(2/3)
-static const char *const STORE_FIX_ID = "BREAKABLE_CR_BOND_R0";
-static const char *const STORE_NAME = "breakable_cr_bond_r0";
 
 namespace {
 
@@ -197,7 +201,8 @@ void BondBreakableCR::init_style()
   if (atom->molecular != Atom::MOLECULAR)
     error->all(FLERR, "bond_style breakable/cr requires a molecular atom style (not a template)");
 
-  store_index = BreakableUtil::peratom_array(lmp, STORE_FIX_ID, STORE_NAME, atom->bond_per_atom);
+  store_index = BreakableUtil::peratom_array(lmp, BreakableUtil::BOND_REF_FIX_ID,
+                                             BreakableUtil::BOND_REF_NAME, atom->bond_per_atom);
   special = FixBreakableSpecial::get_or_create(lmp);
   cached_nbondlist = -1;
   r0_max = 0.0;
@@ -243,18 +248,17 @@ void BondBreakableCR::exact(Ref &R, const double *const *x, const double *const 
   const double r = sqrt(rsq);
   const double l = r * R.inv_r0;
 
-  // SPEC 2.2 Eq. 2: broken for r > lambda_c r0, tested as r * (1/r0) > lambda_c: the
-  // angle style tests its arms with the same arithmetic, so both decide alike (up to the
-  // rounding of periodic images when the two took r0 from different images)
-  if (l > P.lambda_c) {
-    break_bond(R);
-    return;
-  }
   const double dot = delx * (v[i1][0] - v[i2][0]) + dely * (v[i1][1] - v[i2][1]) +
       delz * (v[i1][2] - v[i2][2]);
   double ebond;
   const double fbond = bond_force(r, 1.0 / rsq, l, dot, R.r0, R.inv_r0, P.c1, P.c3r2, P.krep,
                                   P.gamma, P.inv_lc, ebond);
+  // SPEC 2.2 Eq. 2: broken for r > lambda_c r0, tested as r * (1/r0) > lambda_c; the event
+  // keeps the energy of Eq. 2 at this stretch
+  if (l > P.lambda_c) {
+    break_bond(R, ebond);
+    return;
+  }
   apply<EVFLAG>(R, fbond, ebond, delx, dely, delz, f, nlocal);
 }
 
@@ -333,27 +337,46 @@ void BondBreakableCR::compute(int eflag, int vflag)
 }
 
 /* ----------------------------------------------------------------------
-   the single break path: the bond is gone on this rank for good; the rank
-   owning the atom with the smaller tag counts it, so each break counts once
+   a break decided on this rank: the cache entry, then the single break path
 ------------------------------------------------------------------------- */
 
-void BondBreakableCR::break_bond(Ref &R)
+void BondBreakableCR::break_bond(Ref &R, double energy)
 {
-  const int nlocal = atom->nlocal;
-  const int i1 = R.i1, i2 = R.i2;
-  const tagint t1 = atom->tag[i1], t2 = atom->tag[i2];
   R.type = 0;
-  neighbor->bondlist[R.n][2] = 0;
-  if (i1 < nlocal) {
-    const int m = BreakableUtil::bond_slot(atom, i1, t2);
-    if (m >= 0) atom->bond_type[i1][m] = 0;
+  BreakPath::bond(lmp, special, R.n, energy, true);
+}
+
+/* ----------------------------------------------------------------------
+   a bond break decided on some rank (fix breakable/special, end of step): if
+   an owned atom here still holds the bond intact, this rank had not decided
+   it (rounding of another image), and breaks it now with that event's record
+------------------------------------------------------------------------- */
+
+void BondBreakableCR::break_if_intact(const BreakEvent &ev)
+{
+  const tagint t1 = (tagint) ev.id1, t2 = (tagint) ev.id2;
+  const int nlocal = atom->nlocal;
+  bool intact = false;
+  for (int side = 0; side < 2 && !intact; side++) {
+    const int i = atom->map(side ? t2 : t1);
+    if (i < 0 || i >= nlocal) continue;
+    const int m = BreakableUtil::bond_slot(atom, i, side ? t1 : t2);
+    intact = m >= 0 && atom->bond_type[i][m] > 0;
   }
-  if (i2 < nlocal) {
-    const int m = BreakableUtil::bond_slot(atom, i2, t1);
-    if (m >= 0) atom->bond_type[i2][m] = 0;
+  if (!intact) return;
+
+  const tagint *tag = atom->tag;
+  for (Ref &R : cache) {
+    if (R.type <= 0) continue;
+    const tagint a = tag[R.i1], b = tag[R.i2];
+    if ((a == t1 && b == t2) || (a == t2 && b == t1)) {
+      R.type = 0;
+      BreakPath::bond(lmp, special, R.n, ev.energy, false, &ev);
+      return;
+    }
   }
-  const int lower = (t1 < t2) ? i1 : i2;
-  special->add_broken_bond(t1, t2, lower < nlocal ? 1 : 0);
+  error->one(FLERR, "bond_style breakable/cr: bond {}-{} held by an owned atom is not in the "
+             "bond list", t1, t2);
 }
 
 /* ----------------------------------------------------------------------
@@ -361,15 +384,13 @@ void BondBreakableCR::break_bond(Ref &R)
    newton_bond off the neighbor code lists a bond from its owned atom i
    (first in the entry), walking i's bond slots in order: a cursor over i's
    slots finds each entry's slot with tag compares only, falling back to a
-   full search when the order differs. A bond whose r0 is not yet taken gets
-   it here from the current geometry (in the setup of its first run), in every
-   copy owned on this rank. Broken entries (type 0) are left out of the cache.
+   full search when the order differs. Broken entries (type 0) are left out of
+   the cache; an intact one without a reference length is an error.
 ------------------------------------------------------------------------- */
 
 void BondBreakableCR::rebuild_cache()
 {
   double **r0s = atom->darray[store_index];
-  double **x = atom->x;
   const tagint *tag = atom->tag;
   const int *num_bond = atom->num_bond;
   tagint **bond_atom = atom->bond_atom;
@@ -394,18 +415,14 @@ void BondBreakableCR::rebuild_cache()
     if (m == num_bond[i1] && (m = BreakableUtil::bond_slot(atom, i1, partner)) < 0)
       error->one(FLERR, "bond_style breakable/cr: bond {}-{} of the bond list is not in the "
                  "atom's bond arrays", tag[i1], partner);
-    double &r0 = r0s[i1][m];
+    const double r0 = r0s[i1][m];
     m++;
     if (type <= 0) continue;
 
-    if (r0 == 0.0) {
-      const double dx = x[i1][0] - x[i2][0], dy = x[i1][1] - x[i2][1], dz = x[i1][2] - x[i2][2];
-      r0 = sqrt(dx * dx + dy * dy + dz * dz);
-      int k;
-      if (i2 < nlocal && (k = BreakableUtil::bond_slot(atom, i2, tag[i1])) >= 0 &&
-          r0s[i2][k] == 0.0)
-        r0s[i2][k] = r0;
-    }
+    if (!(r0 > 0.0))
+      error->one(FLERR, "bond_style breakable/cr: bond {}-{} has no reference length: the "
+                 "references file of fix breakable/references does not list it", tag[i1],
+                 tag[i2]);
     Ref &R = cache[nref++];
     R.i1 = bondlist[n][0];    // the list's order: the sign convention of the virial
     R.i2 = bondlist[n][1];
@@ -421,8 +438,9 @@ void BondBreakableCR::rebuild_cache()
 
 /* ----------------------------------------------------------------------
    ghost atoms must reach stretched bonds: lambda_c times the largest r0
-   (estimated from the current lengths before r0 is taken). Collective on the
-   first call of a run, which Comm::setup makes on all ranks.
+   (the current length of a bond without a reference, which is an error at
+   its first force evaluation). Collective on the first call of a run, which
+   Comm::setup makes on all ranks.
 ------------------------------------------------------------------------- */
 
 double BondBreakableCR::equilibrium_distance(int type)
@@ -498,7 +516,7 @@ void BondBreakableCR::write_data(FILE *fp)
 double BondBreakableCR::reference_length(int i, int j)
 {
   if (store_index < 0)
-    error->one(FLERR, "bond_style breakable/cr: reference lengths are taken in the first run");
+    error->one(FLERR, "bond_style breakable/cr: single() before the first run");
   double **r0s = atom->darray[store_index];
   const tagint *tag = atom->tag;
   const int nlocal = atom->nlocal;
@@ -512,8 +530,8 @@ double BondBreakableCR::reference_length(int i, int j)
     error->one(FLERR, "bond_style breakable/cr: atoms {} and {} share no bond on this rank",
                tag[i], tag[j]);
   if (!(r0 > 0.0))
-    error->one(FLERR, "bond_style breakable/cr: bond {}-{} has no reference length yet "
-               "(it is taken in the setup of the first run)", tag[i], tag[j]);
+    error->one(FLERR, "bond_style breakable/cr: bond {}-{} has no reference length (fix "
+               "breakable/references)", tag[i], tag[j]);
   return r0;
 }
 

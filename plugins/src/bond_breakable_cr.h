@@ -1,7 +1,7 @@
 /* bond_style breakable/cr: the breakable two-body bond of Clemmer & Robbins (SPEC 2.2 Eq. 2,
-   bonded damping of Eq. 5). Per-bond reference length r0 = the bond's length when the style
-   first computes it; the bond breaks for good when r > lambda_c r0. See
-   plugins/doc/bond_breakable_cr.md. */
+   bonded damping of Eq. 5). Per-bond reference length r0 from the input (fix
+   breakable/references); the bond breaks for good when r > lambda_c r0, through the single
+   break path (break_events.h). See plugins/doc/bond_breakable_cr.md. */
 
 #ifndef BRITTLE_BOND_BREAKABLE_CR_H
 #define BRITTLE_BOND_BREAKABLE_CR_H
@@ -11,6 +11,8 @@
 #include <vector>
 
 namespace LAMMPS_NS {
+
+struct BreakEvent;
 
 class BondBreakableCR : public Bond {
  public:
@@ -26,6 +28,10 @@ class BondBreakableCR : public Bond {
   void write_data(FILE *) override;
   double single(int, double, int, int, double &) override;
   double memory_usage() override;
+
+  // fix breakable/special, end of step: a break decided on some rank, applied here if this
+  // rank still holds the bond intact
+  void break_if_intact(const BreakEvent &ev);
 
  private:
   // per type: coefficients, then constants derived from them (derive())
@@ -58,7 +64,7 @@ class BondBreakableCR : public Bond {
   void derive(int type);
   void rebuild_cache();
   double reference_length(int i, int j);
-  void break_bond(Ref &R);
+  void break_bond(Ref &R, double energy);
   template <bool EVFLAG>
   void apply(const Ref &R, double fbond, double ebond, double delx, double dely, double delz,
              double *const *f, int nlocal);

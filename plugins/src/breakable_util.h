@@ -20,6 +20,13 @@
 namespace LAMMPS_NS {
 namespace BreakableUtil {
 
+  // The per-atom reference stores of bond_style and angle_style breakable/cr, filled by fix
+  // breakable/references: r0 per bond slot; theta0, r1_0, r2_0 per angle slot.
+  constexpr const char *BOND_REF_FIX_ID = "BREAKABLE_CR_BOND_R0";
+  constexpr const char *BOND_REF_NAME = "breakable_cr_bond_r0";
+  constexpr const char *ANGLE_REF_FIX_ID = "BREAKABLE_CR_ANGLE_REF";
+  constexpr const char *ANGLE_REF_NAME = "breakable_cr_angle_ref";
+
   // Index into atom->darray of a per-atom array "name" with ncols columns, created as a
   // hidden fix property/atom (id fix_id) so that it migrates with its atoms, follows atom
   // sorting and is written to restart files. A fix of the same id re-created after

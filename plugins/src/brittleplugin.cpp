@@ -4,6 +4,8 @@
 
 #include "angle_breakable_cr.h"
 #include "bond_breakable_cr.h"
+#include "fix_breakable_log.h"
+#include "fix_breakable_references.h"
 #include "fix_breakable_special.h"
 #include "pair_cr_repulsion.h"
 #include "bond_bcm_griffith.h"
@@ -27,6 +29,16 @@ static Angle *angle_breakable_cr_creator(LAMMPS *lmp)
 static Fix *fix_breakable_special_creator(LAMMPS *lmp, int argc, char **argv)
 {
   return new FixBreakableSpecial(lmp, argc, argv);
+}
+
+static Fix *fix_breakable_references_creator(LAMMPS *lmp, int argc, char **argv)
+{
+  return new FixBreakableReferences(lmp, argc, argv);
+}
+
+static Fix *fix_breakable_log_creator(LAMMPS *lmp, int argc, char **argv)
+{
+  return new FixBreakableLog(lmp, argc, argv);
 }
 
 static Pair *pair_cr_repulsion_creator(LAMMPS *lmp)
@@ -83,6 +95,18 @@ extern "C" void lammpsplugin_init(void *lmp, void *handle, void *vregfunc)
   plugin.name = "breakable/special";
   plugin.info = "special-list and neighbor-list updates for broken bonds, break counters";
   plugin.creator.v2 = (lammpsplugin_factory2 *) &fix_breakable_special_creator;
+  (*regfunc)(&plugin, lmp);
+
+  plugin.style = "fix";
+  plugin.name = "breakable/references";
+  plugin.info = "reference r0, theta0 of the breakable/cr bonds and angles, read from a file";
+  plugin.creator.v2 = (lammpsplugin_factory2 *) &fix_breakable_references_creator;
+  (*regfunc)(&plugin, lmp);
+
+  plugin.style = "fix";
+  plugin.name = "breakable/log";
+  plugin.info = "break-event log of the breakable styles (one line per break)";
+  plugin.creator.v2 = (lammpsplugin_factory2 *) &fix_breakable_log_creator;
   (*regfunc)(&plugin, lmp);
 
   plugin.style = "fix";

@@ -1,6 +1,9 @@
 #include "fix_breakable_special.h"
 
+#include "angle_breakable_cr.h"
 #include "atom.h"
+#include "bond_breakable_cr.h"
+#include "comm.h"
 #include "bond.h"
 #include "domain.h"
 #include "error.h"
@@ -22,7 +25,8 @@ static constexpr unsigned SPECIAL_BITS = 3u << SBBITS;
 /* ---------------------------------------------------------------------- */
 
 FixBreakableSpecial::FixBreakableSpecial(LAMMPS *_lmp, int narg, char **arg) :
-    Fix(_lmp, narg, arg), nbonds_local(0), nangles_local(0), counted_topology(false)
+    Fix(_lmp, narg, arg), nbonds_local(0), nangles_local(0), counted_topology(false),
+    recording(false)
 {
   if (narg != 3) error->all(FLERR, "Illegal fix breakable/special command: takes no arguments");
   vector_flag = 1;
@@ -49,7 +53,7 @@ FixBreakableSpecial *FixBreakableSpecial::get_or_create(LAMMPS *lmp)
 
 int FixBreakableSpecial::setmask()
 {
-  return PRE_EXCHANGE | PRE_FORCE | MIN_PRE_EXCHANGE | MIN_PRE_FORCE;
+  return PRE_EXCHANGE | PRE_FORCE | END_OF_STEP | MIN_PRE_EXCHANGE | MIN_PRE_FORCE;
 }
 
 /* ---------------------------------------------------------------------- */
@@ -61,6 +65,8 @@ void FixBreakableSpecial::init()
   if (atom->molecular != Atom::MOLECULAR)
     error->all(FLERR, "Fix breakable/special requires a molecular atom style (not a template)");
   if (!counted_topology) count_broken_in_topology();
+  // events are kept only for a log (fix breakable/log sets it again in its own init)
+  recording = !modify->get_fix_by_style("^breakable/log$").empty();
 }
 
 /* ----------------------------------------------------------------------
@@ -238,4 +244,59 @@ double FixBreakableSpecial::compute_vector(int n)
   bigint total[2];
   MPI_Allreduce(local, total, 2, MPI_LMP_BIGINT, MPI_SUM, world);
   return static_cast<double>(total[n]);
+}
+
+/* ---------------------------------------------------------------------- */
+
+std::vector<BreakEvent> FixBreakableSpecial::take_events()
+{
+  std::vector<BreakEvent> out;
+  out.swap(events);
+  return out;
+}
+
+/* ----------------------------------------------------------------------
+   after the forces of the run setup and of every step (see the header)
+------------------------------------------------------------------------- */
+
+void FixBreakableSpecial::setup(int /*vflag*/)
+{
+  exchange();
+}
+
+void FixBreakableSpecial::end_of_step()
+{
+  exchange();
+}
+
+/* ----------------------------------------------------------------------
+   every rank's bond breaks of this evaluation to every rank. Collective: one
+   MPI_Allreduce per step, and an MPI_Allgatherv in the steps with breaks.
+------------------------------------------------------------------------- */
+
+void FixBreakableSpecial::exchange()
+{
+  auto *bond = dynamic_cast<BondBreakableCR *>(force->bond);
+  if (!bond) {
+    decided.clear();
+    return;
+  }
+  const int mine = (int) decided.size() * BreakEvent::NFIELD;
+  int total = 0;
+  MPI_Allreduce(&mine, &total, 1, MPI_INT, MPI_SUM, world);
+  if (total == 0) return;
+
+  std::vector<int> counts(comm->nprocs), displs(comm->nprocs, 0);
+  MPI_Allgather(&mine, 1, MPI_INT, counts.data(), 1, MPI_INT, world);
+  for (int p = 1; p < comm->nprocs; p++) displs[p] = displs[p - 1] + counts[p - 1];
+  std::vector<BreakEvent> all(total / BreakEvent::NFIELD);
+  MPI_Allgatherv(decided.empty() ? nullptr : decided.data()->data(), mine, MPI_DOUBLE,
+                 all.data()->data(), counts.data(), displs.data(), MPI_DOUBLE, world);
+  decided.clear();
+
+  // the bonds first, so that an angle broken with its bond is recorded after it
+  for (const BreakEvent &ev : all) bond->break_if_intact(ev);
+  auto *angle = dynamic_cast<AngleBreakableCR *>(force->angle);
+  if (angle)
+    for (const BreakEvent &ev : all) angle->break_with_bond(ev);
 }

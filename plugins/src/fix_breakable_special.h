@@ -14,11 +14,21 @@
    - Global vector (cumulative, summed over ranks): [1] bonds broken, [2] angles broken
      (breakable/cr; bond_style bcm/griffith counts its breaks in fix bcm/griffith).
      The count starts, at the first run, from the broken (type 0) bonds and angles the
-     topology already holds, so that it carries on across write_restart / read_restart. */
+     topology already holds, so that it carries on across write_restart / read_restart.
+   - Break events (break_events.h): the single break path records each one here, on one
+     rank, while fix breakable/log is defined; the log takes them at the end of every run.
+   - With bond_style breakable/cr, at the end of every step (and of every run setup) the
+     bond breaks decided on each rank are sent to all ranks: a rank that holds one of those
+     bonds still intact (the two ranks holding a bond saw its atoms through different
+     periodic images, which may round the stretch differently) breaks it too, and every
+     rank breaks the angles having it as an arm (SPEC 2.2: an angle breaks when either of
+     its bonds does), recorded at the bond's step. A rank holding only the third atom of
+     such an angle has no copy of the bond: this exchange is how it learns of the break. */
 
 #ifndef BRITTLE_FIX_BREAKABLE_SPECIAL_H
 #define BRITTLE_FIX_BREAKABLE_SPECIAL_H
 
+#include "break_events.h"
 #include "fix.h"
 
 #include <utility>
@@ -52,12 +62,24 @@ class FixBreakableSpecial : public Fix {
   void pre_force(int) override;
   void min_pre_exchange() override { pre_exchange(); }
   void min_pre_force(int vflag) override { pre_force(vflag); }
+  void setup(int) override;
+  void end_of_step() override;
   double compute_vector(int) override;
 
   // called by the styles' single break path; count = 1 on exactly one rank per broken bond
   // (count 0 for a bond released without being counted as a break)
   void add_broken_bond(tagint tag1, tagint tag2, int count);
   void add_broken_angle(int count) { nangles_local += count; }
+
+  // break events: record() keeps this rank's share for fix breakable/log (only while one
+  // is defined); add_decided() queues a bond break decided here for the other ranks
+  void record(const BreakEvent &ev)
+  {
+    if (recording) events.push_back(ev);
+  }
+  void add_decided(const BreakEvent &ev) { decided.push_back(ev); }
+  void set_recording(bool on) { recording = on; }
+  std::vector<BreakEvent> take_events();
 
   // the fix with id BREAKABLE_SPECIAL, created first if absent (needs a simulation box)
   static FixBreakableSpecial *get_or_create(class LAMMPS *);
@@ -68,6 +90,11 @@ class FixBreakableSpecial : public Fix {
   std::vector<TagPair> broken_since_force;       // pending neighbor-list bit clears
   bigint nbonds_local, nangles_local;            // breaks counted on this rank
   bool counted_topology;                         // broken ones already in the topology counted
+  std::vector<BreakEvent> events;                // recorded on this rank, not yet logged
+  std::vector<BreakEvent> decided;               // bond breaks decided here, not yet sent
+  bool recording;
+
+  void exchange();
 
   void count_broken_in_topology();
 
