@@ -158,26 +158,35 @@ _DUMP_NAME = re.compile(r"^(atoms|bonds|cells|interfaces)\.(?P<step>\d+|start|en
 def trim_after(run_dir: Path, step: int) -> None:
     """Before resuming from `step`: drop the records and dumps the interrupted run wrote after it
     (the resumed run writes them again), so no file mixes two attempts."""
-    thermo = run_dir / "thermo.dat"
-    if thermo.exists():
-        kept = []
-        for line in thermo.read_text().splitlines(keepends=True):
-            fields = line.split()
-            if not line.endswith("\n"):
-                break  # a record cut by the interruption
-            if line.startswith("#") or not fields:
-                kept.append(line)
-                continue
-            try:
-                if int(float(fields[0])) <= step:
-                    kept.append(line)
-            except ValueError:
-                continue
-        atomic_write_text(thermo, "".join(kept))
+    # the record and the break log: a step's lines are kept up to the checkpoint's step (the
+    # breaks of that step are in the checkpoint already), a line cut by the interruption dropped
+    for name in ("thermo.dat", "breaks.dat"):
+        _trim_lines(run_dir / name, step)
     for dump in (run_dir / "dumps").glob("*.lammpstrj*"):
         m = _DUMP_NAME.match(dump.name)  # only the tool's own dump names, never a user's file
         if m and (m["step"] == "end" or (m["step"].isdigit() and int(m["step"]) > step)):
             dump.unlink()
+
+
+def _trim_lines(path: Path, step: int) -> None:
+    """Keep the '#' lines of a record whose first column is the step, and its records up to
+    `step`; a last line without its newline (cut by the interruption) goes."""
+    if not path.exists():
+        return
+    kept = []
+    for line in path.read_text().splitlines(keepends=True):
+        fields = line.split()
+        if not line.endswith("\n"):
+            break
+        if line.startswith("#") or not fields:
+            kept.append(line)
+            continue
+        try:
+            if int(float(fields[0])) <= step:
+                kept.append(line)
+        except ValueError:
+            continue
+    atomic_write_text(path, "".join(kept))
 
 
 # --------------------------------------------------------------------------- analysis
@@ -239,6 +248,11 @@ def analyse_run(run_dir: Path, cfg: dict, partial: bool = False) -> dict:
 def _analyse(run_dir: Path, cfg: dict, partial: bool) -> dict:
     scenario = unit_of(cfg)
     summary = scenario.analyse(run_dir, cfg, cfg["output"]["plots"], partial)
+    if (run_dir / "breaks.dat").exists():  # runs made before the break log have none
+        from analysis.breaks import write_break_table  # noqa: PLC0415
+
+        events = write_break_table(run_dir)
+        summary["break_events"] = {kind: int(n) for kind, n in events["kind"].value_counts().sort_index().items()}
     if cfg["output"].get("animation"):
         animate(run_dir, cfg)
     return summary

@@ -140,6 +140,18 @@ def test_one_vs_two_ranks_differ_by_round_off_only(small_impact, tmp_path):
     assert list(a.broken) == list(b.broken) and a.broken.iloc[-1] > 300
     assert np.max(np.abs(b.W_f.to_numpy() - a.W_f.to_numpy())) <= 1e-9 * a.W_f.iloc[-1]
     assert abs(two["balance_residual"]) < 1e-3
+    # the break log (results/breaks): one row per broken interface on 1 and 2 ranks alike, its
+    # areas summing to the broken area A, the same interfaces at the same steps
+    one = json.loads((small_impact / "results" / "summary.json").read_text())
+    tables = []
+    for run_dir, summary in ((small_impact, one), (two_dir, two)):
+        breaks = pd.read_parquet(run_dir / "results" / "breaks.parquet")
+        assert len(breaks) == summary["broken_interfaces"] and set(breaks.kind) == {"interface"}
+        assert summary["break_events"] == {"interface": len(breaks)}
+        assert breaks.area.sum() == pytest.approx(summary["A"], rel=1e-12)
+        assert (breaks.id1 < breaks.id2).all() and (breaks.id3 == 0).all()
+        tables.append(breaks.sort_values(["step", "id1", "id2"])[["step", "id1", "id2"]].to_numpy())
+    np.testing.assert_array_equal(tables[0], tables[1])
 
 
 # ------------------------------------------------------------------ conservative particle

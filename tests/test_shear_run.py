@@ -153,7 +153,8 @@ def test_unfinished_run_starts_clean(tmp_path, plugin_path):
 
 @pytest.mark.mpi
 def test_one_vs_two_ranks_same_breakage(tmp_path, plugin_path):
-    """Same broken-bond count and grain counts on 1 and 2 MPI ranks."""
+    """Same broken-bond count and grain counts on 1 and 2 MPI ranks, and a break log
+    (results/breaks) with one row per broken bond and angle on both."""
     results = []
     for ranks in (1, 2):
         out = tmp_path / f"r{ranks}"
@@ -167,6 +168,13 @@ def test_one_vs_two_ranks_same_breakage(tmp_path, plugin_path):
     assert one["grains_at_strain"] == two["grains_at_strain"]
     cfg_text = yaml.safe_load((tmp_path / "r2" / "config.resolved.yaml").read_text())
     assert cfg_text["model"]["L"] == 10
+    tables = []
+    for ranks, summary in ((1, one), (2, two)):
+        breaks = pd.read_parquet(tmp_path / f"r{ranks}" / "results" / "breaks.parquet")
+        counts = breaks.kind.value_counts()
+        assert counts["bond"] == summary["bonds_broken"] and counts["angle"] == summary["angles_broken"]
+        tables.append(breaks.sort_values(["step", "kind", "id1", "id2", "id3"])[["step", "kind", "id1", "id2", "id3"]])
+    pd.testing.assert_frame_equal(tables[0].reset_index(drop=True), tables[1].reset_index(drop=True))
 
 
 def test_3d_triaxial_run_with_periodic_dumps(tmp_path, plugin_path):

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import io
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -26,12 +25,12 @@ import pandas as pd
 
 from driver.bpm.network import Network
 from driver.bpm.packing import Packing
-from driver.rundir import atomic_save
+from runfiles.atomic import atomic_save
 
 
 def write_data(path: str | os.PathLike, packing: Packing, network: Network,
                bond_type: int | np.ndarray = 1, angle_type: int | np.ndarray = 1) -> Path:
-    """Write the data file atomically (temporary file in the same folder, then os.replace).
+    """Write the data file atomically (runfiles/atomic.py).
 
     bond_type / angle_type: one type for all, or one per bond / angle (1-based).
     Also writes the reference file ``path.with_suffix(".refs")`` (see write_references).
@@ -78,10 +77,8 @@ def write_data(path: str | os.PathLike, packing: Packing, network: Network,
         "a3": network.angles[:, 2] + 1,
     })
 
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        os.chmod(tmp, 0o644)  # mkstemp makes it private; a data file is an ordinary output
-        with os.fdopen(fd, "w", newline="\n") as fh:
+    def write(tmp: Path) -> None:
+        with open(tmp, "w", newline="\n") as fh:
             fh.write(head.getvalue())
             fh.write("\nAtoms # angle\n\n")
             atoms.to_csv(fh, sep=" ", header=False, index=False, float_format="%.17g")
@@ -91,10 +88,8 @@ def write_data(path: str | os.PathLike, packing: Packing, network: Network,
             if network.n_angles:
                 fh.write("\nAngles\n\n")
                 angles.to_csv(fh, sep=" ", header=False, index=False)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+
+    atomic_save(path, write)
     lengths = np.full(3, np.inf)
     lengths[:packing.dimension] = np.asarray(packing.lengths, dtype=np.float64)[:packing.dimension]
     write_references(path.with_suffix(".refs"), packing.positions, network.bonds, network.angles,
