@@ -178,6 +178,7 @@ def test_failing_figure_leaves_the_run_finished(tmp_path, plugin_path, monkeypat
     assert summary["second_fragment_mass_fraction"] <= summary["largest_fragment_mass_fraction"]
 
 
+@pytest.mark.slow
 def test_sweep_of_four_small_impacts_in_one_process(tmp_path, plugin_path):
     """Observed: in a sweep (one process), figures of later runs failed after earlier ones had
     drawn, and the runs were marked failed. Four 200-cell impacts in one `driver sweep`: all

@@ -53,6 +53,7 @@ def clusters(atoms: Path, bonds: Path, columns: list[str], drop: str | None = No
     return data.attributes["ClusterAnalysis.cluster_count"], data
 
 
+@pytest.mark.slow
 def test_bpm_grains_equal_ovito_bond_clusters_at_every_snapshot(tmp_path, plugin_path):
     run = run_example("bpm_shear_2d.yaml", tmp_path / "bpm")
     frames = pd.read_parquet(run / "results" / "frames.parquet").set_index("step")

@@ -121,7 +121,7 @@ def shear_reference(tmp_path_factory, plugin_path) -> Path:
 
 
 # ---------------------------------------------------------------------- SIGINT/TERM
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+@pytest.mark.parametrize("sig", [signal.SIGINT, pytest.param(signal.SIGTERM, marks=pytest.mark.slow)])
 def test_signal_stops_one_rank_shear_and_resume_is_identical(tmp_path, shear_reference, sig):
     cfg = config_file(tmp_path, SHEAR, "shear")
     out = tmp_path / "run"
@@ -146,6 +146,7 @@ def test_signal_stops_one_rank_shear_and_resume_is_identical(tmp_path, shear_ref
     assert prov["resumed"][0]["from_step"] == ckpt["step"]
 
 
+@pytest.mark.slow
 def test_sigint_stops_bcm_impact_and_resume_is_identical(tmp_path, plugin_path):
     ref, out = reference_interrupted_resumed(config_file(tmp_path, IMPACT, "impact"), tmp_path, IMPACT_STEPS // 2)
     assert_same_results(ref, out)
@@ -164,6 +165,7 @@ def test_sigint_stops_two_rank_run_and_resume_completes(tmp_path, plugin_path):
 
 
 # -------------------------------------------------------------------------- SIGKILL
+@pytest.mark.slow
 def test_sigkill_leaves_a_stale_run_that_post_reads_and_resume_completes(tmp_path, shear_reference):
     cfg = config_file(tmp_path, SHEAR, "shear", checkpoint_every="20000steps")
     out = tmp_path / "run"
@@ -257,6 +259,7 @@ def test_resume_after_an_interrupted_analysis_only_analyses(shear_reference, tmp
     assert_same_results(shear_reference, run)
 
 
+@pytest.mark.slow
 def test_interrupted_sweep_resumes_its_interrupted_run(tmp_path, shear_reference):
     """SIGINT stops a sweep run one after the other in the driver's process (--workers 1) inside
     its first run (checkpoint written, exit 130); running the same sweep again resumes that run
@@ -281,6 +284,7 @@ def test_interrupted_sweep_resumes_its_interrupted_run(tmp_path, shear_reference
     assert_same_results(shear_reference, first)
 
 
+@pytest.mark.slow
 def test_stop_during_the_last_chunk_keeps_the_finished_simulation(tmp_path, shear_reference):
     """A stop asked during the last chunk is not lost: the simulation is complete, the run is
     `interrupted` with its LAMMPS part done, and --resume only analyses it."""

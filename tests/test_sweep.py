@@ -33,6 +33,7 @@ def test_bad_value_refused_before_running(tmp_path):
         parse_assignment("model.k_A")
 
 
+@pytest.mark.slow
 def test_cli_sweep_runs_and_resumes(tmp_path, plugin_path):
     base = tmp_path / "base.yaml"
     base.write_text(yaml.safe_dump(BASE))
