@@ -66,6 +66,7 @@ def test_bpm_grains_equal_ovito_bond_clusters_at_every_snapshot(tmp_path, plugin
         assert data.cell.is2D and "Radius" in data.particles and np.min(data.particles["Radius"]) > 0
 
 
+@pytest.mark.slow
 def test_bcm_fragments_equal_ovito_clusters_of_intact_interfaces(tmp_path, plugin_path):
     run = run_example("bcm_impact_quick.yaml", tmp_path / "bcm")
     summary = json.loads((run / "results" / "summary.json").read_text())

@@ -163,6 +163,7 @@ def fake_impact_run(root: Path, velocity: float, seed: int) -> Path:
     return _write_run(root, cfg, summary, {"fragments": frags})
 
 
+@pytest.mark.slow
 def test_impact_set_crossovers_and_fits(tmp_path):
     runs = tmp_path / "runs"
     for v in [0.6, 1.0, 1.6, 2.4, 3.6, 5.0, 7.0]:
