@@ -15,15 +15,20 @@ crosses ``C'``, i.e. ``|q - p| / 2 < R``; such a q lies within ``2 R`` of p, so 
 of the box. Hence if ``2 R <= m`` for every cell (and every cell is bounded), every site that
 could cut any cell is in the diagram and ``C' = C``. Otherwise the diagram is recomputed with
 ``m = 2.2 R_max`` (or ``2 m`` while some cell is unbounded); since ``C`` is inside ``C'`` this
-is always enough. A converged cell's extent is about 0.8 h (h = (V / N)^(1/3), the mean cell
-size; 0.71 h for the truncated octahedron), random seeds give cells up to about 2.5 h: the
-first step starts with ``m = 4 h`` and later steps with ``2.2`` times the last step's largest
-extent plus twice its largest seed step, so recomputations are rare.
+is always enough. Measured for 1728 cells (h = (V / N)^(1/3), the mean cell size): the
+largest extent is 1.5 h for uniform random seeds and 0.83 h once converged (0.71 h for the
+truncated octahedron of the body-centred cubic lattice). The first step starts with
+``m = 4 h``, later steps with 2.2 times the last step's largest extent plus twice its largest
+seed step (about 1.8 h near convergence), so recomputations are rare.
 
 Lloyd's method (SPEC 1.1): seeds uniform at random in the box (``numpy.random.
 default_rng(seed)``), then repeatedly build the periodic cells, move each seed to its cell's
 mass centroid and wrap it back into the box, until the RMS seed step (minimum image: the step
 from a seed to the centroid of its own cell) is below ``tol * h``, or ``max_iter`` steps.
+The steps integrate the cells from the Delaunay tetrahedralisation of the same sites
+(``_lloyd_step``: twice as fast as Qhull's Voronoi, no polygon ordering; it agrees with the
+Voronoi cells to round-off, and a degenerate triangulation falls back to them); 1728 cells
+take about 110 steps and 8 to 13 s on one core, 300 cells about 115 steps and 2 s.
 The final cells are those of the final (wrapped) seeds; each cell's centroid lies within the
 cell, so at most a cell size outside the box, and within about ``tol * h`` of its seed once
 converged.
@@ -606,7 +611,8 @@ def _build(seeds: np.ndarray, lengths: np.ndarray, ridges: _Ridges, min_face_are
 
 # -------------------------------------------------------------------------------- caching
 def cached_periodic_cvt(lengths, n_cells: int, seed: int, tol: float = 2e-3, max_iter: int = 400,
-                        cache_dir: str | os.PathLike | None = None) -> BlockTessellation:
+                        cache_dir: str | os.PathLike | None = None,
+                        min_face_area_rel: float = 1e-10) -> BlockTessellation:
     """``periodic_cvt(...)``, read from ``cache_dir/block_<key>.npz`` when present, computed
     and written there otherwise (key: ``block_key``). Default ``cache_dir``:
     ``driver.plugin_build.cache_base() / "blocks"``."""
@@ -614,12 +620,12 @@ def cached_periodic_cvt(lengths, n_cells: int, seed: int, tol: float = 2e-3, max
         from driver.plugin_build import cache_base  # the project's one cache location
         cache_dir = cache_base() / "blocks"
     lengths = np.asarray(lengths, dtype=float).reshape(3)
-    key = block_key(lengths, n_cells, seed, tol, max_iter, 1e-10)
+    key = block_key(lengths, n_cells, seed, tol, max_iter, min_face_area_rel)
     path = Path(cache_dir) / f"block_{key}.npz"
     if path.exists():
         block = BlockTessellation.load(path)
         if block.key == key:
             return block
-    block = periodic_cvt(lengths, n_cells, seed, tol=tol, max_iter=max_iter)
+    block = periodic_cvt(lengths, n_cells, seed, tol=tol, max_iter=max_iter, min_face_area_rel=min_face_area_rel)
     block.save(path)
     return block
