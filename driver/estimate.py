@@ -161,11 +161,11 @@ def bcm_impact(cfg: RunConfig, ranks: int) -> SizeEstimate:
         steps=int(math.ceil(sc.max_time / dt)), ranks=ranks)
 
 
-def bpm_shear(cfg: RunConfig, ranks: int) -> SizeEstimate:
-    """A BPM shear run: the packing's particles, bonds and angles, max_strain / (rate dt) steps."""
+def bpm_size(cfg: RunConfig, ranks: int, steps: int) -> SizeEstimate:
+    """A BPM run of `steps` steps: the packing's particles, bonds and angles."""
     from driver.bpm.packing import particle_count  # noqa: PLC0415 (imports scipy)
 
-    m, sc = cfg.model, cfg.scenario
+    m = cfg.model
     d = m.dimension
     n = particle_count(d, m.L, m.packing_fraction)
     bonds = int(round(BPM_BONDS_PER_PARTICLE[d] * n))
@@ -174,8 +174,13 @@ def bpm_shear(cfg: RunConfig, ranks: int) -> SizeEstimate:
         model=f"BPM {d}D", elements=n, element_name="particles", bonds=bonds + angles,
         bond_name=f"bonds + angles ({bonds:,} + {angles:,})",
         memory_bytes=int(BPM_MEMORY_BASE[d] + _ranks_memory(ranks) + BPM_MEMORY_PER_PARTICLE[d] * n),
-        seconds_per_1000_steps=BPM_SECONDS_PER_PARTICLE[d] * n / ranks,
-        steps=steps_for_strain(sc.max_strain, sc.strain_rate, m.timestep), ranks=ranks)
+        seconds_per_1000_steps=BPM_SECONDS_PER_PARTICLE[d] * n / ranks, steps=steps, ranks=ranks)
+
+
+def bpm_shear(cfg: RunConfig, ranks: int) -> SizeEstimate:
+    """A BPM shear run: max_strain / (rate dt) steps."""
+    sc = cfg.scenario
+    return bpm_size(cfg, ranks, steps_for_strain(sc.max_strain, sc.strain_rate, cfg.model.timestep))
 
 
 def estimate(cfg: RunConfig, np_ranks: int | None = None) -> SizeEstimate:

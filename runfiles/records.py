@@ -109,6 +109,15 @@ SHEAR_RECORD = Record("shear", (
     Field("angles_broken", "", "broken angles", "f_BREAKABLE_SPECIAL[2]"),
 ))
 
+# ------------------------------------------------------------------ BPM moduli (SPEC 2.3)
+MODULI_RECORD = Record("moduli", (
+    Field("step", "", "time step", "step"),
+    Field("phase", "", "deformation phase (driver/bpm/moduli.py: compression, shear planes, at rate then rate/2)",
+          "v_phase"),
+    Field("strain", "", "strain of the phase: volumetric (compression) or shear (tilt / length)", _g("v_strain", 10)),
+    *(f for f in SHEAR_RECORD.fields[2:]),
+))
+
 
 def read_record(path: str | Path, needed: list[str]) -> pd.DataFrame:
     """The record file `path` as a table whose columns are named by its title line; RecordError

@@ -27,7 +27,7 @@ import numpy as np
 from scipy.spatial import Delaunay
 
 from driver.bpm.packing import Packing
-from driver.bpm.section import MAX_BOND_LENGTH_3D  # noqa: F401 (the default lives with the config)
+from driver.bpm.section import MAX_BOND_LENGTH_3D  # noqa: F401 (re-exported: the default lives with the config)
 
 #: SPEC 2.1: in 3D only Delaunay edges shorter than 5/4 * 2^(1/6) sigma become bonds, where
 #: sigma = 2^(-1/6) a is the Lennard-Jones length of the repulsion (r_min = a): the cut is 5/4 a.

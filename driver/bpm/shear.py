@@ -10,7 +10,7 @@ import numpy as np
 
 import driver
 from driver.bpm.datafile import write_data
-from driver.bpm.network import MAX_BOND_LENGTH_3D, delaunay_network
+from driver.bpm.network import delaunay_network
 from driver.bpm.packing import cached_packing
 from driver.config import RunConfig, steps_for_strain
 from driver.plugin_build import cache_base
@@ -134,15 +134,17 @@ def plan_and_input(cfg: RunConfig, plugin_path: Path, type_diameters: dict[int, 
     return ShearPlan(total_steps=total, snapshots=snaps), setup, resume, schedule
 
 
+def packing_and_network(cfg: RunConfig):
+    """The run's packing (cached) and its Delaunay network (SPEC 2.1)."""
+    m = cfg.model
+    packing = cached_packing(cache_base() / "packings", m.dimension, m.L, cfg.seed, m.packing_fraction)
+    return packing, delaunay_network(packing, m.bond_max_length if m.dimension == 3 else None)
+
+
 def build_system(cfg: RunConfig, rd: RunDir) -> dict:
     """Packing -> Delaunay network -> data file; returns the network facts for the summary."""
-    m = cfg.model
     t0 = time.perf_counter()
-    packing = cached_packing(cache_base() / "packings", m.dimension, m.L, cfg.seed, m.packing_fraction)
-    max_len = None
-    if m.dimension == 3:
-        max_len = m.bond_max_length if m.bond_max_length is not None else MAX_BOND_LENGTH_3D
-    net = delaunay_network(packing, max_len)
+    packing, net = packing_and_network(cfg)
     write_data(rd.root / "system.data", packing, net)
     types = {int(t): float(2 * packing.radii[packing.types == t][0]) for t in np.unique(packing.types)}
     return {
