@@ -1,8 +1,12 @@
 """Run configuration: the YAML schema, its defaults, and errors that name the field.
 
-Every default of the tool lives in this file. A config is checked completely before anything
-runs or is written: unknown keys, wrong types, out-of-range values and inconsistent choices
-are refused with the field's path, the value given and what is allowed.
+Every default of the tool lives in the schema: the common sections here (output, execution),
+the `model:` sections in driver/bcm/section.py and driver/bpm/section.py, the `scenario:`
+sections in their units (driver/scenarios/), all joined through driver/registry.py. A config is
+checked completely before anything runs or is written: unknown keys, wrong types,
+out-of-range values, an unregistered (model, scenario) pair and inconsistent choices are
+refused with the field's path, the value given and what is allowed; defaults that depend on
+other keys are filled in, so config.resolved.yaml holds every value the run used.
 """
 
 from __future__ import annotations
