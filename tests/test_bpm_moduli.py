@@ -77,6 +77,7 @@ def _sweep(tmp_path, k_a: str, rate: float):
     return out
 
 
+@pytest.mark.slow
 def test_moduli_against_k_A_in_lammps(tmp_path, plugin_path):
     """2D, L = 12 (244 particles), k_A = 0, 2, 4 at the default rate: at k_A = 0, B lies within
     10 % below its affine value (non-affine relaxation can only lower it) and G > 0; B changes by
