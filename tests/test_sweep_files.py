@@ -395,6 +395,10 @@ def test_study_files_expand(tmp_path, monkeypatch):
     assert len(small.runs) < len(full.runs)
     assert {cfg.model.dimension for _, cfg in full.runs} == {2}
     assert len({v["model.L"] for v, _ in full.runs}) >= 3 and len({v["model.k_A"] for v, _ in full.runs}) >= 2
+    moduli = EXAMPLES / "studies" / "bpm_moduli.yaml"
+    two, three = load_sweep(moduli, []), load_sweep(moduli, [], scale="3d")
+    assert sorted({v["model.k_A"] for v, _ in two.runs}) == [0, 2, 4, 6, 8, 10, 12] and len(two.runs) == 21
+    assert {cfg.model.dimension for _, cfg in three.runs} == {3} and max(v["model.k_A"] for v, _ in three.runs) == 5
 
 
 def test_sweeps_start_the_longest_runs_first():

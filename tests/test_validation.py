@@ -205,7 +205,7 @@ def test_check_size_allow_large_and_unknown_memory(monkeypatch):
     assert est.check_size(big).elements == 200_000  # nothing to compare with: no refusal
 
 
-@pytest.mark.parametrize("example", ["bcm_impact_quick.yaml", "bcm_impact.yaml", "bpm_shear_2d.yaml"])
+@pytest.mark.parametrize("example", ["bcm_impact_quick.yaml", "bcm_impact.yaml", "bpm_shear_2d.yaml", "calibrate_moduli.yaml"])
 def test_examples_fit_in_a_small_machine(example):
     e = est.check_size(load_config(EXAMPLES / example), available=2 * est.GIB)
     assert e.memory_bytes < est.GIB
