@@ -134,3 +134,8 @@ def test_a_pull_peaks_and_the_crack_runs_from_the_tips(pulled):
     assert np.all(np.abs(np.abs(first.x - cx) - 10.0) < 5.0) and np.all(np.abs(first.y - cy) < 5.0)
     assert summary["first_breaks_max_tip_distance"] < 5.0
     assert summary["first_break_step"] < summary["peak_step"]
+    # then the crack runs from both tips to both free edges, along the void's plane (measured:
+    # |y - y_c| < 1.2 a for every broken bond)
+    bonds = events[events.kind == "bond"]
+    assert bonds.x.min() < 3.0 and bonds.x.max() > system["width"] - 3.0
+    assert np.all(np.abs(bonds.y - cy) < 5.0)
