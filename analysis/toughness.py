@@ -132,8 +132,27 @@ def analyse_mode1_set(runs: list[dict], out: Path, plots: bool = True, left_out:
     points.columns = [f"{a}_{b}" for a, b in points.columns]
     points = points.reset_index()
     save_table(points, out / "toughness")
+    guard = PlotGuard()
+    png = out / "plots" / "toughness_vs_lambda_c.png"
+    if plots:
+        guard.draw("toughness_vs_lambda_c", png, plot_toughness, points, png)
     clear_report(out)
     rep = Report("BPM mode-I toughness against lambda_c", f"{len(table)} runs")
     rep.table(points, "K_IC per lambda_c (mean and standard deviation over runs)")
+    if plots and not guard.failed:
+        rep.figure(png, "K_IC (or K_IC / E where E_reference was given) against lambda_c")
     write_report(rep, out)
     return {"runs": len(table), "left_out": left_out or []}
+
+
+def plot_toughness(points: pd.DataFrame, path: Path) -> None:
+    import matplotlib.pyplot as plt  # noqa: PLC0415
+    from runfiles.atomic import atomic_save  # noqa: PLC0415
+
+    name = "K_IC_over_E" if "K_IC_over_E_mean" in points else "K_IC"
+    fig, ax = plt.subplots(figsize=(5.0, 3.6), dpi=150)
+    ax.errorbar(points.lambda_c, points[f"{name}_mean"], yerr=points[f"{name}_std"].fillna(0), fmt="o-")
+    ax.set(xlabel=r"$\lambda_c$", ylabel=r"$K_{IC}/E$" if name == "K_IC_over_E" else r"$K_{IC}$")
+    fig.tight_layout()
+    atomic_save(path, lambda p: fig.savefig(p))
+    plt.close(fig)

@@ -139,3 +139,19 @@ def test_a_pull_peaks_and_the_crack_runs_from_the_tips(pulled):
     bonds = events[events.kind == "bond"]
     assert bonds.x.min() < 3.0 and bonds.x.max() > system["width"] - 3.0
     assert np.all(np.abs(bonds.y - cy) < 5.0)
+
+
+def test_the_set_gives_toughness_per_lambda_c(tmp_path):
+    """Means and standard deviations over the runs of each lambda_c, K_IC / E included."""
+    from analysis.toughness import analyse_mode1_set  # noqa: PLC0415
+
+    def run(lam: float, K: float) -> dict:
+        return {"cfg": {"name": f"r{lam}{K}"}, "dir": tmp_path,
+                "summary": {"lambda_c": lam, "sigma_c": K / 10, "K_IC": K, "K_IC_over_E": K / 100, "flags": []}}
+
+    analyse_mode1_set([run(1.05, 3.0), run(1.03, 1.0), run(1.05, 2.0)], tmp_path / "set", plots=False)
+    points = pd.read_csv(tmp_path / "set" / "toughness.csv")
+    assert points.lambda_c.tolist() == [1.03, 1.05]
+    assert points.K_IC_mean.tolist() == pytest.approx([1.0, 2.5])
+    assert points.K_IC_std[1] == pytest.approx(math.sqrt(0.5))  # sample std of (2, 3)
+    assert points.K_IC_over_E_mean[1] == pytest.approx(0.025)

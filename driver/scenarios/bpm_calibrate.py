@@ -103,6 +103,11 @@ def _analyse_set(runs: list[dict], out: Path, plots: bool, left_out: list[dict],
     return analyse_moduli_set(runs, out, plots, left_out=left_out)
 
 
+def _result_tables(cfg: dict) -> tuple[str, ...]:
+    """What a finished run of each test leaves for the set analysis."""
+    return ("mode1",) if cfg["scenario"].get("test") == "mode1" else ("moduli_phases",)
+
+
 def _frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
     raise ValueError("a calibration test writes no periodic dumps to animate")
 
@@ -152,5 +157,5 @@ UNIT = Scenario(
     model="bpm", scenario="calibrate", section=CalibrateScenario,
     description="a BPM calibration test: moduli, mode1 (SPEC 2.3)",
     build=_build, progress=_progress, estimate=_estimate, analyse=_analyse, set_params=_set_params,
-    analyse_set=_analyse_set, frame=("atoms", _frame), elements=_elements, result_tables=("moduli_phases",),
+    analyse_set=_analyse_set, frame=("atoms", _frame), elements=_elements, result_tables=_result_tables,
     check=_check)
