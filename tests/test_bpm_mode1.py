@@ -155,3 +155,26 @@ def test_the_set_gives_toughness_per_lambda_c(tmp_path):
     assert points.K_IC_mean.tolist() == pytest.approx([1.0, 2.5])
     assert points.K_IC_std[1] == pytest.approx(math.sqrt(0.5))  # sample std of (2, 3)
     assert points.K_IC_over_E_mean[1] == pytest.approx(0.025)
+
+
+def test_a_pull_resumed_from_a_checkpoint_goes_on_identically(pulled, tmp_path, monkeypatch):
+    """resume.lammps (the grips' fix move, groups and references from the checkpoint) carries
+    the pull on exactly as an uninterrupted run does (1 rank): the same records."""
+    from driver.engine import Lammps  # noqa: PLC0415
+
+    for name in ("A", "B"):
+        (tmp_path / name).mkdir()
+        for f in ("setup.lammps", "resume.lammps", "system.data", "system.refs"):
+            (tmp_path / name / f).write_bytes((pulled / f).read_bytes())
+    monkeypatch.chdir(tmp_path / "A")
+    with Lammps() as lmp:
+        lmp.file("setup.lammps")
+        lmp.commands("run 2000\nwrite_restart r.bin\nrun 1000")
+    monkeypatch.chdir(tmp_path / "B")
+    with Lammps() as lmp:
+        lmp.command(f"variable checkpoint string {tmp_path / 'A' / 'r.bin'}")
+        lmp.file("resume.lammps")
+        lmp.command("run 1000")
+    whole = (tmp_path / "A" / "thermo.dat").read_text().splitlines()
+    resumed = (tmp_path / "B" / "thermo.dat").read_text().splitlines()
+    assert len(resumed) > 20 and resumed[1:] == whole[-len(resumed) + 1:] and resumed[-1].startswith("3000 ")
