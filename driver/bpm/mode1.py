@@ -59,10 +59,14 @@ def cut_sample(packing: Packing, net: Network, void_axes: tuple[float, float] | 
     crossing = (np.zeros(len(b), bool) if semi is None
                 else segment_meets_ellipse(x[b[:, 0]], x[b[:, 1]], centre, semi) & ~periodic)
     keep_bond = ~periodic & ~crossing & ~inside[b[:, 0]] & ~inside[b[:, 1]]
-    kept = {(int(i), int(j)) for i, j in b[keep_bond]}
-    a = net.angles
-    arm = lambda i, j: np.array([(min(p, q), max(p, q)) in kept for p, q in zip(i, j)], bool)  # noqa: E731
-    keep_angle = (arm(a[:, 0], a[:, 1]) & arm(a[:, 1], a[:, 2])) if len(a) else np.zeros(0, bool)
+    n = packing.n
+    kept = b[keep_bond, 0] * n + b[keep_bond, 1]  # bonds are stored with i < j
+
+    def arm(i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        return np.isin(np.minimum(i, j) * n + np.maximum(i, j), kept)
+
+    a = net.angles.reshape(-1, 3)
+    keep_angle = arm(a[:, 0], a[:, 1]) & arm(a[:, 1], a[:, 2])
     keep_atom = ~inside
     new_index = np.cumsum(keep_atom) - 1  # monotone: sorted bonds and angles stay sorted
     sample = Packing(positions=x[keep_atom], radii=packing.radii[keep_atom], types=packing.types[keep_atom],
