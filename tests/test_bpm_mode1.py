@@ -108,7 +108,8 @@ def pulled(tmp_path_factory, plugin_path):
     rate 1e-4 to strain 0.012 (measured: the peak near strain 0.0076, 14 crossings of the sample
     by sound, c_l = 7.4 from the moduli test; at half the rate sigma_c changes by 1 %)."""
     out = tmp_path_factory.mktemp("mode1")
-    execute(parse_config(mode1_config(out, strain_rate=1e-4, max_pull_strain=0.012)), show_progress=False)
+    execute(parse_config(mode1_config(out, strain_rate=1e-4, max_pull_strain=0.012, E_reference=90.5)),
+            show_progress=False)
     return out
 
 
@@ -126,6 +127,8 @@ def test_a_pull_peaks_and_the_crack_runs_from_the_tips(pulled):
     # falling after it: the mean over the last quarter of the records is below half the peak
     assert record.stress[len(record) * 3 // 4:].mean() < 0.5 * record.stress[k]
     assert summary["K_IC"] == pytest.approx(toughness(summary["sigma_c"], 10.0, system["width"]))
+    assert summary["K_IC_over_E"] == pytest.approx(summary["K_IC"] / 90.5)
+    assert summary["sound_crossings_to_peak"] > 5
     # the first breaks lie at the tips: |x - x_c| near 10, |y - y_c| small (measured with
     # seeds 1-3: within 2.7-3.9 a of a tip; a break on the void's flank would lie ~10 a away)
     events = pd.read_csv(pulled / "results" / "breaks.csv")
@@ -178,3 +181,13 @@ def test_a_pull_resumed_from_a_checkpoint_goes_on_identically(pulled, tmp_path, 
     whole = (tmp_path / "A" / "thermo.dat").read_text().splitlines()
     resumed = (tmp_path / "B" / "thermo.dat").read_text().splitlines()
     assert len(resumed) > 20 and resumed[1:] == whole[-len(resumed) + 1:] and resumed[-1].startswith("3000 ")
+
+
+def test_a_pull_too_fast_is_flagged(tmp_path, plugin_path):
+    """At rate 1e-3 the peak comes about 10 tau into the pull, under 2 crossings of the sample
+    by sound (L / sqrt(E / rho) = 40 / 7.4): flagged."""
+    execute(parse_config(mode1_config(tmp_path, strain_rate=1e-3, max_pull_strain=0.02, E_reference=90.5)),
+            show_progress=False)
+    summary = json.loads((tmp_path / "results" / "summary.json").read_text())
+    assert summary["sound_crossings_to_peak"] < 5 and summary["flagged"]
+    assert any("sound crossings" in f for f in summary["flags"])
