@@ -131,7 +131,7 @@ def _check(cfg) -> None:
 
 #: Largest ratio of the void's major axis to the sample width: the range of Feddersen's
 #: finite-width factor sqrt(sec(pi c / W)) for a centre crack, within 0.3 % for 2c / W <= 0.7
-#: (Tada, Paris & Irwin, The Stress Analysis of Cracks Handbook, 3rd ed., 2000, p. 5.2).
+#: (Tada, Paris & Irwin, The Stress Analysis of Cracks Handbook, 3rd ed., 2000: centre crack in a strip).
 MAX_VOID_TO_WIDTH = 0.7
 
 
