@@ -9,8 +9,8 @@ Finite width W: Feddersen's factor for a centre crack in a plate in uniform tens
 
     Y = sqrt(sec(pi c / W)),    within 0.3 % for 2c / W <= 0.7
 
-(Tada, Paris & Irwin, The Stress Analysis of Cracks Handbook, 3rd ed. 2000, centre crack in a strip; the
-unit refuses wider voids). It is the factor of a long strip: a square sample (height = W) is
+(Tada, Paris & Irwin, The Stress Analysis of Cracks Handbook, 3rd ed. 2000, centre crack in a
+strip; the unit refuses wider voids). It is the factor of a long strip: a square sample (height = W) is
 somewhat more compliant, which the factor leaves out. sigma_c is the largest far-field stress
 of the record (the grips' force over the width, the crack runs once it is passed).
 """
