@@ -38,7 +38,8 @@ class Scenario:
     estimate(cfg, ranks) -> SizeEstimate: size, memory and time without building.
     analyse(run_dir, cfg: dict, plots, partial) -> summary: the run's tables and figures.
     set_params(cfg: dict) -> the parameters a set compares runs by (runs table columns).
-    result_tables: result tables (results/<name>.parquet) a set analysis reads.
+    result_tables: result tables (results/<name>.parquet) a set analysis reads; or a function of
+        the run's config (dict) giving them, for a unit whose runs differ (calibrate: by test).
     analyse_set(runs, out, plots, left_out, options) -> figures: a set of runs of this pair.
     frame: (dump prefix, draw(run_dir, cfg: dict, step, png)) of an animation frame.
     elements(cfg) -> particles or cells the system will hold (sizes the default chunk).
@@ -59,7 +60,7 @@ class Scenario:
     analyse_set: Callable[..., dict]
     frame: tuple[str, Callable[[Path, dict, int, Path], None]]
     elements: Callable[[RunConfig], int]
-    result_tables: tuple[str, ...] = ()
+    result_tables: tuple[str, ...] | Callable[[dict], tuple[str, ...]] = ()
     check: Callable[[RunConfig], None] = field(default=lambda cfg: None)
     work: Callable[[RunConfig], float] = field(default=lambda cfg: 0.0)
 

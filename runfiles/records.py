@@ -119,6 +119,19 @@ MODULI_RECORD = Record("moduli", (
 ))
 
 
+# ------------------------------------------------------------------ BPM mode-I toughness (SPEC 2.3)
+MODE1_RECORD = Record("mode1", (
+    Field("step", "", "time step", "step"),
+    Field("time", "tau", "simulated time", _g("time", 10)),
+    Field("displacement", "a", "separation of the grips minus its initial value (2 v t)", _g("v_displacement", 10)),
+    Field("stress", "u/a^d", "far-field stress on the grips (F_bottom,y - F_top,y) / (2 W), driver/bpm/mode1.py",
+          _g("v_stress", 10)),
+    Field("pe", "u", "potential energy per particle", _g("pe", 10)),
+    Field("ke", "u", "kinetic energy per particle", _g("ke", 10)),
+    Field("bonds_broken", "", "broken bonds", "f_BREAKABLE_SPECIAL[1]"),
+    Field("angles_broken", "", "broken angles", "f_BREAKABLE_SPECIAL[2]"),
+))
+
 def read_record(path: str | Path, needed: list[str]) -> pd.DataFrame:
     """The record file `path` as a table whose columns are named by its title line; RecordError
     when it has no title, when its title lines differ, or when a `needed` field is missing.

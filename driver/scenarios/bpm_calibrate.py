@@ -1,7 +1,9 @@
 """BPM calibration tests (SPEC 2.3): the `calibrate` scenario section and the unit of the
 (bpm, calibrate) pair. Test `moduli`: B, G, E and nu of the network (driver/bpm/moduli.py
 builds and deforms it, analysis/moduli.py fits); a set of such runs over k_A gives the
-calibration curves. The fracture tests (mode1, mode2, crack_speed) are not available yet."""
+calibration curves. Test `mode1`: K_IC from the peak stress of a free sample with an elliptic
+void pulled apart (driver/bpm/mode1.py builds it, analysis/toughness.py measures). The other
+fracture tests (mode2, crack_speed) are not available yet."""
 
 from __future__ import annotations
 
@@ -18,25 +20,44 @@ class CalibrateScenario(_Strict):
     """A calibration test of the model's material (SPEC 2.3)."""
 
     kind: Literal["calibrate"] = "calibrate"
-    test: Literal["moduli"] = Field("moduli", description="moduli: B, G, E, nu by compression and simple shear "
-                                                          "at strain_rate, then at half of it (the rate check)")
-    strain_rate: float = Field(1e-4, gt=0.0, le=0.1, description="true strain rate of the compression, shear "
-                                                                 "rate of the shear phases, units 1/tau")
+    test: Literal["moduli", "mode1"] = Field(
+        "moduli", description="moduli: B, G, E, nu by compression and simple shear at strain_rate, then at half of "
+                              "it (the rate check); mode1: K_IC of a free sample with an elliptic void, pulled apart")
+    strain_rate: float = Field(1e-4, gt=0.0, le=0.1, description="moduli: true strain rate of the compression, shear "
+                                                                 "rate of the shear phases; mode1: nominal strain "
+                                                                 "rate of the pull (grip separation speed / L); "
+                                                                 "units 1/tau")
     max_strain: float = Field(0.005, gt=0.0, le=0.02, description="largest volumetric (compression) or shear "
                                                                   "strain of a phase; the fit range")
+    void: bool = Field(True, description="mode1: cut the elliptic void (false is refused: K_IC is measured at its "
+                                         "tips)")
+    void_axes: tuple[float, float] = Field((20.0, 2.0), description="mode1: full axes of the elliptic void, major "
+                                                                     "(x) then minor (y, the pull), units of a")
+    grip_width: float = Field(2.0, gt=0.0, description="mode1: width of the top and bottom strips moved as grips, "
+                                                        "units of a")
+    max_pull_strain: float = Field(0.05, gt=0.0, le=0.5, description="mode1: nominal strain (grip displacement / "
+                                                                      "L) at which the pull ends")
+    E_reference: float | None = Field(None, gt=0.0, description="mode1: Young's modulus of the material (from a "
+                                                                "moduli run), for K_IC / E; none: not reported")
     thermo_every: int = Field(50, ge=1, description="steps between stress records")
     dump_every: Literal[0] = Field(0, description="no periodic dumps in a calibration test")
 
 
 def _build(cfg, rd, plugin):
+    if cfg.scenario.test == "mode1":
+        from driver.bpm.mode1 import run_mode1  # noqa: PLC0415
+
+        return run_mode1(cfg, rd, plugin)
     from driver.bpm.moduli import run_moduli  # noqa: PLC0415
 
     return run_moduli(cfg, rd, plugin)
 
 
 def _progress(cfg, system):
-    from driver.bpm.moduli import progress_spec  # noqa: PLC0415
-
+    if cfg.scenario.test == "mode1":
+        from driver.bpm.mode1 import progress_spec  # noqa: PLC0415
+    else:
+        from driver.bpm.moduli import progress_spec  # noqa: PLC0415
     return progress_spec(cfg, system)
 
 
@@ -44,11 +65,19 @@ def _estimate(cfg, ranks):
     from driver.bpm.moduli import phases  # noqa: PLC0415
     from driver.estimate import bpm_size  # noqa: PLC0415
 
-    steps = phases(cfg.model.dimension, cfg.scenario.strain_rate, cfg.scenario.max_strain, cfg.model.timestep)[-1].end
-    return bpm_size(cfg, ranks, steps)
+    sc, m = cfg.scenario, cfg.model
+    if sc.test == "mode1":
+        from driver.bpm.mode1 import total_steps  # noqa: PLC0415
+
+        return bpm_size(cfg, ranks, total_steps(sc.max_pull_strain, sc.strain_rate, m.timestep))
+    return bpm_size(cfg, ranks, phases(m.dimension, sc.strain_rate, sc.max_strain, m.timestep)[-1].end)
 
 
 def _analyse(run_dir: Path, cfg: dict, plots: bool, partial: bool) -> dict:
+    if cfg["scenario"].get("test") == "mode1":
+        from analysis.toughness import analyse_mode1  # noqa: PLC0415
+
+        return analyse_mode1(run_dir, cfg, plots=plots, partial=partial)
     from analysis.moduli import analyse_moduli  # noqa: PLC0415
 
     return analyse_moduli(run_dir, cfg, plots=plots, partial=partial)
@@ -57,13 +86,26 @@ def _analyse(run_dir: Path, cfg: dict, plots: bool, partial: bool) -> dict:
 def _set_params(cfg: dict) -> dict:
     m = cfg["model"]
     return {"dimension": m["dimension"], "L": float(m["L"]), "k_A": float(m["k_A"]), "seed": cfg.get("seed"),
-            "strain_rate": float(cfg["scenario"]["strain_rate"])}
+            "strain_rate": float(cfg["scenario"]["strain_rate"]), "test": cfg["scenario"].get("test", "moduli"),
+            "lambda_c": float(m["lambda_c"])}
 
 
 def _analyse_set(runs: list[dict], out: Path, plots: bool, left_out: list[dict], options: dict) -> dict:
+    tests = {r["cfg"]["scenario"].get("test", "moduli") for r in runs}
+    if len(tests) > 1:
+        raise ValueError(f"a set of calibration runs mixes the tests {sorted(tests)}: analyse each test apart")
+    if tests == {"mode1"}:
+        from analysis.toughness import analyse_mode1_set  # noqa: PLC0415
+
+        return analyse_mode1_set(runs, out, plots, left_out=left_out)
     from analysis.moduli import analyse_moduli_set  # noqa: PLC0415
 
     return analyse_moduli_set(runs, out, plots, left_out=left_out)
+
+
+def _result_tables(cfg: dict) -> tuple[str, ...]:
+    """What a finished run of each test leaves for the set analysis."""
+    return ("mode1",) if cfg["scenario"].get("test") == "mode1" else ("moduli_phases",)
 
 
 def _frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
@@ -79,14 +121,41 @@ def _elements(cfg) -> int:
 def _check(cfg) -> None:
     if cfg.output.animation:
         raise ValueError("output.animation: a calibration test writes no periodic dumps")
+    if cfg.scenario.test == "mode1":
+        _check_mode1(cfg)
+        return
     if cfg.scenario.max_strain >= cfg.model.lambda_c - 1.0:
         raise ValueError(f"scenario.max_strain = {cfg.scenario.max_strain:g} reaches the bond break stretch "
                          f"lambda_c - 1 = {cfg.model.lambda_c - 1:g}: not an elastic test")
 
 
+#: Largest ratio of the void's major axis to the sample width: the range of Feddersen's
+#: finite-width factor sqrt(sec(pi c / W)) for a centre crack, within 0.3 % for 2c / W <= 0.7
+#: (Tada, Paris & Irwin, The Stress Analysis of Cracks Handbook, 3rd ed., 2000: centre crack in a strip).
+MAX_VOID_TO_WIDTH = 0.7
+
+
+def _check_mode1(cfg) -> None:
+    sc, m = cfg.scenario, cfg.model
+    if not sc.void:
+        raise ValueError("scenario.void = false: the mode1 test measures K_IC at the tips of the elliptic void; "
+                         "a sample without it is refused")
+    if m.dimension != 2:
+        raise ValueError("scenario.test = mode1: only 2D samples for now (model.dimension: 2)")
+    major, minor = sc.void_axes
+    if minor > major:
+        raise ValueError(f"scenario.void_axes = {list(sc.void_axes)}: the first (major, along x) must be the longer")
+    if major > MAX_VOID_TO_WIDTH * m.L:
+        raise ValueError(f"scenario.void_axes: a major axis {major:g} over model.L = {m.L:g} is above "
+                         f"{MAX_VOID_TO_WIDTH:g}, where the finite-width factor no longer holds: model.L >= "
+                         f"{major / MAX_VOID_TO_WIDTH:.4g}")
+    if minor + 2 * sc.grip_width >= m.L:
+        raise ValueError("scenario.grip_width: the grips and the void do not fit in model.L")
+
+
 UNIT = Scenario(
     model="bpm", scenario="calibrate", section=CalibrateScenario,
-    description="a BPM calibration test: moduli (SPEC 2.3)",
+    description="a BPM calibration test: moduli, mode1 (SPEC 2.3)",
     build=_build, progress=_progress, estimate=_estimate, analyse=_analyse, set_params=_set_params,
-    analyse_set=_analyse_set, frame=("atoms", _frame), elements=_elements, result_tables=("moduli_phases",),
+    analyse_set=_analyse_set, frame=("atoms", _frame), elements=_elements, result_tables=_result_tables,
     check=_check)

@@ -1,0 +1,175 @@
+"""BPM mode-I toughness test (SPEC 2.3): a square sample with an elliptic void, free boundaries,
+pulled perpendicular to the void's major axis at a fixed rate (2D only for now).
+
+The sample is the periodic packing of the run (driver/bpm/packing.py) and its Delaunay network
+(driver/bpm/network.py), made free in x and y by cutting it out of its periodic box: every bond
+whose two ends are closer through a periodic image than directly is deleted (with the angles
+on it), and LAMMPS runs in a non-periodic, shrink-wrapped box (`boundary s s p`). Then the void:
+an ellipse of full axes (void_axes[0], void_axes[1]) centred in the box, major axis along x;
+the particles whose centre lies inside it are removed, and every bond whose segment meets the
+ellipse (interior or boundary) is deleted, with the angles that have it as an arm (SPEC 2.1: an
+angle exists only on two intact bonds).
+
+Pull: the particles of two grips, strips of `grip_width` at the top and bottom of the sample,
+move at +v and -v along y (fix move linear, x integrated freely: free-slip grips, so the
+far field is uniaxial tension), v = edot L / 2 so that the nominal strain displacement / L grows
+at edot. Stress: the force the sample exerts on the grips, sigma = (F_bottom,y - F_top,y) / (2 W),
+W = L the sample width and thickness 1 in 2D (force per unit length, the units of the 2D
+moduli of driver/bpm/moduli.py).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from driver.bpm.network import Network
+from driver.bpm.packing import Packing
+
+
+def segment_meets_ellipse(p0: np.ndarray, p1: np.ndarray, centre: np.ndarray, semi: np.ndarray) -> np.ndarray:
+    """Whether each segment p0 -> p1 ((N, 2) each) meets the closed ellipse of semi-axes `semi`
+    (along x, y) around `centre`: in coordinates scaled by the semi-axes the ellipse is the unit
+    disk, and the segment's closest point to the origin is at t* = clamp(-q0.d / d.d, 0, 1)."""
+    q0 = (np.asarray(p0, float)[:, :2] - centre) / semi
+    d = (np.asarray(p1, float)[:, :2] - centre) / semi - q0
+    dd = np.einsum("ij,ij->i", d, d)
+    t = np.clip(-np.einsum("ij,ij->i", q0, d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
+    closest = q0 + t[:, None] * d
+    return np.einsum("ij,ij->i", closest, closest) <= 1.0
+
+
+def cut_sample(packing: Packing, net: Network, void_axes: tuple[float, float] | None
+               ) -> tuple[Packing, Network, dict]:
+    """The free (non-periodic) sample with its void (module docstring): the packing and network
+    without the removed particles, bonds and angles, renumbered in order; and what was removed.
+
+    void_axes: full axes (x, y) of the ellipse, in a; None cuts no void."""
+    lo, hi = (np.asarray(b, float) for b in packing.box)
+    L = hi[:2] - lo[:2]
+    x = packing.positions
+    centre = 0.5 * (lo[:2] + hi[:2])
+    semi = None if void_axes is None else 0.5 * np.asarray(void_axes, float)
+    inside = (np.zeros(packing.n, bool) if semi is None
+              else np.sum(((x[:, :2] - centre) / semi) ** 2, axis=1) < 1.0)
+    b = net.bonds
+    direct = x[b[:, 1], :2] - x[b[:, 0], :2]
+    periodic = np.any(np.abs(direct) > 0.5 * L, axis=1)  # joined through an image
+    crossing = (np.zeros(len(b), bool) if semi is None
+                else segment_meets_ellipse(x[b[:, 0]], x[b[:, 1]], centre, semi) & ~periodic)
+    keep_bond = ~periodic & ~crossing & ~inside[b[:, 0]] & ~inside[b[:, 1]]
+    n = packing.n
+    kept = b[keep_bond, 0] * n + b[keep_bond, 1]  # bonds are stored with i < j
+
+    def arm(i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        return np.isin(np.minimum(i, j) * n + np.maximum(i, j), kept)
+
+    a = net.angles.reshape(-1, 3)
+    keep_angle = arm(a[:, 0], a[:, 1]) & arm(a[:, 1], a[:, 2])
+    keep_atom = ~inside
+    new_index = np.cumsum(keep_atom) - 1  # monotone: sorted bonds and angles stay sorted
+    sample = Packing(positions=x[keep_atom], radii=packing.radii[keep_atom], types=packing.types[keep_atom],
+                     box=packing.box, dimension=packing.dimension, relaxation=packing.relaxation)
+    network = Network(bonds=new_index[b[keep_bond]], r0=net.r0[keep_bond], angles=new_index[a[keep_angle]],
+                      theta0=net.theta0[keep_angle], n_atoms=int(keep_atom.sum()))
+    removed = {"particles_in_void": int(inside.sum()), "bonds_across_box": int(periodic.sum()),
+               "bonds_crossing_void": int((crossing | ((inside[b[:, 0]] | inside[b[:, 1]]) & ~periodic)).sum()),
+               "angles_removed": int((~keep_angle).sum())}
+    return sample, network, removed
+
+
+def pull_velocity(strain_rate: float, L: float) -> float:
+    """Speed of each grip: the grips separate at 2 v = edot L (nominal strain rate edot)."""
+    return 0.5 * strain_rate * L
+
+
+def total_steps(max_strain: float, strain_rate: float, timestep: float) -> int:
+    """Steps to the nominal strain max_strain at edot."""
+    return int(math.ceil(max_strain / (strain_rate * timestep)))
+
+
+SYSTEM_FREE = """units           lj
+dimension       {dimension}
+# free sample: shrink-wrapped in x and y (driver/bpm/mode1.py), periodic z (2D requires it)
+boundary        s s p
+atom_style      angle
+# newton bond off: every atom holds all its bonds and angles, so each rank decides a break
+# identically; special lj 0 keeps bonded pairs out of the repulsion, coul 1 keeps them in
+# the neighbour list so a broken bond's repulsion switches on without a rebuild.
+newton          on off
+special_bonds   lj 0 1 1 coul 1 1 1
+read_data       system.data"""
+
+
+def run_mode1(cfg, rd, plugin_path) -> tuple[dict, object]:
+    """Build the sample, write the inputs and schedule; returns (system facts, progress)."""
+    import time  # noqa: PLC0415
+
+    import driver  # noqa: PLC0415
+    from driver.bpm.datafile import write_data  # noqa: PLC0415
+    from driver.bpm.shear import SYSTEM_RESUME, packing_and_network, pair_coeff_lines  # noqa: PLC0415
+    from driver.schedule import chunk_steps, segments, write_session  # noqa: PLC0415
+    from driver.templates import render  # noqa: PLC0415
+    from runfiles.atomic import atomic_write_json  # noqa: PLC0415
+    from runfiles.records import MODE1_RECORD  # noqa: PLC0415
+
+    t0 = time.perf_counter()
+    m, sc = cfg.model, cfg.scenario
+    # the unit's check (driver/scenarios/bpm_calibrate.py) has refused 3D and a sample without the void
+    packing, net = packing_and_network(cfg)
+    sample, network, removed = cut_sample(packing, net, tuple(sc.void_axes))
+    # the remaining bonds are all shorter than half the box, so write_data's minimum-image
+    # references equal the direct ones of the free sample
+    write_data(rd.root / "system.data", sample, network)
+    lo, hi = (np.asarray(b, float) for b in packing.box)
+    centre = 0.5 * (lo + hi)
+    types = {int(t): float(2 * sample.radii[sample.types == t][0]) for t in np.unique(sample.types)}
+    pair_lines, max_abar = pair_coeff_lines(types, m.gamma)
+    comm_cutoff = max(2.0 * m.lambda_c * float(np.max(network.r0)), max_abar) + m.skin
+    v = pull_velocity(sc.strain_rate, m.L)
+    steps = total_steps(sc.max_pull_strain, sc.strain_rate, m.timestep)
+    y_top, y_bottom = hi[1] - sc.grip_width, lo[1] + sc.grip_width
+    width = float(hi[0] - lo[0])
+    common = dict(
+        package_version=driver.__version__, config_name=cfg.name, plugin_path=plugin_path,
+        comm_cutoff=f"{comm_cutoff:.6g}", skin=m.skin, timestep=m.timestep, thermo_every=sc.thermo_every,
+        enforce2d="fix             planar all enforce2d", velocity=f"{v:.12g}",
+        width=f"{width:.12g}", record_print=MODE1_RECORD.print_text(), record_title=MODE1_RECORD.title())
+    styles = (f"pair_style      cr/repulsion\n{pair_lines}\n\n"
+              f"bond_style      breakable/cr\nbond_coeff      1 {m.lambda_c} {m.gamma}\n"
+              f"angle_style     breakable/cr\nangle_coeff     1 {m.k_A} {m.theta_c_deg} {m.lambda_c}")
+    groups = (f"region          top_grip block INF INF {y_top:.12g} INF INF INF\n"
+              f"region          bottom_grip block INF INF INF {y_bottom:.12g} INF INF\n"
+              "group           top region top_grip\ngroup           bottom region bottom_grip\n"
+              "group           grips union top bottom\ngroup           sample subtract all grips")
+    setup = render("bpm_mode1.in", role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).",
+                   system=SYSTEM_FREE.format(dimension=m.dimension), styles=styles, groups=groups,
+                   record_target="file thermo.dat", start="run             0", **common)
+    resume = render("bpm_mode1.in", role="Start from a checkpoint (resume.lammps: -var checkpoint FILE).",
+                    system=SYSTEM_RESUME, styles="# styles and coefficients: from the checkpoint",
+                    groups="# groups top, bottom, grips, sample: from the checkpoint",
+                    record_target="append thermo.dat", start="", **common)
+    chunk = chunk_steps("bpm", sample.n, cfg.execution.chunk_steps)
+    schedule = segments(steps, chunk, {})
+    system = {
+        "n_particles": int(sample.n), "n_bonds": int(network.n_bonds), "n_angles": int(network.n_angles),
+        "max_r0": float(np.max(network.r0)), "type_diameters": types, **removed,
+        "void_centre": centre[:2].tolist(), "void_semi_axes": (0.5 * np.asarray(sc.void_axes, float)).tolist(),
+        "width": width, "height": float(hi[1] - lo[1]), "grip_width": sc.grip_width,
+        "n_top": int(np.sum(sample.positions[:, 1] > y_top)),
+        "n_bottom": int(np.sum(sample.positions[:, 1] < y_bottom)),
+        "grip_velocity": v, "total_steps": steps, "chunk_steps": schedule["chunk"],
+        "build_seconds": time.perf_counter() - t0}
+    atomic_write_json(rd.root / "system.json", system)
+    write_session(rd.root, setup, resume, schedule, cfg.execution.checkpoint_steps())
+    return system, progress_spec(cfg, system)
+
+
+def progress_spec(cfg, system: dict):
+    from driver.runner import ProgressSpec  # noqa: PLC0415
+    from runfiles.records import MODE1_RECORD  # noqa: PLC0415
+
+    return ProgressSpec(file="thermo.dat", total_steps=system["total_steps"], label=cfg.name,
+                        columns={"stress": MODE1_RECORD.column("stress"),
+                                 "broken": MODE1_RECORD.column("bonds_broken")})
