@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.breaks import read_break_log
+from analysis.crack import crack_fronts, rayleigh_speed, steady_speed
 from analysis.plots import PlotGuard
 from analysis.report import Report, clear_report, provenance_line, write_report
 from analysis.tables import save_table
@@ -101,6 +102,18 @@ def analyse_mode1(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = 
                            first_breaks_max_tip_distance=float(d.max()),
                            first_breaks_median_tip_distance=float(np.median(d)),
                            bonds_broken_before_peak=int((bonds.step <= peak.step).sum()))
+            # crack speed (analysis/crack.py): the fronts along the void's plane, within a band of
+            # twice the void's minor axis
+            fronts = crack_fronts(bonds, np.asarray(system["void_centre"]), c,
+                                  band=4.0 * float(system["void_semi_axes"][1]))
+            save_table(fronts, run_dir / "results" / "crack_front")
+            summary.update(steady_speed(fronts, c, 0.5 * width))
+            B_ref, G_ref = cfg["scenario"].get("B_reference"), cfg["scenario"].get("G_reference")
+            if B_ref and G_ref:
+                rho = system["n_particles"] / (width * float(system["height"])
+                                               - math.pi * c * system["void_semi_axes"][1])
+                c_R = rayleigh_speed(float(B_ref), float(G_ref), rho, int(cfg["model"]["dimension"]))
+                summary.update(rayleigh_speed=c_R, crack_speed_over_rayleigh=summary["crack_speed"] / c_R)
     summary.update(flags=flags, flagged=bool(flags))
     guard = PlotGuard()
     if plots:

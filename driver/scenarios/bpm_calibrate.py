@@ -37,6 +37,11 @@ class CalibrateScenario(_Strict):
                                                         "units of a")
     max_pull_strain: float = Field(0.05, gt=0.0, le=0.5, description="mode1: nominal strain (grip displacement / "
                                                                       "L) at which the pull ends")
+    B_reference: float | None = Field(None, gt=0.0, description="mode1: bulk modulus of the material (from a moduli "
+                                                                "run), with G_reference for the Rayleigh speed the "
+                                                                "crack speed is compared with")
+    G_reference: float | None = Field(None, gt=0.0, description="mode1: shear modulus of the material (from a "
+                                                                "moduli run)")
     E_reference: float | None = Field(None, gt=0.0, description="mode1: Young's modulus of the material (from a "
                                                                 "moduli run), for K_IC / E; none: not reported")
     thermo_every: int = Field(50, ge=1, description="steps between stress records")
