@@ -138,10 +138,17 @@ def _flat(d: Any, prefix: str = "") -> dict[str, Any]:
 
 
 def check_resumable(cfg: RunConfig, run_dir: Path) -> None:
-    """Refuse a resume whose config differs from the run's in what it simulates."""
-    from driver.config import ConfigError  # noqa: PLC0415
+    """Refuse a resume whose config differs from the run's in what it simulates. The run's
+    config is read through today's schema first, so a run made before a default was filled in
+    when the config is read (its config.resolved.yaml holds null there) compares equal."""
+    from driver.config import ConfigError, parse_config  # noqa: PLC0415
 
-    old = _flat(load_resolved(run_dir))
+    resolved = load_resolved(run_dir)
+    try:
+        resolved = parse_config(resolved, str(run_dir / "config.resolved.yaml")).model_dump(mode="json")
+    except ConfigError:
+        pass  # a key this version no longer knows: compared as it stands, so the change is named
+    old = _flat(resolved)
     new = _flat(cfg.model_dump(mode="json"))
     changed = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k)
                      and not any(k == p or k.startswith(p) for p in RESUMABLE_CHANGES))
