@@ -70,7 +70,7 @@ import numpy as np
 from scipy.spatial import Delaunay, Voronoi
 
 from driver.bcm.polyhedra import principal_axes, rotation_to_quaternion, tetra_mass_properties
-from driver.bcm.tessellation import _OTHER, _circumcentres, _fan, _loop_positions, _sort_loops
+from driver.bcm.tessellation import _OTHER, _circumcentres, _fan, _loop_positions, _sort_loops, _voronoi_volumes
 from runfiles.atomic import atomic_save
 
 #: Bumped whenever the algorithm changes what given arguments produce; part of the cache key.
@@ -438,31 +438,7 @@ def _lloyd_step(seeds: np.ndarray, lengths: np.ndarray, margin: float
         margin = new_margin
     else:
         return None
-    t_idx, i_idx = np.nonzero(nb > np.arange(len(simp))[:, None])  # each internal triangle once
-    tv = simp[t_idx[:, None], _OTHER[i_idx]]
-    touches = tv.min(axis=1) < n  # triangles between images only do not matter
-    t_idx, i_idx, tv = t_idx[touches], i_idx[touches], tv[touches]
-    t2 = nb[t_idx, i_idx]
-    x = pts[tv]
-    normal = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
-    t_minus = np.einsum("ij,ij->i", pts[simp[t_idx, i_idx]] - x[:, 0], normal) < 0.0
-    c_minus = np.where(t_minus[:, None], cc[t_idx], cc[t2])
-    c_plus = np.where(t_minus[:, None], cc[t2], cc[t_idx])
-    vol = np.zeros(n)
-    mom = np.zeros((n, 3))
-    for pi, qi, ri in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
-        real = tv[:, pi] < n
-        p = x[real, pi]
-        cm, cp = c_minus[real], c_plus[real]
-        z = np.cross(cm - p, cp - p)
-        v_q = np.einsum("ij,ij->i", x[real, qi] - p, z) / 12.0
-        v_r = -np.einsum("ij,ij->i", x[real, ri] - p, z) / 12.0
-        first = ((v_q + v_r)[:, None] * (p + cm + cp) + v_q[:, None] * 0.5 * (p + x[real, qi])
-                 + v_r[:, None] * 0.5 * (p + x[real, ri])) / 4.0
-        owner = tv[real, pi]
-        vol += np.bincount(owner, weights=v_q + v_r, minlength=n)
-        for ax in range(3):
-            mom[:, ax] += np.bincount(owner, weights=first[:, ax], minlength=n)
+    vol, mom = _voronoi_volumes(pts, simp, nb, cc, n)
     box = float(np.prod(lengths))
     if np.any(vol <= 0.0) or abs(vol.sum() - box) > 1e-9 * box:
         return None

@@ -324,6 +324,44 @@ def _circumcentres(x: np.ndarray) -> np.ndarray:
     return a + num / den[:, None]
 
 
+def _voronoi_volumes(pts: np.ndarray, simp: np.ndarray, nb: np.ndarray, cc: np.ndarray,
+                     n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(volume, first moment) of the Voronoi cells of the first n of `pts` from their Delaunay
+    tetrahedra `simp` (neighbours `nb`, circumcentres `cc`): each internal triangle's dual
+    Voronoi edge, cut into the tetrahedra of each of the triangle's vertices (used by the Lloyd
+    steps of the particle and of the periodic block, driver/bcm/block.py)."""
+    t_idx, i_idx = np.nonzero(nb > np.arange(len(simp))[:, None])  # each internal triangle once
+    tv = simp[t_idx[:, None], _OTHER[i_idx]]
+    touches = tv.min(axis=1) < n  # triangles between images only do not matter
+    t_idx, i_idx, tv = t_idx[touches], i_idx[touches], tv[touches]
+    t2 = nb[t_idx, i_idx]
+    x = pts[tv]
+    normal = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
+    t_minus = np.einsum("ij,ij->i", pts[simp[t_idx, i_idx]] - x[:, 0], normal) < 0.0
+    c_minus = np.where(t_minus[:, None], cc[t_idx], cc[t2])
+    c_plus = np.where(t_minus[:, None], cc[t2], cc[t_idx])
+    vol = np.zeros(n)
+    mom = np.zeros((n, 3))
+    # vertex p of triangle (a, b, c) with q the next vertex and r the previous one: the ordered
+    # pair (p, q) is an even permutation ((q-p) x (r-p) = +N), (p, r) an odd one, so the two
+    # tetrahedra of p are (p, (p+q)/2, c-, c+) and (p, (p+r)/2, c+, c-), sharing Z below
+    for pi, qi, ri in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+        real = tv[:, pi] < n
+        p = x[real, pi]
+        cm, cp = c_minus[real], c_plus[real]
+        z = np.cross(cm - p, cp - p)
+        v_q = np.einsum("ij,ij->i", x[real, qi] - p, z) / 12.0
+        v_r = -np.einsum("ij,ij->i", x[real, ri] - p, z) / 12.0
+        # centroids (p + m + c- + c+) / 4 with m the edge midpoints
+        first = ((v_q + v_r)[:, None] * (p + cm + cp) + v_q[:, None] * 0.5 * (p + x[real, qi])
+                 + v_r[:, None] * 0.5 * (p + x[real, ri])) / 4.0
+        owner = tv[real, pi]
+        vol += np.bincount(owner, weights=v_q + v_r, minlength=n)
+        for ax in range(3):
+            mom[:, ax] += np.bincount(owner, weights=first[:, ax], minlength=n)
+    return vol, mom
+
+
 def _lloyd_step(shape: ConvexShape, seeds: np.ndarray, mirror: np.ndarray, h: float
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Volume, mass centroid and extent (largest seed-vertex distance) of every clipped cell.
@@ -365,35 +403,7 @@ def _lloyd_step(shape: ConvexShape, seeds: np.ndarray, mirror: np.ndarray, h: fl
         mirror[bad] = True
     else:
         raise _ClipError("could not clip the Voronoi cells to the parent")
-    t_idx, i_idx = np.nonzero(nb > np.arange(len(simp))[:, None])  # each internal triangle once
-    tv = simp[t_idx[:, None], _OTHER[i_idx]]
-    touches = tv.min(axis=1) < n  # triangles between images only do not matter
-    t_idx, i_idx, tv = t_idx[touches], i_idx[touches], tv[touches]
-    t2 = nb[t_idx, i_idx]
-    x = pts[tv]
-    normal = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
-    t_minus = np.einsum("ij,ij->i", pts[simp[t_idx, i_idx]] - x[:, 0], normal) < 0.0
-    c_minus = np.where(t_minus[:, None], cc[t_idx], cc[t2])
-    c_plus = np.where(t_minus[:, None], cc[t2], cc[t_idx])
-    vol = np.zeros(n)
-    mom = np.zeros((n, 3))
-    # vertex p of triangle (a, b, c) with q the next vertex and r the previous one: the ordered
-    # pair (p, q) is an even permutation ((q-p) x (r-p) = +N), (p, r) an odd one, so the two
-    # tetrahedra of p are (p, (p+q)/2, c-, c+) and (p, (p+r)/2, c+, c-), sharing Z below
-    for pi, qi, ri in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
-        real = tv[:, pi] < n
-        p = x[real, pi]
-        cm, cp = c_minus[real], c_plus[real]
-        z = np.cross(cm - p, cp - p)
-        v_q = np.einsum("ij,ij->i", x[real, qi] - p, z) / 12.0
-        v_r = -np.einsum("ij,ij->i", x[real, ri] - p, z) / 12.0
-        # centroids (p + m + c- + c+) / 4 with m the edge midpoints
-        first = ((v_q + v_r)[:, None] * (p + cm + cp) + v_q[:, None] * 0.5 * (p + x[real, qi])
-                 + v_r[:, None] * 0.5 * (p + x[real, ri])) / 4.0
-        owner = tv[real, pi]
-        vol += np.bincount(owner, weights=v_q + v_r, minlength=n)
-        for ax in range(3):
-            mom[:, ax] += np.bincount(owner, weights=first[:, ax], minlength=n)
+    vol, mom = _voronoi_volumes(pts, simp, nb, cc, n)
     extent = np.zeros(n)
     real = simp < n
     np.maximum.at(extent, simp[real], np.linalg.norm(cc[np.nonzero(real)[0]] - pts[simp[real]], axis=1))

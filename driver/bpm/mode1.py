@@ -89,17 +89,6 @@ def total_steps(max_strain: float, strain_rate: float, timestep: float) -> int:
     return int(math.ceil(max_strain / (strain_rate * timestep)))
 
 
-SYSTEM_FREE = """units           lj
-dimension       {dimension}
-# free sample: shrink-wrapped in x and y (driver/bpm/mode1.py), periodic z (2D requires it)
-boundary        s s p
-atom_style      angle
-# newton bond off: every atom holds all its bonds and angles, so each rank decides a break
-# identically; special lj 0 keeps bonded pairs out of the repulsion, coul 1 keeps them in
-# the neighbour list so a broken bond's repulsion switches on without a rebuild.
-newton          on off
-special_bonds   lj 0 1 1 coul 1 1 1
-read_data       system.data"""
 
 
 def run_mode1(cfg, rd, plugin_path) -> tuple[dict, object]:
@@ -108,7 +97,7 @@ def run_mode1(cfg, rd, plugin_path) -> tuple[dict, object]:
 
     import driver  # noqa: PLC0415
     from driver.bpm.datafile import write_data  # noqa: PLC0415
-    from driver.bpm.shear import SYSTEM_RESUME, packing_and_network, pair_coeff_lines  # noqa: PLC0415
+    from driver.bpm.shear import SYSTEM_FRESH, SYSTEM_RESUME, packing_and_network, pair_coeff_lines  # noqa: PLC0415
     from driver.schedule import chunk_steps, segments, write_session  # noqa: PLC0415
     from driver.templates import render  # noqa: PLC0415
     from runfiles.atomic import atomic_write_json  # noqa: PLC0415
@@ -144,7 +133,9 @@ def run_mode1(cfg, rd, plugin_path) -> tuple[dict, object]:
               "group           top region top_grip\ngroup           bottom region bottom_grip\n"
               "group           grips union top bottom\ngroup           sample subtract all grips")
     setup = render("bpm_mode1.in", role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).",
-                   system=SYSTEM_FREE.format(dimension=m.dimension), styles=styles, groups=groups,
+                   system=("# free sample: shrink-wrapped in x and y, periodic z (2D requires it)\n"
+                           + SYSTEM_FRESH.format(dimension=m.dimension, boundary="s s p")),
+                   styles=styles, groups=groups,
                    record_target="file thermo.dat", start="run             0", **common)
     resume = render("bpm_mode1.in", role="Start from a checkpoint (resume.lammps: -var checkpoint FILE).",
                     system=SYSTEM_RESUME, styles="# styles and coefficients: from the checkpoint",

@@ -190,7 +190,8 @@ def run_moduli(cfg, rd, plugin_path) -> tuple[dict, object]:
               f"bond_style      breakable/cr\nbond_coeff      1 {m.lambda_c} {m.gamma}\n"
               f"angle_style     breakable/cr\nangle_coeff     1 {m.k_A} {m.theta_c_deg} {m.lambda_c}")
     setup = render("bpm_moduli.in", role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).",
-                   system=SYSTEM_FRESH.format(dimension=m.dimension) + "\nchange_box      all triclinic",
+                   system=(SYSTEM_FRESH.format(dimension=m.dimension, boundary="p p p")
+                           + "\nchange_box      all triclinic"),
                    styles=styles, phase="include         phase_0.lammps", record_target="file thermo.dat",
                    start=(f"run             0\nwrite_dump      all custom {RESET_DUMP} id "
                           f"{' '.join('xyz'[:m.dimension])} modify sort id format float %.17g"), **common)

@@ -73,7 +73,7 @@ def radius_variable(type_diameters: dict[int, float]) -> str:
 
 SYSTEM_FRESH = """units           lj
 dimension       {dimension}
-boundary        p p p
+boundary        {boundary}
 atom_style      angle
 # newton bond off: every atom holds all its bonds and angles, so each rank decides a break
 # identically; special lj 0 keeps bonded pairs out of the repulsion, coul 1 keeps them in
@@ -119,7 +119,7 @@ def plan_and_input(cfg: RunConfig, plugin_path: Path, type_diameters: dict[int, 
         record_print=SHEAR_RECORD.print_text(), record_title=SHEAR_RECORD.title())
     setup = render(
         "bpm_shear.in", role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).",
-        system=SYSTEM_FRESH.format(dimension=m.dimension),
+        system=SYSTEM_FRESH.format(dimension=m.dimension, boundary="p p p"),
         styles=(f"pair_style      cr/repulsion\n{pair_lines}\n\n"
                 f"bond_style      breakable/cr\nbond_coeff      1 {m.lambda_c} {m.gamma}\n"
                 f"angle_style     breakable/cr\nangle_coeff     1 {m.k_A} {m.theta_c_deg} {m.lambda_c}"),
