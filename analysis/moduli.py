@@ -125,7 +125,7 @@ def analyse_moduli(run_dir: Path, cfg: dict, plots: bool = True, partial: bool =
                      "scenario.max_strain)")
     summary = {"k_A": cfg["model"]["k_A"], "B": B, "B_se": B_se, "G": G, "G_se": G_se, "E": E, "nu": nu,
                "B_at_rate": B_fast, "G_at_rate": G_fast, "rate_deviation": rate_dev,
-               "sound_speed": c_l, "sound_crossings": crossings,
+               "number_density": rho, "sound_speed": c_l, "sound_crossings": crossings,
                "B_affine": system["B_affine"], "G_affine": system["G_affine"],
                "B_over_affine": B / system["B_affine"], "G_over_affine": G / system["G_affine"],
                "flags": flags, "flagged": bool(flags)}
@@ -176,7 +176,8 @@ def analyse_moduli_set(runs: list[dict], out: Path, plots: bool = True, left_out
              **{k: v for k, v in r["summary"].items() if not isinstance(v, (list, dict))}} for r in runs]
     table = pd.DataFrame(rows).sort_values("k_A").reset_index(drop=True)
     save_table(table, out / "runs")
-    points = table.groupby("k_A")[["B", "G", "E", "nu", "B_affine", "G_affine"]].agg(["mean", "std"])
+    cols = ["B", "G", "E", "nu", "B_affine", "G_affine"] + (["number_density"] if "number_density" in table else [])
+    points = table.groupby("k_A")[cols].agg(["mean", "std"])
     points.columns = [f"{a}_{b}" for a, b in points.columns]
     points = points.reset_index()
     save_table(points, out / "moduli")

@@ -1,4 +1,4 @@
-"""The `driver` command: run, validate, post, scaling, sweep, plugins."""
+"""The `driver` command: run, validate, post, scaling, sweep, calibrate, cluster, plugins."""
 
 from __future__ import annotations
 
@@ -453,6 +453,62 @@ def _sweep_results(expanded, columns: str) -> None:
     Console(width=max(120, Console().width)).print(rt)
     err.print(f"tables: {sweep_dir}/sweep.csv (every run), {sweep_dir}/sweep_points.csv (means and standard "
               f"deviations over seeds)")
+
+
+@app.command()
+def calibrate(material_yaml: Path = typer.Argument(..., help="a material file: the target material and each "
+                                                             "model's resolution (README, Calibration)"),
+              out: Optional[Path] = typer.Option(None, "--out", help="where to write calibration.json/.md and "
+                                                                     "the plots (default runs/calibrate_<name>)"),
+              workers: Optional[int] = typer.Option(None, "--workers", min=1, help="runs at a time while a curve "
+                                                                                   "is measured (default: cores)"),
+              verify: bool = typer.Option(False, "--verify", help="run the calibration tests again at the chosen "
+                                                                  "parameters and report the round-trip errors")
+              ) -> None:
+    """Turn a target material (density, E, nu, G_c or K_IC) into each model's parameters."""
+    from rich.table import Table  # noqa: PLC0415
+
+    from driver.calibration.calibrate import calibrate as run_calibration  # noqa: PLC0415
+    from driver.calibration.curves import CalibrationError  # noqa: PLC0415
+    from driver.calibration.material import load_material  # noqa: PLC0415
+    from driver.calibration.report import TITLES, comparison, reach_notes, rows, write_outputs  # noqa: PLC0415
+    from driver.distributed import default_workers  # noqa: PLC0415
+    from driver.plugin_build import cache_base  # noqa: PLC0415
+    from driver.rundir import claim_dir  # noqa: PLC0415
+
+    try:
+        mat = load_material(material_yaml)
+        target = claim_dir(out if out is not None else Path("runs") / f"calibrate_{mat.name}", ".brittle-calibration",
+                           "calibration directory")
+        from driver.plugin_build import plugin_library  # noqa: PLC0415
+
+        plugin_library()
+        results = run_calibration(mat, cache_base(), workers or default_workers(None), err, verify=verify,
+                                  verify_dir=target / "verify")
+    except (ConfigError, RunDirError) as exc:
+        _fail(str(exc), 2)
+    except (PluginBuildError, LammpsSiteError) as exc:
+        _fail(str(exc), 3)
+    except CalibrationError as exc:
+        _fail(str(exc), 1)
+    files = write_outputs(mat, results, target, str(material_yaml))
+    console = Console(width=max(100, Console().width))
+    for model, r in results.items():
+        pt = Table("parameter", "value", "unit", title=TITLES[model])
+        for row in rows(r):
+            pt.add_row(*row)
+        ct = Table("property", "target", "achieved", "difference", "unit")
+        for row in comparison(r):
+            ct.add_row(*row)
+        console.print(pt, ct)
+        for note in reach_notes(r):
+            err.print(f"[yellow]{note}")
+        if r.get("verify"):
+            vt = Table("property", "target", "measured", "difference", title="round trip")
+            for k, v in r["verify"].items():
+                vt.add_row(k, f"{v['target']:.5g}", f"{v['measured']:.5g}", f"{v['relative_error']:+.1%}")
+            console.print(vt)
+    err.print(f"written: {files['markdown']}, {files['json']}")
 
 
 @app.command("cluster")

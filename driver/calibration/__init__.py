@@ -1,0 +1,1 @@
+"""`driver calibrate`: a target material into both models' parameters (issue 12, point 3)."""

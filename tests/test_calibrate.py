@@ -1,0 +1,153 @@
+"""`driver calibrate` (driver/calibration/): the inversion of a curve (reached, out of reach with
+the nearest reachable value, never clipped silently), the material file's validation, and in
+real LAMMPS the BPM round trip on small curves: calibrate, run the tests at the chosen
+parameters, recover E and nu within 5 % and G_c within 10 %; the second call reads the cache."""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from driver.calibration import curves as cv
+from driver.calibration.material import MaterialFile, Target, load_material
+from driver.calibration.solve import BpmUnits, bpm_lambda_c, invert, through_zero_slope
+from driver.cli import app
+from driver.schema import ConfigError
+
+
+# ------------------------------------------------------------------------------ inversion
+def test_invert_reaches_a_target_inside_the_curve():
+    inv = invert([0, 2, 4], [0.3, 0.2, 0.1], 0.15, "k_A", "nu")
+    assert inv.reached and inv.x == pytest.approx(3.0) and inv.y == 0.15 and inv.note == ""
+    # order of the points does not matter; a measured point is hit exactly
+    assert invert([4, 0, 2], [0.1, 0.3, 0.2], 0.2, "k_A", "nu").x == pytest.approx(2.0)
+
+
+def test_invert_out_of_reach_names_the_nearest_reachable_value():
+    inv = invert([0, 2, 4], [0.3, 0.2, 0.1], 0.45, "k_A", "nu")
+    assert not inv.reached
+    assert (inv.x, inv.y) == (0.0, 0.3)  # the nearest the model gets, not the target
+    assert "out of reach" in inv.note and "0.3" in inv.note and "k_A = 0" in inv.note
+
+
+def test_invert_says_when_the_curve_is_not_monotonic():
+    inv = invert([0, 1, 2, 3], [0.0, 1.0, 0.5, 2.0], 0.75, "x", "y")
+    assert inv.reached and inv.x == pytest.approx(0.75) and "not monotonic" in inv.note
+
+
+def test_lambda_c_from_a_power_law_curve_is_exact():
+    """K* / E* = 50 (lambda_c - 1) / E* (what the network measured): the log-log inversion of the
+    target ratio gives back the lambda_c that produces it."""
+    lc = np.array([1.001, 1.01, 1.1])
+    E_red, a = 80.0, 1e-4
+    K_red = 50.0 * (lc - 1.0)
+    E = 5e10
+    want = 1.004
+    K = 50.0 * (want - 1.0) / E_red * E * math.sqrt(a)
+    inv = bpm_lambda_c(K, E, a, lc, K_red, E_red)
+    assert inv.reached and inv.x == pytest.approx(want, rel=1e-12)
+    far = bpm_lambda_c(K * 1e3, E, a, lc, K_red, E_red)
+    assert not far.reached and far.x == pytest.approx(1.1) and "out of reach" in far.note
+
+
+def test_units_and_slope():
+    u = BpmUnits(a=2.0, m=3.0, u=12.0)
+    assert u.tau == pytest.approx(1.0)
+    s, se = through_zero_slope([1.0, 2.0], [2.0, 4.0])
+    assert s == pytest.approx(2.0) and se == pytest.approx(0.0, abs=1e-12)
+
+
+# ------------------------------------------------------------------------------ material file
+def write(tmp_path, text: str):
+    p = tmp_path / "material.yaml"
+    p.write_text(text)
+    return p
+
+
+def test_material_needs_exactly_one_toughness(tmp_path):
+    both = "material: {density: 1, E: 1, nu: 0.2, G_c: 1, K_IC: 1}\nbpm: {particles_across: 10}\n"
+    with pytest.raises(ConfigError, match="material.*exactly one of G_c"):
+        load_material(write(tmp_path, both))
+    Target(density=1, E=1, nu=0.2, K_IC=2.0)  # one of them is enough
+    with pytest.raises(ConfigError, match="material.nu"):
+        load_material(write(tmp_path, "material: {density: 1, E: 1, nu: 0.6, G_c: 1}\nbpm: {particles_across: 10}\n"))
+
+
+def test_material_names_a_model_and_known_curves(tmp_path):
+    with pytest.raises(ConfigError, match="at least one model"):
+        load_material(write(tmp_path, "material: {density: 1, E: 1, nu: 0.2, G_c: 1}\n"))
+    with pytest.raises(ConfigError, match="unknown curve.*bpm_moduli"):
+        load_material(write(tmp_path, "material: {density: 1, E: 1, nu: 0.2, G_c: 1}\nbpm: {particles_across: 10}\n"
+                                      "curves: {bpm_modul: {seeds: 1}}\n"))
+    with pytest.raises(ConfigError, match="unknown key 'rho'"):
+        load_material(write(tmp_path, "material: {rho: 1, E: 1, nu: 0.2, G_c: 1}\nbpm: {particles_across: 10}\n"))
+
+
+def test_toughness_conversions():
+    t = Target(density=1, E=2.0, nu=0.3, G_c=4.0)
+    assert t.toughness(2) == (4.0, pytest.approx(math.sqrt(8.0)))  # 2D: E' = E
+    assert t.toughness(3)[1] == pytest.approx(math.sqrt(4.0 * 2.0 / (1 - 0.09)))  # plane strain
+
+
+def test_a_changed_curve_is_another_cache_entry():
+    spec = cv.bpm_moduli(2)
+    mat = MaterialFile.model_validate({"material": {"density": 1, "E": 1, "nu": 0.2, "G_c": 1},
+                                       "bpm": {"particles_across": 10},
+                                       "curves": {"bpm_moduli": {"base": {"model.L": 12}, "seeds": 1}}})
+    small = cv.changed(spec, mat.curves["bpm_moduli"])
+    assert small.sweep["base"]["model"]["L"] == 12 and small.sweep["seeds"] == 1
+    assert small.sweep["axes"] == spec.sweep["axes"]
+    assert cv.curve_key(small) != cv.curve_key(spec)
+    assert spec.sweep["base"]["model"]["L"] == 24  # the default spec is not changed
+
+
+# ------------------------------------------------------------------------------ round trip (LAMMPS)
+SMALL = """name: small2d
+material: {density: 2500, E: 7.0e10, nu: 0.2, G_c: 8.0}
+bpm: {dimension: 2, diameter: 2.0e-3, particles_across: 16}
+curves:
+  bpm_moduli: {base: {model.L: 12}, axes: {model.k_A: [0, 2, 4]}, seeds: 1}
+  bpm_mode1: {base: {model.L: 16, scenario.void_axes: [8, 1]}, seeds: 1,
+              zip: [{model.lambda_c: [1.001, 1.01], scenario.max_pull_strain: [0.0004, 0.004],
+                     scenario.strain_rate: [2.0e-6, 2.0e-5]}]}
+"""
+
+
+@pytest.mark.slow
+def test_bpm_round_trip_and_cache(tmp_path, monkeypatch, plugin_path):
+    """Calibrate a 2D BPM to a material, run the tests at the chosen k_A and lambda_c, and get
+    back E, nu within 5 % and G_c within 10 %; then the same call from the cache in seconds, and
+    a target out of reach said so, with the nearest reachable value in the table."""
+    monkeypatch.setenv("BRITTLE_CACHE", str(tmp_path / "cache"))
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "m.yaml").write_text(SMALL)
+    runner = CliRunner()
+    res = runner.invoke(app, ["calibrate", "m.yaml", "--out", "cal", "--workers", "1", "--verify"])
+    assert res.exit_code == 0, res.output
+    cal = json.loads((tmp_path / "cal" / "calibration.json").read_text())["bpm"]
+    assert 0.0 < cal["parameters"]["k_A"] < 4.0 and 1.001 < cal["parameters"]["lambda_c"] < 1.01
+    for key, tol in (("E", 0.05), ("nu", 0.05), ("G_c", 0.10)):
+        assert abs(cal["verify"][key]["relative_error"]) < tol, (key, cal["verify"][key])
+    assert (tmp_path / "cal" / "calibration.md").read_text().count("| k_A |") == 1
+    assert (tmp_path / "cal" / "plots" / "bpm_curves.png").stat().st_size > 0
+
+    t0 = time.time()
+    again = runner.invoke(app, ["calibrate", "m.yaml", "--out", "cal2", "--workers", "1"])
+    assert again.exit_code == 0, again.output
+    assert time.time() - t0 < 20
+    cal2 = json.loads((tmp_path / "cal2" / "calibration.json").read_text())["bpm"]
+    assert all(c["from_cache"] for c in cal2["curves"].values())
+    assert cal2["parameters"] == cal["parameters"]
+
+    (tmp_path / "far.yaml").write_text(SMALL.replace("nu: 0.2", "nu: 0.45"))
+    far = runner.invoke(app, ["calibrate", "far.yaml", "--out", "cal3", "--workers", "1"])
+    assert far.exit_code == 0, far.output
+    cal3 = json.loads((tmp_path / "cal3" / "calibration.json").read_text())["bpm"]
+    assert not cal3["reach"]["nu"]["reached"] and cal3["parameters"]["k_A"] == 0.0
+    assert cal3["achieved"]["nu"] < 0.4 and cal3["target"]["nu"] == 0.45  # not clipped silently
+    assert "out of reach" in (tmp_path / "cal3" / "calibration.md").read_text()
