@@ -44,6 +44,9 @@ from runfiles.records import MODE2_RECORD, read_record
 FAILED_FRACTION = 0.5
 #: Breaks whose distance from the nearest tip is reported (the first ones, by step).
 FIRST_BREAKS = 10
+#: Fewest times a shear wave crosses the sample before the peak (as analysis/toughness.py asks
+#: of a mode-I pull): a faster shear loads the void by waves, not quasi-statically.
+MIN_CROSSINGS = 5.0
 
 
 def collinear_factor(c: float, period: float) -> float:
@@ -114,6 +117,15 @@ def analyse_mode2(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = 
     K_IC = cfg["scenario"].get("K_IC_reference")
     if K_IC:
         summary.update(K_IC_reference=float(K_IC), K_IIC_over_K_IC=K / float(K_IC))
+    G = cfg["scenario"].get("G_reference")
+    if G:
+        # shear-wave speed sqrt(G / rho), rho the number density of the sample (m = 1)
+        rho = system["n_particles"] / (L * L - math.pi * c * float(system["void_semi_axes"][1]))
+        crossings = float(peak.time) / (L / math.sqrt(float(G) / rho))
+        summary["shear_wave_crossings_to_peak"] = crossings
+        if crossings < MIN_CROSSINGS:
+            flags.append(f"rate: the peak comes after {crossings:.2g} shear-wave crossings of the sample (< "
+                         f"{MIN_CROSSINGS:g}): the void is loaded by waves; shear more slowly")
     log = run_dir / "breaks.dat"
     if log.exists():
         bonds = read_break_log(log)

@@ -219,3 +219,26 @@ def test_the_set_gives_toughness_per_theta_c(tmp_path):
     assert points.K_IIC_mean.tolist() == pytest.approx([1.0, 2.5])
     assert points.K_IIC_std[1] == pytest.approx(math.sqrt(0.5))
     assert points.K_IIC_over_K_IC_mean[1] == pytest.approx(2.5 / 4)
+
+
+def test_a_shear_resumed_from_a_checkpoint_goes_on_identically(sheared, tmp_path, monkeypatch):
+    """resume.lammps (the pure shear, the per-type coefficients and the references from the
+    checkpoint) carries the shear on exactly as an uninterrupted run does (1 rank): the same records."""
+    from driver.engine import Lammps  # noqa: PLC0415
+
+    for name in ("A", "B"):
+        (tmp_path / name).mkdir()
+        for f in ("setup.lammps", "resume.lammps", "system.data", "system.refs"):
+            (tmp_path / name / f).write_bytes((sheared / f).read_bytes())
+    monkeypatch.chdir(tmp_path / "A")
+    with Lammps() as lmp:
+        lmp.file("setup.lammps")
+        lmp.commands("run 2000\nwrite_restart r.bin\nrun 1000")
+    monkeypatch.chdir(tmp_path / "B")
+    with Lammps() as lmp:
+        lmp.command(f"variable checkpoint string {tmp_path / 'A' / 'r.bin'}")
+        lmp.file("resume.lammps")
+        lmp.command("run 1000")
+    whole = (tmp_path / "A" / "thermo.dat").read_text().splitlines()
+    resumed = (tmp_path / "B" / "thermo.dat").read_text().splitlines()
+    assert len(resumed) > 20 and resumed[1:] == whole[-len(resumed) + 1:] and resumed[-1].startswith("3000 ")

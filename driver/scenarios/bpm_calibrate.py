@@ -47,7 +47,8 @@ class CalibrateScenario(_Strict):
                                                                 "run), with G_reference for the Rayleigh speed the "
                                                                 "crack speed is compared with")
     G_reference: float | None = Field(None, gt=0.0, description="mode1: shear modulus of the material (from a "
-                                                                "moduli run)")
+                                                                "moduli run); mode2: with it, the peak is flagged "
+                                                                "when it comes within 5 shear-wave crossings")
     band_width: float = Field(4.0, gt=0.0, description="mode2: full width of the band of breakable bonds (bond "
                                                         "midpoints within band_width / 2 of the void's 45-degree "
                                                         "line, across the periodic box), units of a")
