@@ -132,6 +132,22 @@ MODE1_RECORD = Record("mode1", (
     Field("angles_broken", "", "broken angles", "f_BREAKABLE_SPECIAL[2]"),
 ))
 
+# ------------------------------------------------------------------ BPM mode-II toughness (SPEC 2.3)
+# pressure tensor: virial + kinetic parts over the box area (void included), LJ units
+MODE2_RECORD = Record("mode2", (
+    Field("step", "", "time step", "step"),
+    Field("time", "tau", "simulated time", _g("time", 10)),
+    Field("strain", "", "true strain of the pure shear eps = edot t (x stretched, y compressed)", _g("v_strain", 10)),
+    *(Field(f"p{ij}", "u/a^d", f"pressure tensor component {ij} (virial + kinetic)", _g(f"c_thermo_press[{k}]", 10))
+      for k, ij in ((1, "xx"), (2, "yy"), (4, "xy"))),
+    Field("tau", "u/a^d", "shear stress on the 45-degree planes (sigma_xx - sigma_yy) / 2 = (p_yy - p_xx) / 2, "
+          "driver/bpm/mode2.py", _g("v_tau", 10)),
+    Field("pe", "u", "potential energy per particle", _g("pe", 10)),
+    Field("ke", "u", "kinetic energy per particle", _g("ke", 10)),
+    Field("bonds_broken", "", "broken bonds", "f_BREAKABLE_SPECIAL[1]"),
+    Field("angles_broken", "", "broken angles", "f_BREAKABLE_SPECIAL[2]"),
+))
+
 def read_record(path: str | Path, needed: list[str]) -> pd.DataFrame:
     """The record file `path` as a table whose columns are named by its title line; RecordError
     when it has no title, when its title lines differ, or when a `needed` field is missing.

@@ -28,12 +28,33 @@ from driver.bpm.network import Network
 from driver.bpm.packing import Packing
 
 
-def segment_meets_ellipse(p0: np.ndarray, p1: np.ndarray, centre: np.ndarray, semi: np.ndarray) -> np.ndarray:
+def _ellipse_frame(points: np.ndarray, centre: np.ndarray, semi: np.ndarray, angle: float) -> np.ndarray:
+    """Points (N, >= 2) in the ellipse's frame scaled by its semi-axes, where the ellipse is the
+    unit disk: rotated by -angle about the centre (angle: the major axis from +x, radians,
+    counter-clockwise), then divided by the semi-axes. angle = 0 skips the rotation, so an
+    axis-aligned ellipse gives exactly the floats it always gave."""
+    q = np.asarray(points, float)[:, :2] - centre
+    if angle:
+        c, s = math.cos(angle), math.sin(angle)
+        q = np.stack([c * q[:, 0] + s * q[:, 1], -s * q[:, 0] + c * q[:, 1]], axis=1)
+    return q / semi
+
+
+def inside_ellipse(points: np.ndarray, centre: np.ndarray, semi: np.ndarray, angle: float = 0.0) -> np.ndarray:
+    """Whether each point (N, >= 2) lies strictly inside the ellipse of semi-axes `semi` (major,
+    minor) around `centre`, its first axis at `angle` (radians) from +x."""
+    q = _ellipse_frame(points, centre, semi, angle)
+    return np.einsum("ij,ij->i", q, q) < 1.0
+
+
+def segment_meets_ellipse(p0: np.ndarray, p1: np.ndarray, centre: np.ndarray, semi: np.ndarray,
+                          angle: float = 0.0) -> np.ndarray:
     """Whether each segment p0 -> p1 ((N, 2) each) meets the closed ellipse of semi-axes `semi`
-    (along x, y) around `centre`: in coordinates scaled by the semi-axes the ellipse is the unit
-    disk, and the segment's closest point to the origin is at t* = clamp(-q0.d / d.d, 0, 1)."""
-    q0 = (np.asarray(p0, float)[:, :2] - centre) / semi
-    d = (np.asarray(p1, float)[:, :2] - centre) / semi - q0
+    around `centre`, its first axis at `angle` (radians) from +x: in the ellipse's frame scaled by
+    the semi-axes (an affine map, so segments stay segments) the ellipse is the unit disk, and
+    the segment's closest point to the origin is at t* = clamp(-q0.d / d.d, 0, 1)."""
+    q0 = _ellipse_frame(p0, centre, semi, angle)
+    d = _ellipse_frame(p1, centre, semi, angle) - q0
     dd = np.einsum("ij,ij->i", d, d)
     t = np.clip(-np.einsum("ij,ij->i", q0, d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
     closest = q0 + t[:, None] * d
@@ -51,15 +72,26 @@ def cut_sample(packing: Packing, net: Network, void_axes: tuple[float, float] | 
     x = packing.positions
     centre = 0.5 * (lo[:2] + hi[:2])
     semi = None if void_axes is None else 0.5 * np.asarray(void_axes, float)
-    inside = (np.zeros(packing.n, bool) if semi is None
-              else np.sum(((x[:, :2] - centre) / semi) ** 2, axis=1) < 1.0)
+    inside = np.zeros(packing.n, bool) if semi is None else inside_ellipse(x, centre, semi)
     b = net.bonds
     direct = x[b[:, 1], :2] - x[b[:, 0], :2]
     periodic = np.any(np.abs(direct) > 0.5 * L, axis=1)  # joined through an image
     crossing = (np.zeros(len(b), bool) if semi is None
                 else segment_meets_ellipse(x[b[:, 0]], x[b[:, 1]], centre, semi) & ~periodic)
     keep_bond = ~periodic & ~crossing & ~inside[b[:, 0]] & ~inside[b[:, 1]]
-    n = packing.n
+    sample, network, keep_angle = keep_subnetwork(packing, net, ~inside, keep_bond)
+    removed = {"particles_in_void": int(inside.sum()), "bonds_across_box": int(periodic.sum()),
+               "bonds_crossing_void": int((crossing | ((inside[b[:, 0]] | inside[b[:, 1]]) & ~periodic)).sum()),
+               "angles_removed": int((~keep_angle).sum())}
+    return sample, network, removed
+
+
+def keep_subnetwork(packing: Packing, net: Network, keep_atom: np.ndarray, keep_bond: np.ndarray
+                    ) -> tuple[Packing, Network, np.ndarray]:
+    """The packing and network reduced to the atoms `keep_atom` and the bonds `keep_bond` (both
+    ends of a kept bond must be kept atoms), renumbered in order, with the angles whose two arms
+    are kept bonds (SPEC 2.1: an angle exists only on two intact bonds); and which angles were kept."""
+    b, n = net.bonds, packing.n
     kept = b[keep_bond, 0] * n + b[keep_bond, 1]  # bonds are stored with i < j
 
     def arm(i: np.ndarray, j: np.ndarray) -> np.ndarray:
@@ -67,16 +99,13 @@ def cut_sample(packing: Packing, net: Network, void_axes: tuple[float, float] | 
 
     a = net.angles.reshape(-1, 3)
     keep_angle = arm(a[:, 0], a[:, 1]) & arm(a[:, 1], a[:, 2])
-    keep_atom = ~inside
     new_index = np.cumsum(keep_atom) - 1  # monotone: sorted bonds and angles stay sorted
+    x = packing.positions
     sample = Packing(positions=x[keep_atom], radii=packing.radii[keep_atom], types=packing.types[keep_atom],
                      box=packing.box, dimension=packing.dimension, relaxation=packing.relaxation)
     network = Network(bonds=new_index[b[keep_bond]], r0=net.r0[keep_bond], angles=new_index[a[keep_angle]],
                       theta0=net.theta0[keep_angle], n_atoms=int(keep_atom.sum()))
-    removed = {"particles_in_void": int(inside.sum()), "bonds_across_box": int(periodic.sum()),
-               "bonds_crossing_void": int((crossing | ((inside[b[:, 0]] | inside[b[:, 1]]) & ~periodic)).sum()),
-               "angles_removed": int((~keep_angle).sum())}
-    return sample, network, removed
+    return sample, network, keep_angle
 
 
 def pull_velocity(strain_rate: float, L: float) -> float:
@@ -87,8 +116,6 @@ def pull_velocity(strain_rate: float, L: float) -> float:
 def total_steps(max_strain: float, strain_rate: float, timestep: float) -> int:
     """Steps to the nominal strain max_strain at edot."""
     return int(math.ceil(max_strain / (strain_rate * timestep)))
-
-
 
 
 def run_mode1(cfg, rd, plugin_path) -> tuple[dict, object]:

@@ -2,8 +2,10 @@
 (bpm, calibrate) pair. Test `moduli`: B, G, E and nu of the network (driver/bpm/moduli.py
 builds and deforms it, analysis/moduli.py fits); a set of such runs over k_A gives the
 calibration curves. Test `mode1`: K_IC from the peak stress of a free sample with an elliptic
-void pulled apart (driver/bpm/mode1.py builds it, analysis/toughness.py measures). The other
-fracture tests (mode2, crack_speed) are not available yet."""
+void pulled apart (driver/bpm/mode1.py builds it, analysis/toughness.py measures). Test `mode2`:
+K_IIC from the peak shear stress of a periodic sample with an elliptic void at 45 degrees under
+pure shear, breakable bonds only in a band along the void (driver/bpm/mode2.py builds it,
+analysis/mode2.py measures)."""
 
 from __future__ import annotations
 
@@ -20,19 +22,23 @@ class CalibrateScenario(_Strict):
     """A calibration test of the model's material (SPEC 2.3)."""
 
     kind: Literal["calibrate"] = "calibrate"
-    test: Literal["moduli", "mode1"] = Field(
+    test: Literal["moduli", "mode1", "mode2"] = Field(
         "moduli", description="moduli: B, G, E, nu by compression and simple shear at strain_rate, then at half of "
-                              "it (the rate check); mode1: K_IC of a free sample with an elliptic void, pulled apart")
+                              "it (the rate check); mode1: K_IC of a free sample with an elliptic void, pulled "
+                              "apart; mode2: K_IIC of a periodic sample with the void at 45 degrees, pure shear")
     strain_rate: float = Field(1e-4, gt=0.0, le=0.1, description="moduli: true strain rate of the compression, shear "
                                                                  "rate of the shear phases; mode1: nominal strain "
                                                                  "rate of the pull (grip separation speed / L); "
-                                                                 "units 1/tau")
+                                                                 "mode2: true strain rate of the pure shear (x "
+                                                                 "at +rate, y at -rate); units 1/tau")
     max_strain: float = Field(0.005, gt=0.0, le=0.02, description="largest volumetric (compression) or shear "
                                                                   "strain of a phase; the fit range")
-    void: bool = Field(True, description="mode1: cut the elliptic void (false is refused: K_IC is measured at its "
-                                         "tips)")
-    void_axes: tuple[float, float] = Field((20.0, 2.0), description="mode1: full axes of the elliptic void, major "
-                                                                     "(x) then minor (y, the pull), units of a")
+    void: bool = Field(True, description="mode1, mode2: cut the elliptic void (false is refused: the toughness is "
+                                         "measured at its tips)")
+    void_axes: tuple[float, float] = Field((20.0, 2.0), description="mode1, mode2: full axes of the elliptic void, "
+                                                                     "major then minor, units of a (mode1: major "
+                                                                     "along x, the pull along y; mode2: major at 45 "
+                                                                     "degrees from x)")
     grip_width: float = Field(2.0, gt=0.0, description="mode1: width of the top and bottom strips moved as grips, "
                                                         "units of a")
     max_pull_strain: float = Field(0.05, gt=0.0, le=0.5, description="mode1: nominal strain (grip displacement / "
@@ -41,7 +47,16 @@ class CalibrateScenario(_Strict):
                                                                 "run), with G_reference for the Rayleigh speed the "
                                                                 "crack speed is compared with")
     G_reference: float | None = Field(None, gt=0.0, description="mode1: shear modulus of the material (from a "
-                                                                "moduli run)")
+                                                                "moduli run); mode2: with it, the peak is flagged "
+                                                                "when it comes within 5 shear-wave crossings")
+    band_width: float = Field(4.0, gt=0.0, description="mode2: full width of the band of breakable bonds (bond "
+                                                        "midpoints within band_width / 2 of the void's 45-degree "
+                                                        "line, across the periodic box), units of a")
+    max_shear_strain: float = Field(0.05, gt=0.0, le=0.5, description="mode2: true strain of the pure shear at "
+                                                                       "which the run ends")
+    K_IC_reference: float | None = Field(None, gt=0.0, description="mode2: K_IC of the material (from a mode1 run "
+                                                                   "with the same k_A, lambda_c, theta_c), for "
+                                                                   "K_IIC / K_IC; none: not reported")
     E_reference: float | None = Field(None, gt=0.0, description="mode1: Young's modulus of the material (from a "
                                                                 "moduli run), for K_IC / E; none: not reported")
     thermo_every: int = Field(50, ge=1, description="steps between stress records")
@@ -49,6 +64,10 @@ class CalibrateScenario(_Strict):
 
 
 def _build(cfg, rd, plugin):
+    if cfg.scenario.test == "mode2":
+        from driver.bpm.mode2 import run_mode2  # noqa: PLC0415
+
+        return run_mode2(cfg, rd, plugin)
     if cfg.scenario.test == "mode1":
         from driver.bpm.mode1 import run_mode1  # noqa: PLC0415
 
@@ -61,6 +80,8 @@ def _build(cfg, rd, plugin):
 def _progress(cfg, system):
     if cfg.scenario.test == "mode1":
         from driver.bpm.mode1 import progress_spec  # noqa: PLC0415
+    elif cfg.scenario.test == "mode2":
+        from driver.bpm.mode2 import progress_spec  # noqa: PLC0415
     else:
         from driver.bpm.moduli import progress_spec  # noqa: PLC0415
     return progress_spec(cfg, system)
@@ -75,10 +96,18 @@ def _estimate(cfg, ranks):
         from driver.bpm.mode1 import total_steps  # noqa: PLC0415
 
         return bpm_size(cfg, ranks, total_steps(sc.max_pull_strain, sc.strain_rate, m.timestep))
+    if sc.test == "mode2":
+        from driver.bpm.mode2 import total_steps  # noqa: PLC0415
+
+        return bpm_size(cfg, ranks, total_steps(sc.max_shear_strain, sc.strain_rate, m.timestep))
     return bpm_size(cfg, ranks, phases(m.dimension, sc.strain_rate, sc.max_strain, m.timestep)[-1].end)
 
 
 def _analyse(run_dir: Path, cfg: dict, plots: bool, partial: bool) -> dict:
+    if cfg["scenario"].get("test") == "mode2":
+        from analysis.mode2 import analyse_mode2  # noqa: PLC0415
+
+        return analyse_mode2(run_dir, cfg, plots=plots, partial=partial)
     if cfg["scenario"].get("test") == "mode1":
         from analysis.toughness import analyse_mode1  # noqa: PLC0415
 
@@ -92,7 +121,7 @@ def _set_params(cfg: dict) -> dict:
     m = cfg["model"]
     return {"dimension": m["dimension"], "L": float(m["L"]), "k_A": float(m["k_A"]), "seed": cfg.get("seed"),
             "strain_rate": float(cfg["scenario"]["strain_rate"]), "test": cfg["scenario"].get("test", "moduli"),
-            "lambda_c": float(m["lambda_c"])}
+            "lambda_c": float(m["lambda_c"]), "theta_c_deg": float(m["theta_c_deg"])}
 
 
 def _analyse_set(runs: list[dict], out: Path, plots: bool, left_out: list[dict], options: dict) -> dict:
@@ -103,6 +132,10 @@ def _analyse_set(runs: list[dict], out: Path, plots: bool, left_out: list[dict],
         from analysis.toughness import analyse_mode1_set  # noqa: PLC0415
 
         return analyse_mode1_set(runs, out, plots, left_out=left_out)
+    if tests == {"mode2"}:
+        from analysis.mode2 import analyse_mode2_set  # noqa: PLC0415
+
+        return analyse_mode2_set(runs, out, plots, left_out=left_out)
     from analysis.moduli import analyse_moduli_set  # noqa: PLC0415
 
     return analyse_moduli_set(runs, out, plots, left_out=left_out)
@@ -110,7 +143,7 @@ def _analyse_set(runs: list[dict], out: Path, plots: bool, left_out: list[dict],
 
 def _result_tables(cfg: dict) -> tuple[str, ...]:
     """What a finished run of each test leaves for the set analysis."""
-    return ("mode1",) if cfg["scenario"].get("test") == "mode1" else ("moduli_phases",)
+    return {"mode1": ("mode1",), "mode2": ("mode2",)}.get(cfg["scenario"].get("test"), ("moduli_phases",))
 
 
 def _frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
@@ -128,6 +161,9 @@ def _check(cfg) -> None:
         raise ValueError("output.animation: a calibration test writes no periodic dumps")
     if cfg.scenario.test == "mode1":
         _check_mode1(cfg)
+        return
+    if cfg.scenario.test == "mode2":
+        _check_mode2(cfg)
         return
     if cfg.scenario.max_strain >= cfg.model.lambda_c - 1.0:
         raise ValueError(f"scenario.max_strain = {cfg.scenario.max_strain:g} reaches the bond break stretch "
@@ -158,9 +194,38 @@ def _check_mode1(cfg) -> None:
         raise ValueError("scenario.grip_width: the grips and the void do not fit in model.L")
 
 
+#: Largest ratio of the void's major axis to the period of the collinear cracks along the
+#: diagonal, L sqrt(2) (analysis/mode2.py): the images of the void in the neighbouring rows of
+#: the array, a perpendicular L / sqrt(2) away, stay over 1.4 major axes from it.
+MAX_VOID_TO_PERIOD = 0.5
+
+
+def _check_mode2(cfg) -> None:
+    sc, m = cfg.scenario, cfg.model
+    if not sc.void:
+        raise ValueError("scenario.void = false: the mode2 test measures K_IIC at the tips of the elliptic void; "
+                         "a sample without it is refused")
+    if m.dimension != 2:
+        raise ValueError("scenario.test = mode2: only 2D samples for now (model.dimension: 2); the 3D test needs "
+                         "a thin periodic slab, not available yet")
+    major, minor = sc.void_axes
+    if minor > major:
+        raise ValueError(f"scenario.void_axes = {list(sc.void_axes)}: the first (major, at 45 degrees) must be "
+                         "the longer")
+    period = m.L * 2 ** 0.5
+    if major > MAX_VOID_TO_PERIOD * period:
+        raise ValueError(f"scenario.void_axes: a major axis {major:g} over the crack period L sqrt(2) = "
+                         f"{period:.4g} is above {MAX_VOID_TO_PERIOD:g}, where the images of the void interact: "
+                         f"model.L >= {major / (MAX_VOID_TO_PERIOD * 2 ** 0.5):.4g}")
+    if not minor < sc.band_width < 0.5 * m.L / 2 ** 0.5:
+        raise ValueError(f"scenario.band_width = {sc.band_width:g}: must be wider than the void's minor axis "
+                         f"({minor:g}) and under half the spacing of the band's periodic images, "
+                         f"L / (2 sqrt 2) = {0.5 * m.L / 2 ** 0.5:.4g}")
+
+
 UNIT = Scenario(
     model="bpm", scenario="calibrate", section=CalibrateScenario,
-    description="a BPM calibration test: moduli, mode1 (SPEC 2.3)",
+    description="a BPM calibration test: moduli, mode1, mode2 (SPEC 2.3)",
     build=_build, progress=_progress, estimate=_estimate, analyse=_analyse, set_params=_set_params,
     analyse_set=_analyse_set, frame=("atoms", _frame), elements=_elements, result_tables=_result_tables,
     check=_check)

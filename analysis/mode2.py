@@ -1,0 +1,210 @@
+"""BPM mode-II toughness (SPEC 2.3): K_IIC from the peak shear stress of a mode2 run
+(driver/bpm/mode2.py), where the first bonds broke relative to the void's tips and the band, and
+K_IIC (and K_IIC / K_IC) against theta_c over a set of runs.
+
+Geometry factor. The periodic box of side L holds one void, its major axis (2c) along the
+45-degree line through the box centre; that line closes on itself after P = L sqrt(2), so along
+it the sample is an infinite row of collinear cracks of length 2c and period P, loaded by the
+remote shear tau on their plane. For that row (Koiter 1959; Tada, Paris & Irwin, The Stress
+Analysis of Cracks Handbook, 3rd ed. 2000, periodic array of collinear cracks, the same factor
+in mode I and mode II):
+
+    K_II = Y tau sqrt(pi c),    Y = sqrt((P / (pi c)) tan(pi c / P))    (exact for that row)
+
+The neighbouring rows (the void's images shifted by a box edge) lie a perpendicular
+L / sqrt(2) away, staggered by P / 2; their interaction is left out (the unit keeps 2c <= P / 2,
+so they are over 1.4 major axes away). As in mode I (analysis/toughness.py), the void's finite tip
+radius b^2 / c makes the measured K_IIC an upper bound of a sharp crack's. tau_c is the largest
+tau of the record: tau = (sigma_xx - sigma_yy) / 2, the remote stress of the periodic cell
+(pressure tensor over the box area, void included) resolved on the 45-degree planes.
+
+Positions of breaks. The break log holds positions in the deformed box; under the pure shear of
+true strain eps = edot t about the box centre (fix deform, remap x) the reference position is
+x_c + (x - x_c) e^-eps, y_c + (y - y_c) e^eps, then wrapped to the nearest image of the tip or
+of the band's line in the undeformed box.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis.breaks import read_break_log
+from analysis.plots import PlotGuard
+from analysis.report import Report, clear_report, provenance_line, write_report
+from analysis.tables import save_table
+from runfiles.records import MODE2_RECORD, read_record
+
+#: The sample has failed when the mean tau over the last quarter of the records after the peak
+#: is below this fraction of the peak (as analysis/toughness.py asks of a mode-I pull).
+FAILED_FRACTION = 0.5
+#: Breaks whose distance from the nearest tip is reported (the first ones, by step).
+FIRST_BREAKS = 10
+#: Fewest times a shear wave crosses the sample before the peak (as analysis/toughness.py asks
+#: of a mode-I pull): a faster shear loads the void by waves, not quasi-statically.
+MIN_CROSSINGS = 5.0
+
+
+def collinear_factor(c: float, period: float) -> float:
+    """Y = sqrt((P / (pi c)) tan(pi c / P)) of a row of collinear cracks of half length c and period P."""
+    x = math.pi * c / period
+    return math.sqrt(math.tan(x) / x)
+
+
+def mode2_toughness(tau_c: float, c: float, period: float) -> float:
+    """K_IIC = Y tau_c sqrt(pi c) (module docstring)."""
+    return collinear_factor(c, period) * tau_c * math.sqrt(math.pi * c)
+
+
+def reference_positions(events: pd.DataFrame, centre: np.ndarray, strain_rate: float) -> np.ndarray:
+    """Positions (N, 2) of events in the undeformed box: the pure shear of true strain
+    eps = edot t about the box centre undone (module docstring)."""
+    eps = strain_rate * events.time.to_numpy(float)
+    d = events[["x", "y"]].to_numpy(float) - np.asarray(centre, float)[:2]
+    return np.asarray(centre, float)[:2] + d * np.stack([np.exp(-eps), np.exp(eps)], axis=1)
+
+
+def tip_distances(points: np.ndarray, centre: np.ndarray, c: float, angle_deg: float, L: float) -> np.ndarray:
+    """Distance of each point (N, 2; undeformed box of side L) from the nearer tip
+    centre +- c (cos angle, sin angle), through the nearest periodic image."""
+    u = np.array([math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))])
+    out = np.full(len(points), np.inf)
+    for tip in (np.asarray(centre, float)[:2] + c * u, np.asarray(centre, float)[:2] - c * u):
+        d = points - tip
+        d -= L * np.round(d / L)
+        out = np.minimum(out, np.hypot(d[:, 0], d[:, 1]))
+    return out
+
+
+def band_offsets(points: np.ndarray, centre: np.ndarray, L: float) -> np.ndarray:
+    """Perpendicular distance of points (N, 2; undeformed box) from the band's periodic
+    45-degree line (driver/bpm/mode2.py: images every L / sqrt(2))."""
+    d = np.asarray(points, float) - np.asarray(centre, float)[:2]
+    s = (d[:, 1] - d[:, 0]) / math.sqrt(2.0)
+    h = L / math.sqrt(2.0)
+    return np.abs(s - h * np.round(s / h))
+
+
+def analyse_mode2(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = False) -> dict:
+    """Summary, results/mode2 (the record), figure plots/mode2.png and report of a mode2 run.
+    partial: analysed all the same (a run cut short after the peak still has it)."""
+    run_dir = Path(run_dir)
+    system = json.loads((run_dir / "system.json").read_text())
+    record = read_record(run_dir / "thermo.dat", MODE2_RECORD.names)
+    save_table(record, run_dir / "results" / "mode2")
+    c = float(system["void_semi_axes"][0])
+    period = float(system["crack_period"])
+    L = float(system["box_length"])
+    centre = np.asarray(system["void_centre"], float)
+    k = int(record.tau.idxmax())
+    peak = record.iloc[k]
+    tau_c = float(peak.tau)
+    K = mode2_toughness(tau_c, c, period)
+    after = record.tau.iloc[k + 1:]
+    final = float(after.tail(max(1, len(after) // 4)).mean()) if len(after) else tau_c
+    failed = bool(len(after) >= 2 and final < FAILED_FRACTION * tau_c)
+    flags = [] if failed else [f"no failure: tau at the end ({final:.4g}) is not below {FAILED_FRACTION:g} of its "
+                               f"peak ({tau_c:.4g}); shear further (scenario.max_shear_strain)"]
+    summary: dict = {"theta_c_deg": cfg["model"]["theta_c_deg"], "lambda_c": cfg["model"]["lambda_c"],
+                     "k_A": cfg["model"]["k_A"], "tau_c": tau_c, "peak_step": int(peak.step),
+                     "peak_strain": float(peak.strain), "geometry_factor": collinear_factor(c, period),
+                     "crack_half_length": c, "crack_period": period, "band_width": float(system["band_width"]),
+                     "K_IIC": K, "final_mean_tau": final, "failed": failed}
+    K_IC = cfg["scenario"].get("K_IC_reference")
+    if K_IC:
+        summary.update(K_IC_reference=float(K_IC), K_IIC_over_K_IC=K / float(K_IC))
+    G = cfg["scenario"].get("G_reference")
+    if G:
+        # shear-wave speed sqrt(G / rho), rho the number density of the sample (m = 1)
+        rho = system["n_particles"] / (L * L - math.pi * c * float(system["void_semi_axes"][1]))
+        crossings = float(peak.time) / (L / math.sqrt(float(G) / rho))
+        summary["shear_wave_crossings_to_peak"] = crossings
+        if crossings < MIN_CROSSINGS:
+            flags.append(f"rate: the peak comes after {crossings:.2g} shear-wave crossings of the sample (< "
+                         f"{MIN_CROSSINGS:g}): the void is loaded by waves; shear more slowly")
+    log = run_dir / "breaks.dat"
+    if log.exists():
+        bonds = read_break_log(log)
+        bonds = bonds[bonds.kind == "bond"].sort_values("step", kind="stable")
+        if len(bonds):
+            ref = reference_positions(bonds, centre, float(system["strain_rate"]))
+            first = ref[:FIRST_BREAKS]
+            d = tip_distances(first, centre, c, float(system["void_angle_deg"]), L)
+            summary.update(first_break_step=int(bonds.step.iloc[0]), first_breaks=len(first),
+                           first_breaks_max_tip_distance=float(d.max()),
+                           first_breaks_median_tip_distance=float(np.median(d)),
+                           bonds_broken_before_peak=int((bonds.step <= peak.step).sum()),
+                           bonds_broken=len(bonds),
+                           broken_max_band_offset=float(band_offsets(ref, centre, L).max()))
+    summary.update(flags=flags, flagged=bool(flags))
+    guard = PlotGuard()
+    png = run_dir / "plots" / "mode2.png"
+    if plots:
+        guard.draw("mode2", png, plot_shear, record, k, png)
+    summary["plots_failed"] = guard.failed
+    clear_report(run_dir)
+    rep = Report(f"BPM mode-II toughness: {cfg['name']}", provenance_line(run_dir))
+    rep.values({k_: v for k_, v in summary.items() if not isinstance(v, (list, dict))}, "toughness (LJ units)")
+    for f in flags:
+        rep.text(f"FLAG: {f}")
+    if plots and not guard.failed:
+        rep.figure(png, "shear stress on the 45-degree planes against strain, peak marked")
+    write_report(rep, run_dir)
+    return summary
+
+
+def plot_shear(record: pd.DataFrame, peak: int, path: Path) -> None:
+    import matplotlib.pyplot as plt  # noqa: PLC0415
+    from runfiles.atomic import atomic_save  # noqa: PLC0415
+
+    fig, ax = plt.subplots(figsize=(5.0, 3.6), dpi=150)
+    ax.plot(record.strain, record.tau, "-", lw=1)
+    ax.plot(record.strain.iloc[peak], record.tau.iloc[peak], "o", color="C3", label=r"peak $\tau_c$")
+    ax.set(xlabel=r"pure-shear strain $\varepsilon$", ylabel=r"$\tau = (\sigma_{xx} - \sigma_{yy})/2$")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    atomic_save(path, lambda p: fig.savefig(p))
+    plt.close(fig)
+
+
+def analyse_mode2_set(runs: list[dict], out: Path, plots: bool = True, left_out: list[dict] | None = None) -> dict:
+    """K_IIC (and K_IIC / K_IC where K_IC_reference was given) against theta_c: table `runs`
+    (one row per run) and `toughness` (mean and standard deviation per theta_c)."""
+    out = Path(out)
+    rows = [{"run": r["cfg"]["name"], "run_dir": str(r["dir"]),
+             **{k: v for k, v in r["summary"].items() if not isinstance(v, (list, dict))}} for r in runs]
+    table = pd.DataFrame(rows).sort_values("theta_c_deg").reset_index(drop=True)
+    save_table(table, out / "runs")
+    cols = [c for c in ("tau_c", "K_IIC", "K_IIC_over_K_IC") if c in table]
+    points = table.groupby("theta_c_deg")[cols].agg(["mean", "std"])
+    points.columns = [f"{a}_{b}" for a, b in points.columns]
+    points = points.reset_index()
+    save_table(points, out / "toughness")
+    guard = PlotGuard()
+    png = out / "plots" / "toughness_vs_theta_c.png"
+    if plots:
+        guard.draw("toughness_vs_theta_c", png, plot_toughness, points, png)
+    clear_report(out)
+    rep = Report("BPM mode-II toughness against theta_c", f"{len(table)} runs")
+    rep.table(points, "K_IIC per theta_c (mean and standard deviation over runs)")
+    if plots and not guard.failed:
+        rep.figure(png, "K_IIC (or K_IIC / K_IC where K_IC_reference was given) against theta_c")
+    write_report(rep, out)
+    return {"runs": len(table), "left_out": left_out or []}
+
+
+def plot_toughness(points: pd.DataFrame, path: Path) -> None:
+    import matplotlib.pyplot as plt  # noqa: PLC0415
+    from runfiles.atomic import atomic_save  # noqa: PLC0415
+
+    name = "K_IIC_over_K_IC" if "K_IIC_over_K_IC_mean" in points else "K_IIC"
+    fig, ax = plt.subplots(figsize=(5.0, 3.6), dpi=150)
+    ax.errorbar(points.theta_c_deg, points[f"{name}_mean"], yerr=points[f"{name}_std"].fillna(0), fmt="o-")
+    ax.set(xlabel=r"$\theta_c$ (degrees)", ylabel=r"$K_{IIC}/K_{IC}$" if name == "K_IIC_over_K_IC" else r"$K_{IIC}$")
+    fig.tight_layout()
+    atomic_save(path, lambda p: fig.savefig(p))
+    plt.close(fig)

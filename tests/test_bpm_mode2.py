@@ -1,0 +1,244 @@
+"""BPM mode-II toughness test (SPEC 2.3, driver/bpm/mode2.py, analysis/mode2.py): the refusals
+(no void, 3D, a void too long for its period), the rotated-ellipse cut and the band checked
+against hand computations, the geometry factor by hand, and a real LAMMPS pure shear: a peak of
+tau before failure, the first breaks at the void's tips, every break inside the band."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from analysis.mode2 import (band_offsets, collinear_factor, mode2_toughness, reference_positions,
+                            tip_distances)
+from driver.bpm.mode1 import inside_ellipse, segment_meets_ellipse
+from driver.bpm.mode2 import band_offset, band_types, cut_periodic_void, unbreakable_gamma
+from driver.bpm.network import delaunay_network
+from driver.bpm.packing import Packing
+from driver.config import parse_config
+from driver.pipeline import execute
+from driver.schema import ConfigError
+
+S2 = math.sqrt(2.0)
+
+
+def mode2_config(out, model: dict | None = None, **scenario) -> dict:
+    return {"name": "mode2", "model": {"kind": "bpm", "dimension": 2, "L": 40, **(model or {})},
+            "scenario": {"kind": "calibrate", "test": "mode2", **scenario},
+            "output": {"dir": str(out), "plots": False}}
+
+
+def test_mode2_refuses_no_void_3d_and_a_short_period(tmp_path):
+    with pytest.raises(ConfigError, match="scenario.void = false"):
+        parse_config(mode2_config(tmp_path, void=False))
+    with pytest.raises(ConfigError, match="only 2D samples"):
+        parse_config(mode2_config(tmp_path, model={"dimension": 3}))
+    # 2c <= P / 2 with P = L sqrt(2): a 20 a void needs L >= 20 / (0.5 sqrt 2) = 28.28
+    with pytest.raises(ConfigError, match="model.L >= 28.28"):
+        parse_config(mode2_config(tmp_path, model={"L": 24}))
+    with pytest.raises(ConfigError, match="band_width"):
+        parse_config(mode2_config(tmp_path, band_width=1.5))  # narrower than the void
+    cfg = parse_config(mode2_config(tmp_path))
+    assert cfg.scenario.void_axes == (20.0, 2.0) and cfg.scenario.band_width == 4.0
+
+
+def test_rotated_ellipse_by_hand():
+    """Semi-axes 10 and 1 at 45 degrees around the origin: in its frame u = (x + y) / sqrt 2
+    (major), v = (y - x) / sqrt 2. (7, 7): u = 9.90 inside; (7.2, 7.2): u = 10.18 outside;
+    (0.6, -0.6): v = -0.85 inside; (0.8, -0.8): v = -1.13 outside."""
+    semi, c = np.array([10.0, 1.0]), np.zeros(2)
+    pts = np.array([[7.0, 7.0], [7.2, 7.2], [0.6, -0.6], [0.8, -0.8]])
+    assert inside_ellipse(pts, c, semi, math.pi / 4).tolist() == [True, False, True, False]
+    # a chord across the major axis at u = 9.9 (v from -0.5 to 0.5) meets it, one at u = 10.5
+    # misses; the tangent v = 1 touches it (closed); a segment along v = 1.5 misses
+    def uv(u: float, v: float) -> list[float]:
+        return [(u - v) / S2, (u + v) / S2]
+    p0 = np.array([uv(9.9, -0.5), uv(10.5, -0.5), uv(-3.0, 1.0), uv(-20.0, 1.5)])
+    p1 = np.array([uv(9.9, 0.5), uv(10.5, 0.5), uv(3.0, 1.0), uv(20.0, 1.5)])
+    assert segment_meets_ellipse(p0, p1, c, semi, math.pi / 4).tolist() == [True, False, True, False]
+    # angle 0 is mode1's axis-aligned test, bit for bit
+    rng = np.random.default_rng(3)
+    a, b = rng.uniform(-12, 12, (200, 2)), rng.uniform(-12, 12, (200, 2))
+    q0, d = a / semi, b / semi - a / semi
+    t = np.clip(-np.sum(q0 * d, axis=1) / np.sum(d * d, axis=1), 0, 1)
+    assert np.array_equal(segment_meets_ellipse(a, b, c, semi), np.sum((q0 + t[:, None] * d) ** 2, axis=1) <= 1)
+
+
+def triangular_packing(nx: int = 40, ny: int = 46) -> Packing:
+    """A periodic triangular lattice of spacing 1, box [0, 40) x [0, 46 sqrt(3)/2 = 39.84)."""
+    h = math.sqrt(3) / 2
+    pos = np.array([[i + 0.5 * (j % 2) + 0.25, (j + 0.5) * h, 0.0] for j in range(ny) for i in range(nx)])
+    box = (np.array([0.0, 0.0, -0.5]), np.array([float(nx), ny * h, 0.5]))
+    return Packing(positions=pos, radii=np.full(len(pos), 0.5), types=np.full(len(pos), 2), box=box, dimension=2)
+
+
+def test_the_periodic_void_cut_by_hand():
+    """On a periodic triangular lattice: the particles inside the 45-degree ellipse go; a bond goes
+    when an end went or a point of its minimum-image segment (2001 samples) lies in the ellipse;
+    bonds through the box's faces stay (the sample is periodic); an angle goes with either arm."""
+    packing = triangular_packing()
+    net = delaunay_network(packing, None)
+    sample, out, removed = cut_periodic_void(packing, net, (20.0, 2.0))
+    lo, hi = packing.box
+    centre, L = 0.5 * (lo + hi)[:2], (hi - lo)[:2]
+    x = packing.positions[:, :2]
+    u = ((x - centre) @ np.array([1.0, 1.0])) / S2 / 10.0
+    v = ((x - centre) @ np.array([-1.0, 1.0])) / S2 / 1.0
+    inside = u ** 2 + v ** 2 < 1
+    assert removed["particles_in_void"] == inside.sum() > 20
+    t = np.linspace(0.0, 1.0, 2001)[:, None]
+    expected = set()
+    for i, j in net.bonds:
+        d = x[j] - x[i]
+        d -= L * np.round(d / L)
+        pts = x[i] + t * d - centre
+        if inside[i] or inside[j] or np.any(((pts @ [1, 1]) / S2 / 10) ** 2 + ((pts @ [-1, 1]) / S2) ** 2 <= 1):
+            continue
+        expected.add((i, j))
+    old_of_new = np.nonzero(~inside)[0]
+    got = {(int(old_of_new[a]), int(old_of_new[b])) for a, b in out.bonds}
+    assert got == expected and len(net.bonds) - len(got) == removed["bonds_crossing_void"]
+    through_faces = np.any(np.abs(sample.positions[out.bonds[:, 1], :2] - sample.positions[out.bonds[:, 0], :2])
+                           > L / 2, axis=1)
+    assert through_faces.sum() > 100  # the sample stays periodic
+    want = {tuple(int(k) for k in row) for row in net.angles
+            if tuple(sorted(row[:2])) in expected and tuple(sorted(row[1:])) in expected}
+    assert {tuple(int(old_of_new[k]) for k in row) for row in out.angles} == want
+
+
+def test_the_band_by_hand():
+    """Square box of side 40, centre (20, 20): the band's line is y = x and its images y = x +- 40
+    (offsets +-40 / sqrt 2 = +-28.28). (21, 19): offset -sqrt 2; (0.5, 39.5): on the image y = x + 40
+    (39.5 - 0.5 = 39 -> 39 / sqrt 2 - 28.28 = -0.71); (30, 10): -14.14, half-way between lines."""
+    c = np.array([20.0, 20.0])
+    got = band_offset(np.array([[21.0, 19.0], [0.5, 39.5], [30.0, 10.0]]), c, 40.0)
+    assert got[:2] == pytest.approx([-S2, 39 / S2 - 40 / S2])
+    assert abs(got[2]) == pytest.approx(10 * S2)
+    assert band_offsets(np.array([[21.0, 19.0]]), c, 40.0) == pytest.approx([S2])
+    # types on a lattice: a bond is type 1 when its midpoint is within band_width / 2 of the line;
+    # an angle type 1 when both arms are
+    h = math.sqrt(3) / 2
+    pos = np.array([[i + 0.5 * (j % 2) + 0.25, (j + 0.5) * h, 0.0] for j in range(48) for i in range(40)])
+    packing = Packing(positions=pos, radii=np.full(len(pos), 0.5), types=np.full(len(pos), 2),
+                      box=(np.array([0.0, 0.0, -0.5]), np.array([40.0, 40.0, 0.5])), dimension=2)
+    packing.positions[:, 1] *= 40.0 / (48 * h)  # squeeze the rows into a square box
+    net = delaunay_network(packing, None)
+    btypes, atypes = band_types(packing, net, 4.0)
+    xb = packing.positions[:, :2]
+    d = xb[net.bonds[:, 1]] - xb[net.bonds[:, 0]]
+    d -= 40.0 * np.round(d / 40.0)
+    mid = xb[net.bonds[:, 0]] + d / 2 - 20.0
+    s = (mid[:, 1] - mid[:, 0]) / S2
+    s = np.abs(s - 40 / S2 * np.round(s / (40 / S2)))
+    assert np.array_equal(btypes == 1, s < 2.0) and 0.05 < np.mean(btypes == 1) < 0.2
+    one = {tuple(b) for b in net.bonds[btypes == 1].tolist()}
+    arms = [(tuple(sorted(r[:2])) in one) and (tuple(sorted(r[1:])) in one) for r in net.angles.tolist()]
+    assert np.array_equal(atypes == 1, np.array(arms))
+
+
+def test_geometry_factor_and_positions_by_hand():
+    """Y = sqrt((P / (pi c)) tan(pi c / P)): P = 4c -> tan(pi / 4) = 1, Y = sqrt(4 / pi); a long
+    period -> 1. The damping of the unbreakable bonds at r0 equals the band's. Break positions:
+    the pure shear undone about the centre, tips through the periodic images."""
+    assert collinear_factor(10.0, 40.0) == pytest.approx(math.sqrt(4 / math.pi))
+    assert collinear_factor(1.0, 1e4) == pytest.approx(1.0, abs=1e-6)
+    assert mode2_toughness(0.5, 10.0, 40.0) == pytest.approx(math.sqrt(4 / math.pi) * 0.5 * math.sqrt(10 * math.pi))
+    g = unbreakable_gamma(50.0, 1.05, 1.5)
+    assert g * (1 - 1 / 1.5) ** 2 == pytest.approx(50.0 * (1 - 1 / 1.05) ** 2)
+    ev = pd.DataFrame({"time": [0.0, 100.0], "x": [27.0, 20.0 + 5 * math.e], "y": [27.0, 20.0 + 5 / math.e]})
+    ref = reference_positions(ev, np.array([20.0, 20.0]), 0.01)  # eps = 1 at t = 100
+    assert ref == pytest.approx(np.array([[27.0, 27.0], [25.0, 25.0]]))
+    tips = tip_distances(np.array([[27.0, 27.0], [13.0, 13.0], [39.9, 0.1]]), np.array([20.0, 20.0]),
+                         10.0, 45.0, 40.0)
+    t = 20 + 10 / S2
+    assert tips[:2] == pytest.approx([abs(27 - t) * S2] * 2)
+    # (39.9, 0.1), near the corner: the tip (t, t) is nearest through the image (t, t - 40)
+    assert tips[2] == pytest.approx(math.hypot(39.9 - t, 40.1 - t))
+
+
+@pytest.fixture(scope="module")
+def sheared(tmp_path_factory, plugin_path):
+    """2D, L = 40 (2,663 particles after the cut, 923 band bonds), the default void and band,
+    pure shear at true rate 1e-4 to strain 0.022 (measured, seed 1: the peak tau_c = 0.886 at
+    strain 0.0145, tau down to 0.14 by 0.03)."""
+    out = tmp_path_factory.mktemp("mode2")
+    execute(parse_config(mode2_config(out, strain_rate=1e-4, max_shear_strain=0.022, K_IC_reference=2.0)),
+            show_progress=False)
+    return out
+
+
+def test_a_shear_peaks_and_breaks_start_at_the_tips_inside_the_band(sheared):
+    summary = json.loads((sheared / "results" / "summary.json").read_text())
+    system = json.loads((sheared / "system.json").read_text())
+    record = pd.read_csv(sheared / "results" / "mode2.csv")
+    k = int(record.tau.idxmax())
+    assert summary["tau_c"] == pytest.approx(record.tau[k]) and summary["failed"] and not summary["flagged"]
+    # tau = (p_yy - p_xx) / 2 from the record's pressure tensor
+    assert np.allclose(record.tau, (record.pyy - record.pxx) / 2, rtol=1e-8, atol=1e-9)
+    # rising before the peak, each quarter below it; falling after it
+    quarters = [record.tau[(record.strain - f * record.strain[k]).abs().idxmin()] for f in (0.25, 0.5, 0.75)]
+    assert quarters[0] < quarters[1] < quarters[2] < record.tau[k]
+    assert record.tau[len(record) * 3 // 4:].mean() < 0.5 * record.tau[k]
+    P = 40.0 * S2
+    assert summary["K_IIC"] == pytest.approx(mode2_toughness(summary["tau_c"], 10.0, P))
+    assert summary["K_IIC_over_K_IC"] == pytest.approx(summary["K_IIC"] / 2.0)
+    # the first breaks lie at the tips (measured: within 2 a; a break on the void's flank would
+    # lie ~10 a away), before the peak
+    events = pd.read_csv(sheared / "results" / "breaks.csv")
+    bonds = events[events.kind == "bond"].sort_values("step", kind="stable")
+    centre = np.asarray(system["void_centre"])
+    ref = reference_positions(bonds, centre, 1e-4)
+    assert np.all(tip_distances(ref[:10], centre, 10.0, 45.0, 40.0) < 4.0)
+    assert summary["first_breaks_max_tip_distance"] < 4.0
+    assert summary["first_break_step"] < summary["peak_step"]
+    # every broken bond lies in the band (|offset| < band_width / 2 = 2 at the bond's reference
+    # midpoint; the logged midpoint moves non-affinely by a fraction of a)
+    assert np.all(band_offsets(ref, centre, 40.0) < 2.0 + 0.5)
+    # up to the peak, beyond the tips or by the void's thin end (measured: |along| >= 8.5, where
+    # the void is under 0.53 a thick); later the flanks break too, as the crack faces slide
+    along = ((ref - centre) @ np.array([1.0, 1.0])) / S2
+    along -= P * np.round(along / P)
+    assert np.all(np.abs(along[(bonds.step <= summary["peak_step"]).to_numpy()]) > 10.0 - 2.0)
+    assert len(bonds) > 50  # the crack ran
+
+
+def test_the_set_gives_toughness_per_theta_c(tmp_path):
+    """Means and standard deviations over the runs of each theta_c, K_IIC / K_IC included."""
+    from analysis.mode2 import analyse_mode2_set  # noqa: PLC0415
+
+    def run(th: float, K: float) -> dict:
+        return {"cfg": {"name": f"r{th}{K}"}, "dir": tmp_path,
+                "summary": {"theta_c_deg": th, "tau_c": K / 10, "K_IIC": K, "K_IIC_over_K_IC": K / 4, "flags": []}}
+
+    analyse_mode2_set([run(10.0, 3.0), run(5.0, 1.0), run(10.0, 2.0)], tmp_path / "set", plots=False)
+    points = pd.read_csv(tmp_path / "set" / "toughness.csv")
+    assert points.theta_c_deg.tolist() == [5.0, 10.0]
+    assert points.K_IIC_mean.tolist() == pytest.approx([1.0, 2.5])
+    assert points.K_IIC_std[1] == pytest.approx(math.sqrt(0.5))
+    assert points.K_IIC_over_K_IC_mean[1] == pytest.approx(2.5 / 4)
+
+
+def test_a_shear_resumed_from_a_checkpoint_goes_on_identically(sheared, tmp_path, monkeypatch):
+    """resume.lammps (the pure shear, the per-type coefficients and the references from the
+    checkpoint) carries the shear on exactly as an uninterrupted run does (1 rank): the same records."""
+    from driver.engine import Lammps  # noqa: PLC0415
+
+    for name in ("A", "B"):
+        (tmp_path / name).mkdir()
+        for f in ("setup.lammps", "resume.lammps", "system.data", "system.refs"):
+            (tmp_path / name / f).write_bytes((sheared / f).read_bytes())
+    monkeypatch.chdir(tmp_path / "A")
+    with Lammps() as lmp:
+        lmp.file("setup.lammps")
+        lmp.commands("run 2000\nwrite_restart r.bin\nrun 1000")
+    monkeypatch.chdir(tmp_path / "B")
+    with Lammps() as lmp:
+        lmp.command(f"variable checkpoint string {tmp_path / 'A' / 'r.bin'}")
+        lmp.file("resume.lammps")
+        lmp.command("run 1000")
+    whole = (tmp_path / "A" / "thermo.dat").read_text().splitlines()
+    resumed = (tmp_path / "B" / "thermo.dat").read_text().splitlines()
+    assert len(resumed) > 20 and resumed[1:] == whole[-len(resumed) + 1:] and resumed[-1].startswith("3000 ")
