@@ -16,10 +16,11 @@ peak of sigma_zz = -p_zz. The energy released is the elastic energy the broken i
 when they broke (the break log's `energy`, SPEC 1.2's Delta W_p of the stored springs; the
 Griffith criterion releases it when Delta W_p / (2 S) >= G_c), divided by the new crack surface:
 
-    G_released = sum_b W_b / (2 A_proj),  A_proj = Lx Ly (the crack plane, two new surfaces);
+    G_released = sum_b W_b / (2 A_lig),  A_lig = (1 - notch) Lx Ly (the projected ligament the
+                 crack crosses: the crack plane less the notch; two new surfaces);
     G_break    = sum_b W_b / (2 sum_b S_b)  (per unit of the broken interfaces' own area, >= G_c);
 
-their ratio to G_c is the roughness of the crack (broken area over the plane) times the
+their ratio to G_c is the roughness of the crack (broken area over the ligament) times the
 overshoot of the last step. Separation: the stress at the end of the pull below
 SEPARATED_FRACTION of the peak (flagged otherwise).
 """
@@ -130,7 +131,7 @@ def block_fracture(record: pd.DataFrame, breaks: pd.DataFrame, system: dict, G_c
     ifc = breaks[breaks.kind == "interface"] if len(breaks) else breaks
     W = float(ifc.energy.sum()) if len(ifc) else 0.0
     S = float(ifc.area.sum()) if len(ifc) else 0.0
-    A = system["crack_plane_area"]
+    A = system["crack_plane_area"] * (1.0 - system["notch"])
     G_rel = W / (2 * A)
     G_brk = W / (2 * S) if S > 0 else float("nan")
     # work of the pull per unit volume, sigma_zz d eps (engineering strain of z, x and y held)
@@ -143,7 +144,7 @@ def block_fracture(record: pd.DataFrame, breaks: pd.DataFrame, system: dict, G_c
         flags.append(f"not separated: the stress at the end of the pull is {end / peak:.0%} of the peak (> "
                      f"{SEPARATED_FRACTION:.0%}); raise scenario.block.pull_strain")
     summary = {"G_c": G_c, "tensile_strength": peak, "strain_at_peak": float(eps[k]), "end_stress": end,
-               "separated": bool(separated), "broken": int(len(ifc)), "broken_area": S, "crack_plane_area": A,
+               "separated": bool(separated), "broken": int(len(ifc)), "broken_area": S, "ligament_area": A,
                "roughness": S / A, "energy_released": W, "G_released": G_rel, "G_released_over_Gc": G_rel / G_c,
                "G_break": G_brk, "G_break_over_Gc": G_brk / G_c, "work_of_pull": work,
                "work_of_pull_per_area": work / (2 * A), "notch": system["notch"], "strain_rate": system["strain_rate"],
