@@ -219,8 +219,13 @@ def analyse_block_set(runs: list[dict], out: Path, plots: bool = True, left_out:
     points = points.reset_index()
     save_table(points, out / ("fracture" if test == "fracture" else "moduli"))
     if test == "fracture" and len(points) >= 2:
-        slope, se, icpt = linear_fit(points.G_c.to_numpy(), points.G_released_mean.to_numpy())
-        result.update(G_released_slope=slope, G_released_slope_se=se, G_released_intercept=icpt)
+        # proportionality G_released = a G_c (through the origin), and its largest misfit
+        x, y = points.G_c.to_numpy(), points.G_released_mean.to_numpy()
+        a = float(np.sum(x * y) / np.sum(x * x))
+        result.update(G_released_over_Gc_slope=a, G_released_misfit=float(np.max(np.abs(y - a * x) / y)))
+        if len(points) >= 3:  # a line with an intercept needs a third point for its errors
+            slope, se, icpt = linear_fit(x, y)
+            result.update(G_released_slope=slope, G_released_slope_se=se, G_released_intercept=icpt)
     guard = PlotGuard()
     png = out / "plots" / f"{'fracture' if test == 'fracture' else 'moduli'}_curves.png"
     if plots:

@@ -106,8 +106,9 @@ def test_doubling_the_stiffnesses_doubles_the_moduli(tmp_path, plugin_path):
 def test_released_energy_scales_with_G_c(tmp_path, plugin_path):
     """A notched block pulled apart at G_c = 0.5 and 1 J/m^2: it separates, every broken
     interface released at least 2 S G_c (G_break >= G_c, within the overshoot of one step), and
-    the energy released per unit ligament area doubles with G_c (within 15 %: the crack path may
-    change a little, the criterion scales exactly). The set analysis fits it against G_c."""
+    the energy released per unit ligament area doubles with G_c (within 5 %, measured 0.6 %: the
+    criterion scales exactly, the crack path may change a little at a fixed pull rate), the
+    strength grows as sqrt(G_c). The set analysis fits G_released = a G_c."""
     block = {"n_cells": 125, "pull_strain": 1.2e-3}
     runs = []
     for gc in (0.5, 1.0):
@@ -115,8 +116,9 @@ def test_released_energy_scales_with_G_c(tmp_path, plugin_path):
         assert s["separated"] and not s["flagged"]
         assert 1.0 <= s["G_break_over_Gc"] < 1.1
         runs.append(s)
-    assert runs[1]["G_released"] / runs[0]["G_released"] == pytest.approx(2.0, rel=0.15)
-    assert runs[1]["tensile_strength"] > runs[0]["tensile_strength"]
+    assert runs[1]["G_released"] / runs[0]["G_released"] == pytest.approx(2.0, rel=0.05)
+    # the strength of a notched solid goes as sqrt(E G_c) (Griffith): sqrt(2) between them
+    assert runs[1]["tensile_strength"] / runs[0]["tensile_strength"] == pytest.approx(np.sqrt(2.0), rel=0.1)
 
     from analysis.bcm_calibration import analyse_block_set  # noqa: PLC0415
 
@@ -124,4 +126,6 @@ def test_released_energy_scales_with_G_c(tmp_path, plugin_path):
     result = analyse_block_set([{"cfg": c, "dir": tmp_path / c["name"], "summary": s} for c, s in zip(cfgs, runs)],
                                tmp_path / "set", plots=False)
     table = pd.read_csv(tmp_path / "set" / "fracture.csv")
-    assert list(table.G_c) == [0.5, 1.0] and result["G_released_slope"] > 0
+    assert list(table.G_c) == [0.5, 1.0] and result["G_released_misfit"] < 0.1
+    print("fracture:", [{k: s[k] for k in ("G_c", "G_released", "G_break", "tensile_strength", "broken")}
+                        for s in runs], result)
