@@ -129,3 +129,15 @@ def test_released_energy_scales_with_G_c(tmp_path, plugin_path):
     assert list(table.G_c) == [0.5, 1.0] and result["G_released_misfit"] < 0.1
     print("fracture:", [{k: s[k] for k in ("G_c", "G_released", "G_break", "tensile_strength", "broken")}
                         for s in runs], result)
+
+
+@pytest.mark.slow
+def test_moduli_run_interrupted_and_resumed_is_identical(tmp_path, plugin_path):
+    """Stopped by SIGINT in a later phase (after the block was restored from the start's
+    restart at least once) and resumed from its checkpoint: the same fits, bit for bit."""
+    from test_resume import assert_same_results, reference_interrupted_resumed  # noqa: PLC0415
+
+    cfg = tmp_path / "moduli.yaml"
+    cfg.write_text(yaml.safe_dump(_config("moduli", {"n_cells": SMALL, "crossings": 2.0}, name="resume")))
+    ref, out = reference_interrupted_resumed(cfg, tmp_path, at_fraction=0.4)
+    assert_same_results(ref, out)
