@@ -7,7 +7,9 @@ half-rate shear planes, then (3D, SPEC 2.3)
 
     E = 9 B G / (3 B + G),   nu = (3 B - 2 G) / (6 B + 2 G);
 
-the full-rate phases check the rate (RATE_TOLERANCE), the shortest phase must last
+and the reduced moduli B h / k_n, G h / k_n (functions of k_t / k_n alone, by dimensional
+analysis of springs between cells of size h); the full-rate phases check the rate
+(RATE_TOLERANCE), the shortest phase must last
 MIN_CROSSINGS sound-crossing times L / c_l, c_l^2 = (B + 4 G / 3) / rho_s (flagged otherwise),
 and a phase in which an interface broke is flagged.
 
@@ -106,8 +108,12 @@ def analyse_block_moduli(run_dir: Path, cfg: dict, plots: bool = True, partial: 
     system, record = _load(run_dir)
     m = cfg["model"]
     summary, fits = block_moduli(record, system, float(m["density"]))
-    summary |= {"kn": float(m["interface"]["kn"]), "kt": float(m["interface"]["kt"]),
-                "kt_over_kn": float(m["interface"]["kt"]) / float(m["interface"]["kn"])}
+    kn = float(m["interface"]["kn"])
+    # the reduced moduli B h / k_n, G h / k_n depend on k_t / k_n (and the cells' shape) only:
+    # the calibration curves that carry over to any k_n and h
+    summary |= {"kn": kn, "kt": float(m["interface"]["kt"]), "kt_over_kn": float(m["interface"]["kt"]) / kn,
+                "B_reduced": summary["B"] * summary["cell_size"] / kn,
+                "G_reduced": summary["G"] * summary["cell_size"] / kn}
     save_table(fits, run_dir / "results" / "moduli_phases")
     save_table(pd.DataFrame([{k: v for k, v in summary.items() if not isinstance(v, list)}]),
                run_dir / "results" / "moduli")
@@ -191,8 +197,8 @@ def plot_fracture(record: pd.DataFrame, path: Path) -> None:
 
 
 def analyse_block_set(runs: list[dict], out: Path, plots: bool = True, left_out: list[dict] | None = None) -> dict:
-    """Calibration curves of a set of one test's runs: moduli (B, G, E, nu against k_t/k_n, k_n
-    and h; table `moduli`) or fracture (G_released, G_break and the strength against G_c; table
+    """Calibration curves of a set of one test's runs: moduli (B, G, E, nu and the reduced B h /
+    k_n, G h / k_n against k_t/k_n, k_n and h; table `moduli`) or fracture (G_released, G_break and the strength against G_c; table
     `fracture`), with the runs table and a figure."""
     out = Path(out)
     tests = {r["cfg"]["scenario"].get("test", "moduli") for r in runs}
@@ -213,7 +219,7 @@ def analyse_block_set(runs: list[dict], out: Path, plots: bool = True, left_out:
     if test == "fracture":
         keys, values = ["G_c"], ["G_released", "G_break", "tensile_strength"]
     else:
-        keys, values = ["kt_over_kn", "kn", "cell_size"], ["B", "G", "E", "nu"]
+        keys, values = ["kt_over_kn", "kn", "cell_size"], ["B", "G", "E", "nu", "B_reduced", "G_reduced"]
     points = table.groupby(keys)[values].agg(["mean", "std"])
     points.columns = [f"{a}_{b}" for a, b in points.columns]
     points = points.reset_index()

@@ -101,6 +101,7 @@ def test_doubling_the_stiffnesses_doubles_the_moduli(tmp_path, plugin_path):
     assert one["E"] == pytest.approx(9 * B * G / (3 * B + G))
     assert one["nu"] == pytest.approx((3 * B - 2 * G) / (6 * B + 2 * G))
     assert B > 0 and G > 0 and one["B_se"] < 0.01 * B
+    print(f"doubling: B ratio {two['B'] / one['B']:.9f}, G ratio {two['G'] / one['G']:.9f}")
 
 
 def test_released_energy_scales_with_G_c(tmp_path, plugin_path):
