@@ -142,3 +142,22 @@ def test_moduli_run_interrupted_and_resumed_is_identical(tmp_path, plugin_path):
     cfg.write_text(yaml.safe_dump(_config("moduli", {"n_cells": SMALL, "crossings": 2.0}, name="resume")))
     ref, out = reference_interrupted_resumed(cfg, tmp_path, at_fraction=0.4)
     assert_same_results(ref, out)
+
+
+# ------------------------------------------------------------------ the shared section
+def test_bcm_block_section_is_filled_in_and_bpm_keys_refused():
+    """A BCM calibrate config gets its block with the particle's cell size h = (V / N_c)^(1/3);
+    the BPM-only keys and test are refused for BCM, the BCM test and block for BPM."""
+    from driver.bcm.calibration import particle_cell_size  # noqa: PLC0415
+    from driver.schema import ConfigError  # noqa: PLC0415
+
+    cfg = parse_config(_config("moduli", None))
+    assert cfg.scenario.block.n_cells == 300
+    assert cfg.scenario.block.cell_size == pytest.approx(particle_cell_size(cfg.model))
+    assert 1.2e-4 < cfg.scenario.block.cell_size < 1.4e-4  # 2 mm particle, 1728 cells
+    bad = [_config("mode1", None), _config("moduli", None) | {"scenario": {"kind": "calibrate", "strain_rate": 1e-3}},
+           {"model": {"kind": "bpm", "dimension": 2, "L": 12}, "scenario": {"kind": "calibrate", "test": "fracture"}},
+           {"model": {"kind": "bpm", "dimension": 2, "L": 12}, "scenario": {"kind": "calibrate", "block": {}}}]
+    for data in bad:
+        with pytest.raises((ConfigError, ValueError)):
+            parse_config(data)

@@ -32,7 +32,8 @@ class BlockSection(_Strict):
                                                             "2 cells across in every direction for LAMMPS)")
     cell_size: float | None = Field(None, gt=0.0, description="mean cell size h, m (box side h n_cells^(1/3)); "
                                                               "none: the particle's, (V_particle / N_c)^(1/3) "
-                                                              "from the model section")
+                                                              "from the model section (filled in when the "
+                                                              "config is read)")
     steps_per_period: float = Field(50.0, ge=10.0, description="time step = shortest contact period (stiffest "
                                                                "spring, lightest cells) / this")
     crossings: float = Field(4.0, gt=0.0, description="moduli: the fast compression phase lasts this many "
@@ -132,8 +133,13 @@ def _check(cfg) -> None:
     if given:
         raise ValueError(f"scenario: {', '.join(given)} only apply to BPM calibration runs; the BCM block's rates "
                          "are set in scenario.block (crossings, pull_rate, pull_strain)")
+    # the resolved config holds every value the run uses: the block and its cell size
     if sc.block is None:
-        sc.block = BlockSection()  # the resolved config holds every value the run uses
+        sc.block = BlockSection()
+    if sc.block.cell_size is None:
+        from driver.bcm.calibration import particle_cell_size  # noqa: PLC0415 (builds the parent shape)
+
+        sc.block.cell_size = particle_cell_size(cfg.model)
 
 
 UNIT = Scenario(
