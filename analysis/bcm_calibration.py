@@ -197,9 +197,9 @@ def plot_fracture(record: pd.DataFrame, path: Path) -> None:
 
 
 def analyse_block_set(runs: list[dict], out: Path, plots: bool = True, left_out: list[dict] | None = None) -> dict:
-    """Calibration curves of a set of one test's runs: moduli (B, G, E, nu and the reduced B h /
-    k_n, G h / k_n against k_t/k_n, k_n and h; table `moduli`) or fracture (G_released, G_break and the strength against G_c; table
-    `fracture`), with the runs table and a figure."""
+    """Calibration curves of a set of one test's runs: moduli (B, G, E, nu and the reduced
+    B h / k_n, G h / k_n against k_t/k_n, k_n and h; table `moduli`) or fracture (G_released,
+    G_break and the strength against G_c; table `fracture`), with the runs table and a figure."""
     out = Path(out)
     tests = {r["cfg"]["scenario"].get("test", "moduli") for r in runs}
     if len(tests) > 1:

@@ -253,8 +253,8 @@ def run_moduli(cfg, rd, plugin_path: Path) -> tuple[dict, object]:
     chunk = chunk_steps("bcm", facts.n_cells, cfg.execution.chunk_steps)
     schedule = segments(plan[-1].end, chunk, resets)
     system = _facts_dict(tess, facts) | {
-        "strain_rate": rate, "crossings": blk.crossings, "G_c_used": UNBREAKABLE_GC, "total_steps": plan[-1].end, "chunk_steps": schedule["chunk"],
-        "record_every": every, "phases": [p.__dict__ | {"end": p.end} for p in plan]}
+        "strain_rate": rate, "crossings": blk.crossings, "G_c_used": UNBREAKABLE_GC, "total_steps": plan[-1].end,
+        "chunk_steps": schedule["chunk"], "record_every": every, "phases": [p.__dict__ | {"end": p.end} for p in plan]}
     atomic_write_json(rd.root / "system.json", system)
     write_session(rd.root, setup, resume, schedule, cfg.execution.checkpoint_steps())
     return system, progress_spec(cfg, system)
@@ -269,7 +269,6 @@ def pull_steps(pull_strain: float, pull_rate: float, crossing_time: float, times
 def run_fracture(cfg, rd, plugin_path: Path) -> tuple[dict, object]:
     """Build the notched block, write the inputs and schedule of a mode-I pull."""
     from driver.schedule import chunk_steps, segments, write_session  # noqa: PLC0415
-
     from runfiles.atomic import atomic_write_json  # noqa: PLC0415
 
     sc, blk = cfg.scenario, block_section(cfg)
