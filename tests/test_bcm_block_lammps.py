@@ -7,7 +7,9 @@ volumes filling the box) is tested in tests/test_bcm_block.py (check_block); her
 - doubling every stiffness doubles B and G to 1e-3 (an exact similarity of the dynamics when
   dt follows the stiffest spring and the rate is counted in sound crossings);
 - the energy released per unit new crack area scales linearly with G_c, and each broken
-  interface released at least 2 S G_c (the Griffith criterion).
+  interface released at least 2 S G_c (the Griffith criterion);
+- the shared `calibrate` section: BCM defaults filled in, each model's keys refused for the other;
+- (slow) a moduli run interrupted and resumed, and one on two ranks, agree with one straight run.
 """
 
 from __future__ import annotations
@@ -161,3 +163,14 @@ def test_bcm_block_section_is_filled_in_and_bpm_keys_refused():
     for data in bad:
         with pytest.raises((ConfigError, ValueError)):
             parse_config(data)
+
+
+@pytest.mark.slow
+def test_two_ranks_follow_one_rank(tmp_path, plugin_path):
+    """The block split over two MPI ranks (interfaces and their reference taken across ranks
+    and across the periodic boundary): the same moduli to round-off (measured 7e-13)."""
+    block = {"n_cells": SMALL, "crossings": 2.0}
+    one = _run(tmp_path, _config("moduli", block, name="np1"))
+    two = _run(tmp_path, _config("moduli", block, name="np2") | {"execution": {"np": 2}})
+    for key in ("B", "G", "E", "nu"):
+        assert two[key] == pytest.approx(one[key], rel=1e-9), key
