@@ -71,17 +71,33 @@ class Scenario:
 
 def _units() -> list[Scenario]:
     # the registry: one line per unit
-    from driver.scenarios import bcm_impact, bpm_calibrate, bpm_shear  # noqa: PLC0415
+    from driver.scenarios import bcm_calibrate, bcm_impact, bpm_calibrate, bpm_shear  # noqa: PLC0415
 
-    return [bpm_shear.UNIT, bcm_impact.UNIT, bpm_calibrate.UNIT]
+    return [bpm_shear.UNIT, bcm_impact.UNIT, bpm_calibrate.UNIT, bcm_calibrate.UNIT]
 
 
 #: The `model:` sections, by their `kind`.
 MODELS: dict[str, type] = {"bpm": BPMModel, "bcm": BCMModel}
 #: Every registered unit, by (model kind, scenario kind).
 UNITS: dict[tuple[str, str], Scenario] = {u.key: u for u in _units()}
+
+
+def _sections() -> dict[str, type]:
+    # Units of one scenario kind share one section (a config holds one section per kind): the
+    # most derived of theirs, which must extend every other (bcm calibrate extends bpm's).
+    out: dict[str, type] = {}
+    for u in UNITS.values():
+        have = out.get(u.scenario)
+        if have is None or issubclass(u.section, have):
+            out[u.scenario] = u.section
+        elif not issubclass(have, u.section):
+            raise TypeError(f"the units of scenario '{u.scenario}' have unrelated sections {have.__name__} and "
+                            f"{u.section.__name__}: one must extend the other")
+    return out
+
+
 #: The `scenario:` sections, by their `kind` (a section may serve several models).
-SCENARIOS: dict[str, type] = {u.scenario: u.section for u in UNITS.values()}
+SCENARIOS: dict[str, type] = _sections()
 
 
 def pairs_text() -> str:

@@ -95,6 +95,29 @@ IMPACT_RECORD = Record("impact", (
     Field("work_contacts", "J", "work of the cell-cell contact forces on the cells (a check)", _g("c_cpair[7]")),
 ))
 
+# ------------------------------------------------- BCM block calibration (SPEC 3, cells of SPEC 1.1-1.2)
+# pressure tensor: virial (rigid-body virial of the interfaces and contacts, from the cell
+# centres) plus kinetic parts, SI units; the f_BCM_GRIFFITH sums as in IMPACT_RECORD.
+BCM_BLOCK_RECORD = Record("bcm_block", (
+    Field("step", "", "time step", "step"),
+    Field("time", "s", "simulated time", _g("time", 10)),
+    Field("phase", "", "deformation phase (driver/bcm/calibration.py; 0 for the fracture pull)", "v_phase"),
+    Field("strain", "", "strain of the phase: volumetric (compression), shear (tilt / length) or the pull's "
+                        "engineering strain", _g("v_strain", 10)),
+    *(Field(f"p{ij}", "Pa", f"pressure tensor component {ij} (virial + kinetic)", _g(f"c_thermo_press[{k}]", 10))
+      for k, ij in enumerate(("xx", "yy", "zz", "xy", "xz", "yz"), start=1)),
+    Field("vol", "m^3", "box volume", _g("vol", 12)),
+    Field("ke_trans", "J", "translational kinetic energy of the cells", _g("c_ket")),
+    Field("ke_rot", "J", "rotational kinetic energy of the cells (fix bcm/rigid)", _g("f_integrate")),
+    Field("bonds_broken", "", "broken interfaces", "f_BCM_GRIFFITH[2]"),
+    Field("broken_area", "m^2", "area of the broken interfaces", _g("f_BCM_GRIFFITH[3]")),
+    Field("W_f", "J", "fracture energy booked at the breaks (Griffith convention)", _g("f_BCM_GRIFFITH[4]")),
+    Field("E_interfaces", "J", "elastic energy stored in the interfaces now", _g("f_BCM_GRIFFITH[5]")),
+    Field("W_damp", "J", "energy dissipated by the interfaces' damping", _g("f_BCM_GRIFFITH[6]")),
+    Field("W_switch", "J", "energy lost when interfaces switch (break, retire)", _g("f_BCM_GRIFFITH[8]")),
+    Field("E_contacts", "J", "elastic energy stored in cell-cell contacts", _g("c_cpair")),
+))
+
 # ------------------------------------------------------------------------ BPM shear (SPEC 2.4-2.5)
 # pressure tensor: virial + kinetic parts (compute pressure of thermo_style), LJ units
 SHEAR_RECORD = Record("shear", (

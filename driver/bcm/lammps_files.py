@@ -27,11 +27,16 @@ def _rows(arr: np.ndarray, fmt: str) -> str:
 
 def write_cell_data(path: Path, centroids: np.ndarray, quats: np.ndarray, masses: np.ndarray,
                     moments: np.ndarray, bound_diameters: np.ndarray, bonds: np.ndarray,
-                    margin: float) -> Path:
-    """LAMMPS data file of the cells (ids 1..n in array order; bonds are 0-based index pairs)."""
+                    margin: float = 0.0, box: tuple[np.ndarray, np.ndarray] | None = None) -> Path:
+    """LAMMPS data file of the cells (ids 1..n in array order; bonds are 0-based index pairs).
+    The box: `box` = (lo, hi) when given (a periodic block: centroids wrapped into it), else
+    the centroids' bounds widened by `margin`."""
     n = len(centroids)
-    lo = centroids.min(axis=0) - margin
-    hi = centroids.max(axis=0) + margin
+    if box is not None:
+        lo, hi = (np.asarray(b, dtype=float) for b in box)
+    else:
+        lo = centroids.min(axis=0) - margin
+        hi = centroids.max(axis=0) + margin
     # sphere sub-style takes a density: choose it so that rmass is the cell's exact mass
     density = masses / (np.pi / 6.0 * bound_diameters ** 3)
     head = [

@@ -153,7 +153,9 @@ def reset_commands(phase: Phase, dimension: int) -> list[str]:
 def resume_phase(plan: list[Phase]) -> str:
     """resume.lammps's choice of the phase file by the checkpoint's step (a checkpoint at a
     phase's first step already holds the reset state)."""
-    cases = [f'"${{resume_step}} < {p.end}" then "include phase_{p.index}.lammps"' for p in plan]
+    # LAMMPS: if "c1" then "cmd1" elif "c2" "cmd2" ... (elif takes no `then`)
+    cases = [f'"${{resume_step}} < {p.end}"' + (" then" if k == 0 else "") + f' "include phase_{p.index}.lammps"'
+             for k, p in enumerate(plan)]
     return ("variable        resume_step equal step\n"
             "if " + " elif ".join(cases) + "\n")
 

@@ -159,6 +159,10 @@ def _elements(cfg) -> int:
 def _check(cfg) -> None:
     if cfg.output.animation:
         raise ValueError("output.animation: a calibration test writes no periodic dumps")
+    # the section is shared with the BCM block's tests (driver/scenarios/bcm_calibrate.py)
+    if cfg.scenario.test not in ("moduli", "mode1", "mode2") or getattr(cfg.scenario, "block", None) is not None:
+        raise ValueError("scenario: test = fracture and the block section are the BCM block's; a BPM calibration "
+                         "run has the tests moduli, mode1 and mode2")
     if cfg.scenario.test == "mode1":
         _check_mode1(cfg)
         return

@@ -5,6 +5,7 @@
 #include "atom.h"
 #include "bcm_rigid.h"
 #include "comm.h"
+#include "domain.h"
 #include "error.h"
 
 #include <algorithm>
@@ -245,6 +246,10 @@ void BcmInterfaceTable::take_reference(int iquat)
       for (int k = 0; k < itf.npts; k++) {
         double d[3];
         for (int c = 0; c < 3; c++) d[c] = pts[3 * k + c] - x[i][c];
+        // the points are written near cell 1's centre; in a periodic box either cell may
+        // sit (wrapped) across the box from them: the nearest image is the cell's own point
+        // (a no-op in a non-periodic box)
+        domain->minimum_image(FLERR, d);
         const double dist = std::sqrt(dot(d, d));
         if (dist > 1.01 * radius[i]) bad[BAD_RADIUS] = std::min(bad[BAD_RADIUS], ii);
         const double side_sign = dot(d, n);
@@ -287,6 +292,7 @@ void BcmInterfaceTable::take_reference(int iquat)
   for (int ii = 0; ii < nif; ii++) {
     double d[3];
     for (int c = 0; c < 3; c++) d[c] = both[6 * ii + 3 + c] - both[6 * ii + c];
+    domain->minimum_image(FLERR, d);    // the bonded images are the nearest ones
     span = std::max(span, std::sqrt(dot(d, d)));
   }
   reference_taken = 1;
