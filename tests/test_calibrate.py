@@ -151,3 +151,28 @@ def test_bpm_round_trip_and_cache(tmp_path, monkeypatch, plugin_path):
     assert not cal3["reach"]["nu"]["reached"] and cal3["parameters"]["k_A"] == 0.0
     assert cal3["achieved"]["nu"] < 0.4 and cal3["target"]["nu"] == 0.45  # not clipped silently
     assert "out of reach" in (tmp_path / "cal3" / "calibration.md").read_text()
+
+
+SMALL_BCM = """name: small_bcm
+material: {density: 6000, E: 2.0e11, nu: 0.1, G_c: 3.0}
+bcm: {diameter: 2.0e-3, n_cells: 1728}
+curves:
+  bcm_moduli: {base: {scenario.block.n_cells: 64}, axes: {model.interface.kt: [4.0e6, 8.0e6]}, seeds: 1}
+  bcm_fracture: {base: {scenario.block.n_cells: 64}, axes: {model.interface.G_c: [0.5, 1.0]}, seeds: 1}
+"""
+
+
+@pytest.mark.slow
+def test_bcm_round_trip(tmp_path, monkeypatch, plugin_path):
+    """Calibrate the BCM block to a material, run the block tests at the chosen k_n, k_t, G_c and
+    cell size, and get back E, nu within 5 % and the fracture energy within 10 %."""
+    monkeypatch.setenv("BRITTLE_CACHE", str(tmp_path / "cache"))
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "m.yaml").write_text(SMALL_BCM)
+    res = CliRunner().invoke(app, ["calibrate", "m.yaml", "--out", "cal", "--workers", "1", "--verify"])
+    assert res.exit_code == 0, res.output
+    cal = json.loads((tmp_path / "cal" / "calibration.json").read_text())["bcm"]
+    p = cal["parameters"]
+    assert 0.4 < p["kt_over_kn"] < 0.8 and p["kt"] == pytest.approx(p["kt_over_kn"] * p["kn"], rel=1e-3)
+    for key, tol in (("E", 0.05), ("nu", 0.05), ("G_c", 0.10)):
+        assert abs(cal["verify"][key]["relative_error"]) < tol, (key, cal["verify"][key])

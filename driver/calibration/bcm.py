@@ -28,8 +28,9 @@ from driver.calibration.material import MaterialFile
 
 #: Reference interface normal stiffness of the moduli curve, N/m (SPEC 1.3 default).
 KN_REFERENCE = 1e7
-#: k_t / k_n of the moduli curve (SPEC 1.3 default 0.8 in the range).
-KT_OVER_KN = (0.2, 0.4, 0.6, 0.8, 1.0)
+#: k_t / k_n of the moduli curve (SPEC 1.3 default 0.8 in the range; nu falls from about 0.2
+#: at 0.2 to 0.01 at 1, so the points reach down to 0.05 for the nu of glass and rock).
+KT_OVER_KN = (0.05, 0.1, 0.2, 0.4, 0.6, 0.8, 1.0)
 #: Interface G_c of the fracture curve, as multiples of the first estimate (target / 2).
 GC_FACTORS = (0.5, 1.0, 2.0)
 #: Cells of the block.
@@ -53,7 +54,7 @@ def bcm_fracture(kn: float, kt: float, h: float, G_estimate: float) -> cv.CurveS
             "scenario": {"kind": "calibrate", "test": "fracture",
                          "block": {"n_cells": BLOCK_CELLS, "cell_size": cv.rounded(h)}}}
     return cv.CurveSpec("bcm_fracture", {"base": base, "axes": {"model.interface.G_c": [
-        cv.rounded(f * G_estimate) for f in GC_FACTORS]}, "seeds": 1}, "fracture", "G_c")
+        cv.rounded(f * G_estimate) for f in GC_FACTORS]}, "seeds": 2}, "fracture", "G_c")
 
 
 def calibrate_bcm(mat: MaterialFile, cache: Path, workers: int, console: Console) -> dict[str, Any]:
