@@ -53,15 +53,51 @@ def steady_speed(fronts: pd.DataFrame, c: float, half_width: float) -> dict:
     for side, name in ((1, "right"), (-1, "left")):
         f = fronts[fronts.side == side]
         adv = f[(f.distance == f.front) & (f.front >= lo) & (f.front <= hi)]
+        v = se = icpt = float("nan")
         if len(adv) >= MIN_POINTS and adv.time.nunique() >= 2:
-            v = float(np.polyfit(adv.time, adv.front, 1)[0])
-            speeds.append(v)
-        else:
-            v = float("nan")
+            (v, icpt), cov = np.polyfit(adv.time, adv.front, 1, cov=True)
+            v, se, icpt = float(v), float(math.sqrt(cov[0, 0])), float(icpt)
+            speeds.append((v, se))
         out[f"crack_speed_{name}"] = v
+        out[f"crack_speed_{name}_se"] = se
+        out[f"crack_front_{name}_intercept"] = icpt
         out[f"crack_points_{name}"] = int(len(adv))
-    out["crack_speed"] = float(np.mean(speeds)) if speeds else float("nan")
+    out["crack_fit_range"] = [lo, hi]
+    out["crack_speed"] = float(np.mean([v for v, _ in speeds])) if speeds else float("nan")
+    # the mean's uncertainty: the fits' standard errors combined, or half the sides' spread if larger
+    se = math.sqrt(sum(e * e for _, e in speeds)) / len(speeds) if speeds else float("nan")
+    spread = 0.5 * abs(speeds[0][0] - speeds[1][0]) if len(speeds) == 2 else 0.0
+    out["crack_speed_se"] = max(se, spread) if speeds else float("nan")
     return out
+
+
+def plot_fronts(fronts: pd.DataFrame, fit: dict, c_R: float | None, path) -> None:
+    """Front position against time per side, the fitted steady lines over their range, and the
+    Rayleigh speed's slope for comparison (dotted, from the start of each fit)."""
+    import matplotlib.pyplot as plt  # noqa: PLC0415
+
+    from runfiles.atomic import atomic_save  # noqa: PLC0415
+
+    fig, ax = plt.subplots(figsize=(5.0, 3.6), dpi=150)
+    lo, hi = fit["crack_fit_range"]
+    for side, name, mk in ((1, "right", "o"), (-1, "left", "s")):
+        f = fronts[fronts.side == side]
+        if not len(f):
+            continue
+        line, = ax.plot(f.time, f.front, mk, ms=2, label=f"{name} front")
+        v, b = fit[f"crack_speed_{name}"], fit[f"crack_front_{name}_intercept"]
+        if np.isfinite(v):
+            t = (np.array([lo, hi]) - b) / v
+            ax.plot(t, b + v * t, "-", color=line.get_color(), lw=1.5, label=f"{name}: {v:.3g}")
+        if c_R and np.isfinite(v):  # from where the fit starts: the slope a front at c_R would have
+            t0 = (lo - b) / v
+            ax.plot([t0, t0 + (hi - lo) / c_R], [lo, hi], ":", color="k", lw=1)
+    ax.set(xlabel=r"time ($\tau$)", ylabel="front distance from the void centre (a)",
+           title="crack fronts" + (f" (dotted: Rayleigh speed {c_R:.3g})" if c_R else ""))
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    atomic_save(path, lambda p: fig.savefig(p))
+    plt.close(fig)
 
 
 def rayleigh_speed(B: float, G: float, rho: float, dimension: int) -> float:

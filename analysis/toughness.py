@@ -25,7 +25,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.breaks import read_break_log
-from analysis.crack import crack_fronts, rayleigh_speed, steady_speed
+from analysis.crack import crack_fronts, plot_fronts, rayleigh_speed, steady_speed
 from analysis.plots import PlotGuard
 from analysis.report import Report, clear_report, provenance_line, write_report
 from analysis.tables import save_table
@@ -62,6 +62,7 @@ def analyse_mode1(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = 
     """Summary, results/mode1 (the record), figure plots/mode1.png and report of a mode1 run.
     partial: analysed all the same (a run cut short after the peak still has it)."""
     run_dir = Path(run_dir)
+    guard = PlotGuard()
     system = json.loads((run_dir / "system.json").read_text())
     record = read_record(run_dir / "thermo.dat", MODE1_RECORD.names)
     save_table(record, run_dir / "results" / "mode1")
@@ -109,13 +110,17 @@ def analyse_mode1(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = 
             save_table(fronts, run_dir / "results" / "crack_front")
             summary.update(steady_speed(fronts, c, 0.5 * width))
             B_ref, G_ref = cfg["scenario"].get("B_reference"), cfg["scenario"].get("G_reference")
+            c_R = None
             if B_ref and G_ref:
                 rho = system["n_particles"] / (width * float(system["height"])
                                                - math.pi * c * system["void_semi_axes"][1])
                 c_R = rayleigh_speed(float(B_ref), float(G_ref), rho, int(cfg["model"]["dimension"]))
-                summary.update(rayleigh_speed=c_R, crack_speed_over_rayleigh=summary["crack_speed"] / c_R)
+                summary.update(rayleigh_speed=c_R, crack_speed_over_rayleigh=summary["crack_speed"] / c_R,
+                               crack_speed_over_rayleigh_se=summary["crack_speed_se"] / c_R)
+            if plots and len(fronts):
+                png = run_dir / "plots" / "crack_front.png"
+                guard.draw("crack_front", png, plot_fronts, fronts, summary, c_R, png)
     summary.update(flags=flags, flagged=bool(flags))
-    guard = PlotGuard()
     if plots:
         guard.draw("mode1", run_dir / "plots" / "mode1.png", plot_pull, record, k, run_dir / "plots" / "mode1.png")
     summary["plots_failed"] = guard.failed
@@ -126,6 +131,8 @@ def analyse_mode1(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = 
         rep.text(f"FLAG: {f}")
     if plots and not guard.failed:
         rep.figure(run_dir / "plots" / "mode1.png", "far-field stress against grip displacement, peak marked")
+        if (run_dir / "plots" / "crack_front.png").exists():
+            rep.figure(run_dir / "plots" / "crack_front.png", "crack fronts against time, steady-speed fits")
     write_report(rep, run_dir)
     return summary
 
