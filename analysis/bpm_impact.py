@@ -1,0 +1,195 @@
+"""Measures of one BPM particle impact (SPEC 1.5, 3), with the meanings of the BCM's
+(analysis/impact.py, whose functions are reused wherever the meaning is the same).
+
+The run is in LJ units; everything here is converted to SI with system.json's a, m, u, tau.
+
+- A bond's area: its Voronoi face (bond_areas.txt, driver/bpm/clipped.py). A_0 = sum over the
+  bonds, A = sum over the broken bonds (the bonds missing from the end's bond dump), so
+  D_w = A / A_0 is the broken-area fraction, as for the BCM's interfaces.
+- W_f twice: 2 A G_c (the published definition, G_c = model.particle.G_c) and W_f_held, the
+  elastic energy the broken bonds and angles held when they broke (the break log's energy).
+- Energy channels: the plane's dissipation W_c_wall = -(work of the plane's forces) - (energy
+  of its normal springs), measured (the work integrated every step in LAMMPS); the energy the
+  breaks took out of the springs (W_f_held), measured; the damping of Eq. 5 (bonded and
+  non-bonded pairs), which the plugins do not tally, is what the balance leaves:
+  W_c_internal_damping_by_balance = W_k^- - W_k^+ - E_el - W_c_wall - W_f_held. With gamma = 0
+  that term is the balance's residual (tests/test_bpm_impact.py).
+- Fragments: grains, connected components of the intact bonds; mass N m, volume = sum of the
+  particles' Voronoi volumes, box a >= b >= c of the particles' centres plus their diameter
+  (the extent of a set of spheres of diameter a along any direction is that of their centres
+  plus a), b/a, c/b, S_f; p(m / m_max) and its fit.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from analysis.breaks import read_break_log
+from analysis.dumps import read_atom_dump, read_local_dump
+from analysis.fragment_shapes import shape_averages, shape_factor, fragment_table
+from analysis.grain_table import grain_table
+from analysis.grains import grain_labels
+from analysis.impact import fragment_counts, fragment_mass_fit, impact_measures, settle_outcome
+from analysis.plots import PlotGuard, plot_energies, plot_mass_pdf, plot_shapes
+from analysis.report import Report, clear_report, provenance_line, write_report
+from analysis.statistics import normalised_mass_distribution
+from analysis.tables import save_table
+from runfiles.records import BPM_IMPACT_RECORD, read_record
+
+
+def read_bpm_impact_thermo(path: Path, units: dict) -> pd.DataFrame:
+    """The energy record in SI (J, s) with derived columns: kinetic, elastic (bonds, angles,
+    repulsion, plane springs), W_c_wall (the plane's dissipation)."""
+    df = read_record(path, BPM_IMPACT_RECORD.names)
+    u, tau = units["u"], units["tau"]
+    out = pd.DataFrame({"step": df.step, "time": df.time * tau})
+    for col in ("ke", "E_pair", "E_bonds", "E_angles", "E_wall", "work_wall"):
+        out[col] = df[col] * u
+    out["kinetic"] = out.ke
+    out["elastic"] = out.E_pair + out.E_bonds + out.E_angles + out.E_wall
+    out["W_c_wall"] = -out.work_wall - out.E_wall
+    for col in ("wall_contacts", "bonds_broken", "angles_broken"):
+        out[col] = df[col].astype(int)
+    out["vcm_z"] = df.vcm_z * units["a"] / tau
+    return out
+
+
+def broken_bonds(all_bonds: np.ndarray, intact_pairs: np.ndarray, n: int) -> np.ndarray:
+    """Mask over all_bonds (0-based, (m, 2)) of those absent from intact_pairs (0-based)."""
+    key = lambda p: np.minimum(p[:, 0], p[:, 1]) * n + np.maximum(p[:, 0], p[:, 1])  # noqa: E731
+    return ~np.isin(key(all_bonds), key(intact_pairs))
+
+
+def particle_fragments(labels, positions, velocities, mass, volumes, diameter, intact) -> pd.DataFrame:
+    """Fragment table (analysis.fragment_shapes columns; n_cells = particles) with the box of
+    the spheres: a, b, c of the centres plus one diameter each; motion columns of grain_table."""
+    n = len(labels)
+    frags = fragment_table(labels, np.full(n, mass), volumes, (positions, np.arange(n + 1)))
+    for col in ("a", "b", "c"):
+        frags[col] = frags[col].fillna(0.0) + diameter
+    frags["elongation"] = frags.b / frags.a
+    frags["flatness"] = frags.c / frags.b
+    frags["shape_factor"] = shape_factor(frags.a.to_numpy(), frags.b.to_numpy(), frags.c.to_numpy())
+    frags["n_particles"] = frags.n_cells
+    box = np.array([positions.min(0) - 1.0, positions.max(0) + 1.0]).T
+    motion = grain_table(labels, positions, velocities, np.full(n, mass), intact, box, periodic=(False, False, False))
+    frags = frags.join(motion.drop(columns=["grain", "size", "mass", "percolating"]).rename(columns={"ke": "ke_trans"}))
+    frags["v_cm"] = np.sqrt(sum(frags[c] ** 2 for c in ("vx", "vy", "vz")))
+    return frags
+
+
+def analyse_bpm_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = False) -> dict:
+    """Measures, tables, figures and report of a finished BPM impact run."""
+    run_dir = Path(run_dir)
+    clear_report(run_dir)
+    model, scen = cfg["model"], cfg["scenario"]
+    part = model["particle"]
+    system = json.loads((run_dir / "system.json").read_text())
+    un = system["units"]
+    a, u = un["a"], un["u"]
+    dumps = run_dir / "dumps"
+    atoms_path, bonds_path = dumps / "atoms.end.lammpstrj", dumps / "bonds.end.lammpstrj"
+    if not atoms_path.exists():
+        raise FileNotFoundError(f"{atoms_path}: the end state of the run is missing (partial analysis of a BPM "
+                                "impact is not available)")
+    atoms = read_atom_dump(atoms_path)[-1]
+    bonds = read_local_dump(bonds_path)[-1].columns
+    intact = np.column_stack([bonds["batom1"], bonds["batom2"]]).astype(np.int64) - 1
+    table = np.loadtxt(run_dir / "bond_areas.txt", ndmin=2)
+    all_bonds, area = table[:, :2].astype(np.int64) - 1, table[:, 2]
+    volumes = np.loadtxt(run_dir / "particle_volumes.txt", ndmin=1) * a ** 3
+    n = len(atoms.ids)
+    broken = broken_bonds(all_bonds, intact, n)
+    thermo = read_bpm_impact_thermo(run_dir / "thermo.dat", un)
+    breaks = read_break_log(run_dir / "breaks.dat") if (run_dir / "breaks.dat").exists() else None
+    held = {k: 0.0 for k in ("bond", "angle")}
+    if breaks is not None and len(breaks):
+        for kind in held:
+            held[kind] = float(breaks.loc[breaks.kind == kind, "energy"].sum()) * u
+        steps = breaks.groupby("step")["energy"].sum()
+        cum = steps.cumsum() * u
+        thermo["W_f_held"] = np.interp(thermo.step, cum.index.to_numpy(), cum.to_numpy(), left=0.0)
+    else:
+        thermo["W_f_held"] = 0.0
+
+    m_p = un["m"]
+    wk_minus = 0.5 * system["mass"] * scen["velocity"] ** 2
+    last = thermo.iloc[-1]
+    w_f_held = held["bond"] + held["angle"]
+    w_wall = float(last.W_c_wall)
+    elastic_end = float(last.elastic)
+    internal = wk_minus - float(last.kinetic) - elastic_end - w_wall - w_f_held
+    thermo["W_c_internal_damping_by_balance"] = (wk_minus - thermo.kinetic - thermo.elastic - thermo.W_c_wall
+                                                 - thermo.W_f_held)
+    # plot_energies' columns: fracture as held, dissipation as the two channels
+    thermo["W_f"] = thermo.W_f_held
+    thermo["dissipated"] = thermo.W_c_wall + thermo.W_c_internal_damping_by_balance
+
+    positions = np.asarray(atoms.positions, float) * a
+    velocities = np.asarray(atoms.velocities, float) * a / un["tau"]
+    labels = grain_labels(n, intact)
+    frags = particle_fragments(labels, positions, velocities, m_p, volumes, a, intact)
+    A = float(area[broken].sum()) * a ** 2
+    A0 = float(area.sum()) * a ** 2
+    measures = impact_measures(
+        wk_minus=wk_minus, wk_plus=float(last.kinetic), wk_plus_cm=float(frags.ke_cm.sum()), broken_area=A,
+        total_area=A0, g_c=part["G_c"], elastic_end=elastic_end, w_f_held=w_f_held,
+        channels={"wall": w_wall, "internal_damping_by_balance": internal})
+    mass_pdf = normalised_mass_distribution(frags.mass.to_numpy())
+    tau_fit = fragment_mass_fit(frags.mass.to_numpy())
+    settled = settle_outcome(run_dir, system, int(last.step))
+    measures.update({
+        "W_f_held_bonds": held["bond"], "W_f_held_angles": held["angle"],
+        "balance_residual_without_internal_damping": internal / wk_minus,
+        "broken_bonds": int(broken.sum()), "bonds_broken_logged": int(last.bonds_broken),
+        "angles_broken": int(last.angles_broken), "n_particles": n, "end_time": float(last.time),
+        "timestep_s": system["timestep_s"], "particles_on_plane_end": int(last.wall_contacts),
+        **fragment_counts(frags, system["mass"]), **settled,
+        "stop_rule": (f"stopped after a window of {system['window_steps']} steps with no break, kinetic energy "
+                      f"within {scen['ke_tolerance']:g} and the plane's springs unloaded, or at max_time "
+                      f"{scen['max_time']:g} s"),
+        **{f"shape_{k}": v for k, v in shape_averages(frags).items()},
+        **{f"mass_{k}": v for k, v in tau_fit.items()},
+    })
+    channels = pd.DataFrame([
+        ("wall", "plane: damping and friction (measured: -work - spring energy)", w_wall, True),
+        ("internal_damping_by_balance", "damping of Eq. 5, bonded and non-bonded (by balance)", internal, True),
+        ("fracture_held", "energy the broken bonds and angles held (break log)", w_f_held, False),
+        ("fracture_2AGc", "2 A G_c (published definition)", measures["W_f"], False),
+        ("kinetic", "kinetic energy W_k^+", float(last.kinetic), False),
+        ("elastic", "elastic energy still stored", elastic_end, False)],
+        columns=["channel", "what", "energy", "part_of_W_c"])
+    channels.insert(3, "over_W_k_minus", channels.energy / wk_minus)
+
+    res = run_dir / "results"
+    save_table(thermo, res / "energies")
+    save_table(channels, res / "energy_channels")
+    save_table(frags, res / "fragments")
+    save_table(mass_pdf, res / "fragment_masses")
+    title = (f"BPM impact, N = {n}, v0 = {scen['velocity']:g} m/s, k_A = {model['k_A']:g}, "
+             f"lambda_c = {model['lambda_c']:g}")
+    guard = PlotGuard()
+    if plots:
+        pd_ = run_dir / "plots"
+        guard.draw("energies", pd_ / "energies.png", plot_energies, thermo, wk_minus, pd_ / "energies.png", title)
+        label = f"v0 = {scen['velocity']:g} m/s"
+        guard.draw("fragment_masses", pd_ / "fragment_masses.png", plot_mass_pdf, {label: mass_pdf},
+                   pd_ / "fragment_masses.png", title, fits={label: tau_fit})
+        guard.draw("shapes", pd_ / "shapes.png", plot_shapes, frags, pd_ / "shapes.png", title)
+    measures["plots_failed"] = guard.failed
+    rep = Report(f"{cfg['name']}: {title}", provenance_line(run_dir))
+    shown = ("omega", "D_w", "eta", "e_k2", "chi", "W_f", "W_f_held", "W_c_over_W_s", "W_c_wall",
+             "W_c_internal_damping_by_balance", "n_fragments", "largest_fragment_mass_fraction", "mass_tau",
+             "shape_shape_factor_mean", "end_time", "settled")
+    rep.values({k: measures[k] for k in shown if k in measures}, "SPEC 1.5 measures of the BPM particle (SI)")
+    rep.text(measures["stop_rule"] + f"; time step {system['timestep_s']:.4g} s ({system['timestep_rule']}).")
+    rep.table(channels, "where W_k^- went (results/energy_channels)")
+    rep.figure(run_dir / "plots" / "energies.png", "energy budget against time, fractions of W_k^-")
+    rep.table(frags[["fragment", "n_cells", "mass", "volume", "a", "b", "c", "elongation", "flatness",
+                     "shape_factor", "v_cm"]], "largest fragments (n_cells = particles)", max_rows=15)
+    write_report(rep, run_dir)
+    return measures
