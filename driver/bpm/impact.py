@@ -70,6 +70,14 @@ def plane_law(contact, un: dict) -> dict:
             "alpha": alpha_of(contact.en2), "period": 2.0 * math.pi / math.sqrt(kn)}
 
 
+def plane_fix(law: dict, group: str = "all", fix_id: str = "plane") -> str:
+    """The plane z = 0 as `fix wall/gran` (module docstring) with the law of plane_law; its
+    per-atom output (`contacts`): [1] touching, [2-4] the plane's force on the particle."""
+    return (f"fix             {fix_id} {group} wall/gran granular hooke {law['kn']:.12g} {law['eta_n']:.12g} "
+            f"tangential linear_history {law['kt']:.12g} 0.0 {law['mu']:.12g} damping mass_velocity limit_damping "
+            "zplane 0.0 NULL contacts")
+
+
 def write_sphere_data(path: Path, x: np.ndarray, net: Network, box: tuple[np.ndarray, np.ndarray]) -> None:
     """Data file for `atom_style hybrid angle sphere` (id type x y z molecule diameter density),
     diameter a, density 6 / pi (mass m = 1); and its reference file (driver/bpm/datafile.py)."""
@@ -189,7 +197,7 @@ def render_inputs(cfg, plugin_path: Path, system: dict) -> tuple[str, str, dict]
         comm_cutoff=f"{comm_cutoff:.6g}", skin=m.skin, timestep=f"{dt:.12g}",
         steps_per_period=f"{sc.steps_per_period:g}", kn=f"{law['kn']:.12g}", kt=f"{law['kt']:.12g}",
         eta_n=f"{law['eta_n']:.12g}", mu=f"{law['mu']:.12g}", thermo_every=sc.thermo_every,
-        periodic_dumps=periodic, record_print=BPM_IMPACT_RECORD.print_text(),
+        plane_fix=plane_fix(law), periodic_dumps=periodic, record_print=BPM_IMPACT_RECORD.print_text(),
         record_title=BPM_IMPACT_RECORD.title(), window_steps=window, max_windows=max_windows,
         ke_tolerance=sc.ke_tolerance)
     styles = (f"pair_style      cr/repulsion\npair_coeff      1 1 1.0 {DIAMETER!r} {m.gamma:.12g}\n"
