@@ -8,12 +8,13 @@ The run is in LJ units; everything here is converted to SI with system.json's a,
   D_w = A / A_0 is the broken-area fraction, as for the BCM's interfaces.
 - W_f twice: 2 A G_c (the published definition, G_c = model.particle.G_c) and W_f_held, the
   elastic energy the broken bonds and angles held when they broke (the break log's energy).
-- Energy channels: the plane's dissipation W_c_wall = -(work of the plane's forces) - (energy
-  of its normal springs), measured (the work integrated every step in LAMMPS); the energy the
-  breaks took out of the springs (W_f_held), measured; the damping of Eq. 5 (bonded and
-  non-bonded pairs), which the plugins do not tally, is what the balance leaves:
-  W_c_internal_damping_by_balance = W_k^- - W_k^+ - E_el - W_c_wall - W_f_held. With gamma = 0
-  that term is the balance's residual (tests/test_bpm_impact.py).
+- Energy channels, all measured: the plane's dissipation W_c_wall = -(work of the plane's
+  forces) - (energy of its normal springs), the damping of Eq. 5 on non-bonded pairs
+  (W_c_pair_damping) and on bonds (W_c_bond_damping), each the time integral, every step, of
+  the power the style's single() reports (plugins/doc/pair_cr_repulsion.md,
+  bond_breakable_cr.md); and the energy the breaks took out of the springs (W_f_held). Their
+  sum is W_c_measured (W_f_held apart), and the balance W_k^- = W_k^+ + E_el + W_c_measured +
+  W_f_held leaves balance_residual (as a fraction of W_k^-).
 - Fragments: grains, connected components of the intact bonds; mass N m, volume = sum of the
   particles' Voronoi volumes, box a >= b >= c of the particles' centres plus their diameter
   (the extent of a set of spheres of diameter a along any direction is that of their centres
@@ -47,11 +48,13 @@ def read_bpm_impact_thermo(path: Path, units: dict) -> pd.DataFrame:
     df = read_record(path, BPM_IMPACT_RECORD.names)
     u, tau = units["u"], units["tau"]
     out = pd.DataFrame({"step": df.step, "time": df.time * tau})
-    for col in ("ke", "E_pair", "E_bonds", "E_angles", "E_wall", "work_wall"):
+    for col in ("ke", "E_pair", "E_bonds", "E_angles", "E_wall", "work_wall", "W_damp_pair", "W_damp_bond"):
         out[col] = df[col] * u
     out["kinetic"] = out.ke
     out["elastic"] = out.E_pair + out.E_bonds + out.E_angles + out.E_wall
     out["W_c_wall"] = -out.work_wall - out.E_wall
+    out["W_c_pair_damping"] = out.W_damp_pair
+    out["W_c_bond_damping"] = out.W_damp_bond
     for col in ("wall_contacts", "bonds_broken", "angles_broken"):
         out[col] = df[col].astype(int)
     out["vcm_z"] = df.vcm_z * units["a"] / tau
@@ -120,14 +123,14 @@ def analyse_bpm_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bo
     wk_minus = 0.5 * system["mass"] * scen["velocity"] ** 2
     last = thermo.iloc[-1]
     w_f_held = held["bond"] + held["angle"]
-    w_wall = float(last.W_c_wall)
     elastic_end = float(last.elastic)
-    internal = wk_minus - float(last.kinetic) - elastic_end - w_wall - w_f_held
-    thermo["W_c_internal_damping_by_balance"] = (wk_minus - thermo.kinetic - thermo.elastic - thermo.W_c_wall
-                                                 - thermo.W_f_held)
-    # plot_energies' columns: fracture as held, dissipation as the two channels
+    chans = {"wall": float(last.W_c_wall), "pair_damping": float(last.W_c_pair_damping),
+             "bond_damping": float(last.W_c_bond_damping)}
+    # plot_energies' columns: fracture as held, dissipation as the measured channels
     thermo["W_f"] = thermo.W_f_held
-    thermo["dissipated"] = thermo.W_c_wall + thermo.W_c_internal_damping_by_balance
+    thermo["dissipated"] = thermo.W_c_wall + thermo.W_c_pair_damping + thermo.W_c_bond_damping
+    thermo["balance_residual"] = (wk_minus - thermo.kinetic - thermo.elastic - thermo.dissipated
+                                  - thermo.W_f_held) / wk_minus
 
     positions = np.asarray(atoms.positions, float) * a
     velocities = np.asarray(atoms.velocities, float) * a / un["tau"]
@@ -138,13 +141,14 @@ def analyse_bpm_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bo
     measures = impact_measures(
         wk_minus=wk_minus, wk_plus=float(last.kinetic), wk_plus_cm=float(frags.ke_cm.sum()), broken_area=A,
         total_area=A0, g_c=part["G_c"], elastic_end=elastic_end, w_f_held=w_f_held,
-        channels={"wall": w_wall, "internal_damping_by_balance": internal})
+        dissipated_measured=sum(chans.values()), channels=chans)
+    # impact_measures' balance books W_f = 2 A G_c; here the breaks took W_f_held out of the springs
+    measures["balance_residual"] = float(thermo.balance_residual.iloc[-1])
     mass_pdf = normalised_mass_distribution(frags.mass.to_numpy())
     tau_fit = fragment_mass_fit(frags.mass.to_numpy())
     settled = settle_outcome(run_dir, system, int(last.step))
     measures.update({
         "W_f_held_bonds": held["bond"], "W_f_held_angles": held["angle"],
-        "balance_residual_without_internal_damping": internal / wk_minus,
         "broken_bonds": int(broken.sum()), "bonds_broken_logged": int(last.bonds_broken),
         "angles_broken": int(last.angles_broken), "n_particles": n, "end_time": float(last.time),
         "timestep_s": system["timestep_s"], "particles_on_plane_end": int(last.wall_contacts),
@@ -156,8 +160,9 @@ def analyse_bpm_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bo
         **{f"mass_{k}": v for k, v in tau_fit.items()},
     })
     channels = pd.DataFrame([
-        ("wall", "plane: damping and friction (measured: -work - spring energy)", w_wall, True),
-        ("internal_damping_by_balance", "damping of Eq. 5, bonded and non-bonded (by balance)", internal, True),
+        ("wall", "plane: damping and friction (-work - spring energy)", chans["wall"], True),
+        ("pair_damping", "damping of Eq. 5, non-bonded pairs", chans["pair_damping"], True),
+        ("bond_damping", "damping of Eq. 5, bonds", chans["bond_damping"], True),
         ("fracture_held", "energy the broken bonds and angles held (break log)", w_f_held, False),
         ("fracture_2AGc", "2 A G_c (published definition)", measures["W_f"], False),
         ("kinetic", "kinetic energy W_k^+", float(last.kinetic), False),
@@ -183,7 +188,7 @@ def analyse_bpm_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bo
     measures["plots_failed"] = guard.failed
     rep = Report(f"{cfg['name']}: {title}", provenance_line(run_dir))
     shown = ("omega", "D_w", "eta", "e_k2", "chi", "W_f", "W_f_held", "W_c_over_W_s", "W_c_wall",
-             "W_c_internal_damping_by_balance", "n_fragments", "largest_fragment_mass_fraction", "mass_tau",
+             "W_c_pair_damping", "W_c_bond_damping", "balance_residual", "n_fragments", "largest_fragment_mass_fraction", "mass_tau",
              "shape_shape_factor_mean", "end_time", "settled")
     rep.values({k: measures[k] for k in shown if k in measures}, "SPEC 1.5 measures of the BPM particle (SI)")
     rep.text(measures["stop_rule"] + f"; time step {system['timestep_s']:.4g} s ({system['timestep_rule']}).")

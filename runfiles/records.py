@@ -109,6 +109,8 @@ BPM_IMPACT_RECORD = Record("bpm_impact", (
     Field("E_wall", "u", "energy of the plane's normal springs (tangential springs not included)", _g("c_wall[2]")),
     Field("work_wall", "u", "work of the plane's forces on the particles since the start", _g("v_wall_work")),
     Field("wall_force", "u/a", "normal force of the plane", _g("c_wall[4]")),
+    Field("W_damp_pair", "u", "energy dissipated by the damping of non-bonded pairs (Eq. 5)", _g("v_damp_pair")),
+    Field("W_damp_bond", "u", "energy dissipated by the damping of bonds (Eq. 5)", _g("v_damp_bond")),
     Field("bonds_broken", "", "broken bonds", "f_BREAKABLE_SPECIAL[1]"),
     Field("angles_broken", "", "broken angles", "f_BREAKABLE_SPECIAL[2]"),
     Field("vcm_z", "a/tau", "centre-of-mass velocity along the plane normal", _g("vcm(all,z)")),
