@@ -43,11 +43,11 @@ from runfiles.records import BPM_IMPACT_RECORD, read_record
 
 
 def read_bpm_impact_thermo(path: Path, units: dict) -> pd.DataFrame:
-    """The energy record in SI (J, s) with derived columns: kinetic, elastic (bonds, angles,
+    """The energy record in SI (J, s; m/s) with derived columns: kinetic, elastic (bonds, angles,
     repulsion, plane springs), W_c_wall (the plane's dissipation)."""
     df = read_record(path, BPM_IMPACT_RECORD.names)
     u, tau = units["u"], units["tau"]
-    out = pd.DataFrame({"step": df.step, "time": df.time * tau})
+    out = pd.DataFrame({"step": df.step, "time": df.time})  # printed in s
     for col in ("ke", "E_pair", "E_bonds", "E_angles", "E_wall", "work_wall", "W_damp_pair", "W_damp_bond"):
         out[col] = df[col] * u
     out["kinetic"] = out.ke
@@ -108,6 +108,13 @@ def analyse_bpm_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bo
     n = len(atoms.ids)
     broken = broken_bonds(all_bonds, intact, n)
     thermo = read_bpm_impact_thermo(run_dir / "thermo.dat", un)
+    warnings_ = []
+    titles = sum(1 for line in (run_dir / "thermo.dat").read_text().splitlines() if line.startswith("#"))
+    if titles > 1:
+        # fix ave/time keeps no state in restart files (lammps_inputs/bpm_impact.in)
+        warnings_.append("the run was resumed from a checkpoint: the plane's work and the damping integrals "
+                         "restart there, so W_c_wall, W_c_pair_damping, W_c_bond_damping and balance_residual "
+                         "miss what was dissipated before it")
     breaks = read_break_log(run_dir / "breaks.dat") if (run_dir / "breaks.dat").exists() else None
     held = {k: 0.0 for k in ("bond", "angle")}
     if breaks is not None and len(breaks):
@@ -158,6 +165,7 @@ def analyse_bpm_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bo
                       f"{scen['max_time']:g} s"),
         **{f"shape_{k}": v for k, v in shape_averages(frags).items()},
         **{f"mass_{k}": v for k, v in tau_fit.items()},
+        **({"warnings": warnings_} if warnings_ else {}),
     })
     channels = pd.DataFrame([
         ("wall", "plane: damping and friction (-work - spring energy)", chans["wall"], True),
@@ -192,6 +200,8 @@ def analyse_bpm_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bo
              "shape_shape_factor_mean", "end_time", "settled")
     rep.values({k: measures[k] for k in shown if k in measures}, "SPEC 1.5 measures of the BPM particle (SI)")
     rep.text(measures["stop_rule"] + f"; time step {system['timestep_s']:.4g} s ({system['timestep_rule']}).")
+    for msg in measures.get("warnings", []):
+        rep.text(f"Warning: {msg}")
     rep.table(channels, "where W_k^- went (results/energy_channels)")
     rep.figure(run_dir / "plots" / "energies.png", "energy budget against time, fractions of W_k^-")
     rep.table(frags[["fragment", "n_cells", "mass", "volume", "a", "b", "c", "elongation", "flatness",

@@ -96,11 +96,11 @@ IMPACT_RECORD = Record("impact", (
 ))
 
 # ------------------------------------------------------------- BPM impact (SPEC 1.4-1.5, 3)
-# LJ units (the analysis converts to SI with system.json's a, m, u, tau). f_plane: fix
+# LJ units but the time (the analysis converts to SI with system.json's a, m, u). f_plane: fix
 # wall/gran's per-atom contact forces, reduced in c_wall (lammps_inputs/bpm_impact.in).
 BPM_IMPACT_RECORD = Record("bpm_impact", (
     Field("step", "", "time step", "step"),
-    Field("time", "tau", "simulated time", _g("time", 10)),
+    Field("time", "s", "simulated time (time tau)", _g("v_time_s", 10)),
     Field("ke", "u", "kinetic energy of the particles (translation: point particles)", _g("c_ket")),
     Field("E_pair", "u", "non-bonded repulsion energy (Eq. 1)", _g("c_pep")),
     Field("E_bonds", "u", "energy stored in intact bonds (Eq. 2)", _g("c_peb")),

@@ -193,7 +193,7 @@ def render_inputs(cfg, plugin_path: Path, system: dict) -> tuple[str, str, dict]
     comm_cutoff = 2.0 * m.lambda_c * system["max_r0"] + m.skin
     common = dict(
         package_version=driver.__version__, config_name=cfg.name, plugin_path=plugin_path,
-        a_m=f"{un['a']:.6g}", m_kg=f"{un['m']:.6g}", u_J=f"{un['u']:.6g}", tau_s=f"{tau:.6g}",
+        a_m=f"{un['a']:.6g}", m_kg=f"{un['m']:.6g}", u_J=f"{un['u']:.6g}", tau_s=f"{tau:.17g}",
         comm_cutoff=f"{comm_cutoff:.6g}", skin=m.skin, timestep=f"{dt:.12g}",
         steps_per_period=f"{sc.steps_per_period:g}", kn=f"{law['kn']:.12g}", kt=f"{law['kt']:.12g}",
         eta_n=f"{law['eta_n']:.12g}", mu=f"{law['mu']:.12g}", thermo_every=sc.thermo_every,
