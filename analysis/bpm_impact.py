@@ -188,7 +188,10 @@ def analyse_bpm_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bo
     guard = PlotGuard()
     if plots:
         pd_ = run_dir / "plots"
-        guard.draw("energies", pd_ / "energies.png", plot_energies, thermo, wk_minus, pd_ / "energies.png", title)
+        guard.draw("energies", pd_ / "energies.png", plot_energies, thermo, wk_minus, pd_ / "energies.png", title,
+                   labels={"elastic": "elastic (bonds, angles, repulsion, plane)",
+                           "W_f": "held by broken bonds and angles $W_{f,held}$",
+                           "dissipated": "dissipated (plane, damping)"})
         label = f"v0 = {scen['velocity']:g} m/s"
         guard.draw("fragment_masses", pd_ / "fragment_masses.png", plot_mass_pdf, {label: mass_pdf},
                    pd_ / "fragment_masses.png", title, fits={label: tau_fit})

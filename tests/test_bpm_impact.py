@@ -271,3 +271,13 @@ def test_particle_section_is_refused_elsewhere():
     cfg = {"model": {"kind": "bpm", "dimension": 3, "particle": {}}, "scenario": {"kind": "shear"}}
     with pytest.raises((ValueError,), match="scenario impact"):
         parse_config(cfg)
+
+
+def test_units_take_the_calibration_dict():
+    """calibration.json `bpm.units` (driver/calibration/solve.py: BpmUnits.as_dict) fits as it is."""
+    from driver.calibration.solve import BpmUnits as Calibrated
+
+    cal = Calibrated(a=1e-4, m=5e-9, u=2e-4).as_dict()
+    assert lj_units(BPMUnits(**cal))["tau"] == pytest.approx(cal["time_tau_s"], rel=1e-12)
+    with pytest.raises(ValueError, match="disagrees"):
+        BPMUnits(**{**cal, "time_tau_s": 2 * cal["time_tau_s"]})

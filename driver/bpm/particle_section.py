@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from driver.bcm.section import FrictionalContact
 from driver.schema import _Strict
@@ -31,6 +31,16 @@ class BPMUnits(_Strict):
     length_a_m: float = Field(_A_DEFAULT, gt=0.0, description="length unit a (particle diameter), m")
     mass_m_kg: float = Field(6000.0 * _A_DEFAULT ** 3 / 1.2605, gt=0.0, description="mass unit m (particle mass), kg")
     energy_u_J: float = Field(1e10 * _A_DEFAULT ** 3 / 100.0, gt=0.0, description="energy unit u, J")
+    time_tau_s: float | None = Field(
+        None, gt=0.0, description="time unit tau = a sqrt(m / u), s: optional (calibration.json carries it); "
+                                  "when given it must agree with a, m, u to 1e-6")
+
+    @model_validator(mode="after")
+    def _consistent_tau(self) -> "BPMUnits":
+        tau = self.length_a_m * (self.mass_m_kg / self.energy_u_J) ** 0.5
+        if self.time_tau_s is not None and abs(self.time_tau_s / tau - 1.0) > 1e-6:
+            raise ValueError(f"time_tau_s = {self.time_tau_s:.6g} s disagrees with a sqrt(m / u) = {tau:.6g} s")
+        return self
 
 
 class BPMParticle(_Strict):
