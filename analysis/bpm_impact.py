@@ -108,13 +108,7 @@ def analyse_bpm_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bo
     n = len(atoms.ids)
     broken = broken_bonds(all_bonds, intact, n)
     thermo = read_bpm_impact_thermo(run_dir / "thermo.dat", un)
-    warnings_ = []
-    titles = sum(1 for line in (run_dir / "thermo.dat").read_text().splitlines() if line.startswith("#"))
-    if titles > 1:
-        # fix ave/time keeps no state in restart files (lammps_inputs/bpm_impact.in)
-        warnings_.append("the run was resumed from a checkpoint: the plane's work and the damping integrals "
-                         "restart there, so W_c_wall, W_c_pair_damping, W_c_bond_damping and balance_residual "
-                         "miss what was dissipated before it")
+    warnings_: list[str] = []
     breaks = read_break_log(run_dir / "breaks.dat") if (run_dir / "breaks.dat").exists() else None
     held = {k: 0.0 for k in ("bond", "angle")}
     if breaks is not None and len(breaks):

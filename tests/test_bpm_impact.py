@@ -297,3 +297,34 @@ def test_two_ranks_agree_with_one(rebound, tmp_path):
     for key in ("W_c_wall", "W_c_bond_damping"):
         assert b[key] == pytest.approx(a[key], rel=1e-4)
     assert abs(b["balance_residual"]) < 1e-3
+
+
+def test_interrupted_and_resumed_rebound_keeps_its_integrals(tmp_path, plugin_path):
+    """SIGINT at the middle of the rebound, then --resume: the plane's work and the damping
+    integrals carry on from the totals saved with the checkpoint, so the channels and the
+    balance equal the uninterrupted run's."""
+    import signal
+
+    import yaml
+    from test_resume import cli_run, run_and_signal
+
+    from driver.rundir import latest_checkpoint
+
+    cfg = impact_config(tmp_path / "unused", velocity=0.5, max_time=2e-4)
+    cfg["execution"] = {"chunk_steps": 500}
+    del cfg["output"]["dir"]
+    path = tmp_path / "rebound.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    ref, out = tmp_path / "ref", tmp_path / "run"
+    done = cli_run(str(path), "-o", str(ref))
+    assert done.returncode == 0, done.stderr[-3000:]
+    code, _, err = run_and_signal(path, out, 5000, signal.SIGINT)
+    assert code == 130, err[-2000:]
+    assert 0 < latest_checkpoint(out)["step"] < 10213
+    resumed = cli_run(str(path), "-o", str(out), "--resume")
+    assert resumed.returncode == 0, resumed.stderr[-3000:]
+    a = json.loads((ref / "results" / "summary.json").read_text())
+    b = json.loads((out / "results" / "summary.json").read_text())
+    assert b["end_step"] == a["end_step"] and b["W_k_plus"] == pytest.approx(a["W_k_plus"], rel=1e-12)
+    for key in ("W_c_wall", "W_c_bond_damping", "balance_residual"):
+        assert b[key] == pytest.approx(a[key], rel=1e-9, abs=1e-15)

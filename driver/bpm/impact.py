@@ -43,6 +43,10 @@ from runfiles.records import BONDS_DUMP, BPM_IMPACT_RECORD, atoms_dump
 # the plane has "loaded" the particle once it has given back this fraction of the incoming
 # momentum (the BCM impact's rule, driver/bcm/impact.py)
 LOADED_FRACTION = 0.5
+#: the input's running integrals and the powers they integrate (lammps_inputs/bpm_impact.in),
+#: saved with each checkpoint and restored as the base a resumed run adds to (its first sample,
+#: the checkpoint's step, is the saved power, taken off)
+INTEGRALS = ("wall_work", "damp_pair", "damp_bond", "wall_pw", "damp_pair_pw", "damp_bond_pw")
 #: particle diameter and mass in LJ units (SPEC 2.1, 3D)
 DIAMETER = 1.0
 
@@ -212,8 +216,7 @@ def render_inputs(cfg, plugin_path: Path, system: dict) -> tuple[str, str, dict]
                "\nvariable        nb_prev equal ${nb}\nvariable        ke_prev equal ${kin}"
                "\nvariable        loaded_prev equal 0\nvariable        reached_prev equal 0"),
         **common)
-    # a resumed run restarts the plane's work integral at the checkpoint (fix ave/time keeps no
-    # state in restart files): work_wall then counts from there (README, BPM impact)
+    # a resumed run carries the work integrals on from the totals saved with the checkpoint (INTEGRALS)
     resume = render(
         "bpm_impact.in", role="Start from a checkpoint (resume.lammps: -var checkpoint FILE).",
         system=SYSTEM_RESUME, styles="# pair, bond and angle styles with their coefficients: from the checkpoint",
@@ -250,7 +253,8 @@ def run_impact(cfg, rd, plugin_path: Path):
                   max_windows=schedule["max_windows"], max_steps=schedule["window"] * schedule["max_windows"])
     atomic_write_json(rd.root / "system.json", system)
     write_session(rd.root, setup, resume, schedule, cfg.execution.checkpoint_steps(),
-                  checkpoint_variables=["nb_prev", "ke_prev", "loaded_prev", "reached_prev"])
+                  checkpoint_variables=["nb_prev", "ke_prev", "loaded_prev", "reached_prev", *INTEGRALS],
+                  restore_as={name: f"{name}_base" for name in INTEGRALS})
     return system, progress_spec(cfg, system)
 
 
