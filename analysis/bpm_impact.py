@@ -67,6 +67,18 @@ def broken_bonds(all_bonds: np.ndarray, intact_pairs: np.ndarray, n: int) -> np.
     return ~np.isin(key(all_bonds), key(intact_pairs))
 
 
+def area_of_pairs(bonds: np.ndarray, area: np.ndarray, pairs: np.ndarray, n: int) -> np.ndarray:
+    """The area (bond_areas.txt) of each pair (0-based ids, either order) among `bonds`."""
+    key = lambda p: np.minimum(p[:, 0], p[:, 1]) * n + np.maximum(p[:, 0], p[:, 1])  # noqa: E731
+    kb = key(bonds)
+    order = np.argsort(kb)
+    pos = np.searchsorted(kb[order], key(pairs))
+    found = order[np.clip(pos, 0, len(kb) - 1)]
+    if len(pairs) and not np.all(kb[found] == key(pairs)):
+        raise ValueError("the break log names a bond that is not in bond_areas.txt")
+    return area[found]
+
+
 def particle_fragments(labels, positions, velocities, mass, volumes, diameter, intact) -> pd.DataFrame:
     """Fragment table (analysis.fragment_shapes columns; n_cells = particles) with the box of
     the spheres: a, b, c of the centres plus one diameter each; motion columns of grain_table."""
@@ -111,14 +123,22 @@ def analyse_bpm_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bo
     warnings_: list[str] = []
     breaks = read_break_log(run_dir / "breaks.dat") if (run_dir / "breaks.dat").exists() else None
     held = {k: 0.0 for k in ("bond", "angle")}
+    thermo["W_f_held"] = 0.0
+    thermo["broken_area"] = 0.0
+    logged_area = 0.0
     if breaks is not None and len(breaks):
         for kind in held:
             held[kind] = float(breaks.loc[breaks.kind == kind, "energy"].sum()) * u
-        steps = breaks.groupby("step")["energy"].sum()
-        cum = steps.cumsum() * u
-        thermo["W_f_held"] = np.interp(thermo.step, cum.index.to_numpy(), cum.to_numpy(), left=0.0)
-    else:
-        thermo["W_f_held"] = 0.0
+        # each broken bond's Voronoi area, from the log's pair of ids
+        bond_rows = breaks[breaks.kind == "bond"]
+        pairs = np.column_stack([bond_rows.id1, bond_rows.id2]).astype(np.int64) - 1
+        areas = pd.Series(area_of_pairs(all_bonds, area, pairs, n) * a ** 2, index=bond_rows.index)
+        logged_area = float(areas.sum())
+        for col, per_event in (("W_f_held", breaks.energy * u), ("broken_area", areas.reindex(breaks.index).fillna(0.0))):
+            cum = per_event.groupby(breaks.step).sum().cumsum()
+            # records at a step hold that step's breaks (the break happens in its force evaluation)
+            idx = np.searchsorted(cum.index.to_numpy(), thermo.step.to_numpy(), side="right") - 1
+            thermo[col] = np.where(idx >= 0, cum.to_numpy()[np.clip(idx, 0, None)], 0.0)
 
     m_p = un["m"]
     wk_minus = 0.5 * system["mass"] * scen["velocity"] ** 2
@@ -151,6 +171,7 @@ def analyse_bpm_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bo
     measures.update({
         "W_f_held_bonds": held["bond"], "W_f_held_angles": held["angle"],
         "broken_bonds": int(broken.sum()), "bonds_broken_logged": int(last.bonds_broken),
+        "A_logged": logged_area,
         "angles_broken": int(last.angles_broken), "n_particles": n, "end_time": float(last.time),
         "timestep_s": system["timestep_s"], "particles_on_plane_end": int(last.wall_contacts),
         **fragment_counts(frags, system["mass"]), **settled,

@@ -328,3 +328,31 @@ def test_interrupted_and_resumed_rebound_keeps_its_integrals(tmp_path, plugin_pa
     assert b["end_step"] == a["end_step"] and b["W_k_plus"] == pytest.approx(a["W_k_plus"], rel=1e-12)
     for key in ("W_c_wall", "W_c_bond_damping", "balance_residual"):
         assert b[key] == pytest.approx(a[key], rel=1e-9, abs=1e-15)
+
+
+def test_breaking_impact_measures(tmp_path, plugin_path):
+    """An impact that breaks (lambda_c 1.02 at 30 m/s): the end's bond dump and the break log
+    agree (count, broken area A), W_f_held is the log's energy, fragments hold the whole mass and
+    volume, the balance closes with fracture among the channels."""
+    out = tmp_path / "break"
+    cfg = impact_config(out, velocity=30.0, max_time=3e-5)
+    cfg["model"]["lambda_c"] = 1.02
+    execute(parse_config(cfg), show_progress=False)
+    s = json.loads((out / "results" / "summary.json").read_text())
+    system = json.loads((out / "system.json").read_text())
+    assert s["broken_bonds"] > 50 and s["broken_bonds"] == s["bonds_broken_logged"]
+    assert s["A_logged"] == pytest.approx(s["A"], rel=1e-12) and 0 < s["D_w"] < 1
+    assert s["W_f"] == pytest.approx(2 * s["A"] * 1.0, rel=1e-12)  # G_c = 1 J/m^2 (default)
+    from analysis.breaks import read_break_log
+
+    log = read_break_log(out / "breaks.dat")
+    assert s["W_f_held"] == pytest.approx(log.energy.sum() * system["u_J"], rel=1e-12) and s["W_f_held"] > 0
+    frags = pd.read_parquet(out / "results" / "fragments.parquet")
+    assert len(frags) == s["n_fragments"] > 1
+    assert frags.mass.sum() == pytest.approx(system["mass"], rel=1e-12)
+    assert frags.volume.sum() == pytest.approx(system["parent_volume_m3"], rel=1e-9)
+    tol = 1e-9 * system["a_m"]  # two- and three-particle fragments: extents of zero width, to round-off
+    assert (frags.a >= frags.b - tol).all() and (frags.b >= frags.c - tol).all() and (frags.c >= system["a_m"] - tol).all()
+    th = pd.read_parquet(out / "results" / "energies.parquet")
+    assert th.broken_area.iloc[-1] == pytest.approx(s["A"], rel=1e-12)
+    assert abs(s["balance_residual"]) < 1e-3, s["balance_residual"]
