@@ -107,13 +107,16 @@ def plot_stress(stress: pd.DataFrame, path: Path, title: str = "") -> None:
     plt.close(fig)
 
 
-def plot_energies(energies: pd.DataFrame, wk_minus: float, path: Path, title: str = "") -> None:
-    """Energy budget of an impact against time, as fractions of W_k^- (SPEC 1.5)."""
+def plot_energies(energies: pd.DataFrame, wk_minus: float, path: Path, title: str = "",
+                  labels: dict[str, str] | None = None) -> None:
+    """Energy budget of an impact against time, as fractions of W_k^- (SPEC 1.5); `labels`
+    replaces the legend of a column (kinetic, elastic, W_f, dissipated)."""
     fig, ax = plt.subplots(figsize=(7.5, 4.0), dpi=150)
     t = energies.time * 1e6
-    for col, label, style in [("kinetic", "kinetic $W_k$", "k-"), ("elastic", "elastic (interfaces + contacts)", "k--"),
-                              ("W_f", "fracture $W_f = 2AG_c$", "k-."), ("dissipated", "dissipated $W_c$", "k:")]:
-        ax.plot(t, energies[col] / wk_minus, style, label=label)
+    names = {"kinetic": "kinetic $W_k$", "elastic": "elastic (interfaces + contacts)",
+             "W_f": "fracture $W_f = 2AG_c$", "dissipated": "dissipated $W_c$", **(labels or {})}
+    for col, style in [("kinetic", "k-"), ("elastic", "k--"), ("W_f", "k-."), ("dissipated", "k:")]:
+        ax.plot(t, energies[col] / wk_minus, style, label=names[col])
     total = (energies.kinetic + energies.elastic + energies.W_f + energies.dissipated) / wk_minus
     ax.plot(t, total, color="0.6", lw=2.5, alpha=0.6, label="sum", zorder=0)
     ax.set_xlabel(r"time [$\mu$s]")

@@ -484,7 +484,7 @@ def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True, left_out
 
     # fragments of every run: p(S_f) pooled, p(m/m_max) per G_c
     frags = pd.concat([pd.read_parquet(r["dir"] / "results" / "fragments.parquet").assign(
-        run_dir=str(r["dir"]), G_c=float(r["cfg"]["model"]["interface"]["G_c"])) for r in runs], ignore_index=True)
+        run_dir=str(r["dir"]), G_c=float(params(r["cfg"])["G_c"])) for r in runs], ignore_index=True)
     frags["m_over_m_max"] = frags.mass / frags.groupby("run_dir").mass.transform("max")
     multi = frags[~frags.single_cell]
     sf = histogram_table(multi.shape_factor, bins=20) if len(multi) else pd.DataFrame()

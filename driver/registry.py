@@ -71,9 +71,9 @@ class Scenario:
 
 def _units() -> list[Scenario]:
     # the registry: one line per unit
-    from driver.scenarios import bcm_calibrate, bcm_impact, bpm_calibrate, bpm_shear  # noqa: PLC0415
+    from driver.scenarios import bcm_calibrate, bcm_impact, bpm_calibrate, bpm_impact, bpm_shear  # noqa: PLC0415
 
-    return [bpm_shear.UNIT, bcm_impact.UNIT, bpm_calibrate.UNIT, bcm_calibrate.UNIT]
+    return [bpm_shear.UNIT, bcm_impact.UNIT, bpm_calibrate.UNIT, bcm_calibrate.UNIT, bpm_impact.UNIT]
 
 
 #: The `model:` sections, by their `kind`.

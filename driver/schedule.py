@@ -100,8 +100,12 @@ def settle_script(sched: dict[str, Any]) -> str:
 
 # ---------------------------------------------------------------------------- files
 def write_session(root: Path, setup: str, resume: str, schedule: dict[str, Any], checkpoint_every_steps: int | None,
-                  checkpoint_variables: list[str] = ()) -> None:
-    """setup.lammps, resume.lammps, in.lammps (standalone) and session.json of a run."""
+                  checkpoint_variables: list[str] = (), restore_as: dict[str, str] | None = None) -> None:
+    """setup.lammps, resume.lammps, in.lammps (standalone) and session.json of a run.
+
+    checkpoint_variables: equal-style variables saved with each checkpoint and set again, as
+    constants, when the run resumes from it; restore_as maps a saved variable to another name
+    to set instead (a running total saved as the base its resumed formula adds to)."""
     atomic_write_text(root / "setup.lammps", setup)
     atomic_write_text(root / "resume.lammps", resume)
     body = segments_script(schedule) if schedule["kind"] == "segments" else settle_script(schedule)
@@ -111,4 +115,5 @@ def write_session(root: Path, setup: str, resume: str, schedule: dict[str, Any],
     atomic_write_json(root / "session.json", {
         "setup": "setup.lammps", "resume": "resume.lammps", "checkpoints": "checkpoints",
         "schedule": schedule, "checkpoint_every_steps": checkpoint_every_steps,
-        "checkpoint_variables": list(checkpoint_variables)})
+        "checkpoint_variables": list(checkpoint_variables),
+        **({"checkpoint_restore_as": dict(restore_as)} if restore_as else {})})

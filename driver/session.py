@@ -89,8 +89,9 @@ class Session:
             raise LammpsError(f"checkpoint {checkpoint['restart']} holds step {self.step}, its record says "
                               f"{checkpoint['step']}")
         self.state = dict(checkpoint.get("state", {}))
+        restore_as = self.plan.get("checkpoint_restore_as", {})
         for name, value in checkpoint.get("variables", {}).items():
-            self.lmp.command(f"variable {name} equal {float(value)!r}")
+            self.lmp.command(f"variable {restore_as.get(name, name)} equal {float(value)!r}")
         self.last_checkpoint_step = self.step  # the driver's request counter starts again at 0
 
     # ------------------------------------------------------------ schedule

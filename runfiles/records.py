@@ -118,6 +118,27 @@ BCM_BLOCK_RECORD = Record("bcm_block", (
     Field("E_contacts", "J", "elastic energy stored in cell-cell contacts", _g("c_cpair")),
 ))
 
+# ------------------------------------------------------------- BPM impact (SPEC 1.4-1.5, 3)
+# LJ units but the time (the analysis converts to SI with system.json's a, m, u). f_plane: fix
+# wall/gran's per-atom contact forces, reduced in c_wall (lammps_inputs/bpm_impact.in).
+BPM_IMPACT_RECORD = Record("bpm_impact", (
+    Field("step", "", "time step", "step"),
+    Field("time", "s", "simulated time (time tau)", _g("v_time_s", 10)),
+    Field("ke", "u", "kinetic energy of the particles (translation: point particles)", _g("c_ket")),
+    Field("E_pair", "u", "non-bonded repulsion energy (Eq. 1)", _g("c_pep")),
+    Field("E_bonds", "u", "energy stored in intact bonds (Eq. 2)", _g("c_peb")),
+    Field("E_angles", "u", "energy stored in intact angles (Eq. 3-4)", _g("c_pea")),
+    Field("wall_contacts", "", "particles touching the plane", "c_wall[1]"),
+    Field("E_wall", "u", "energy of the plane's normal springs (tangential springs not included)", _g("c_wall[2]")),
+    Field("work_wall", "u", "work of the plane's forces on the particles since the start", _g("v_wall_work")),
+    Field("wall_force", "u/a", "normal force of the plane", _g("c_wall[4]")),
+    Field("W_damp_pair", "u", "energy dissipated by the damping of non-bonded pairs (Eq. 5)", _g("v_damp_pair")),
+    Field("W_damp_bond", "u", "energy dissipated by the damping of bonds (Eq. 5)", _g("v_damp_bond")),
+    Field("bonds_broken", "", "broken bonds", "f_BREAKABLE_SPECIAL[1]"),
+    Field("angles_broken", "", "broken angles", "f_BREAKABLE_SPECIAL[2]"),
+    Field("vcm_z", "a/tau", "centre-of-mass velocity along the plane normal", _g("vcm(all,z)")),
+))
+
 # ------------------------------------------------------------------------ BPM shear (SPEC 2.4-2.5)
 # pressure tensor: virial + kinetic parts (compute pressure of thermo_style), LJ units
 SHEAR_RECORD = Record("shear", (

@@ -307,6 +307,20 @@ def test_single_through_compute_bond_local(lmp):
     assert force == pytest.approx(f_bond(r, r0, 1.05), rel=1e-9)
 
 
+
+def test_single_reports_the_damping_power(lmp):
+    """single()'s extra value (compute bond/local b1): the power the bonded damping of Eq. 5
+    dissipates, gamma w^2 (rhat . (v_i - v_j))^2, w = 1 - r / (lambda_c r0)."""
+    r0, lam, gamma = 1.1, 1.05, 50.0
+    make_pair(lmp, r0, f"{lam} {gamma}")
+    lmp.command("compute bl all bond/local b1")
+    v1, v2 = np.array([0.3, 0.2, 0.0]), np.array([-0.1, 0.5, 0.1])
+    for r in (0.97 * r0, 1.03 * r0):
+        place(lmp, r, v1, v2)
+        power = lmp.numpy.extract_compute("bl", 2, 1)[0]
+        assert power == pytest.approx(gamma * (1 - r / (lam * r0)) ** 2 * (DIRECTION @ (v1 - v2)) ** 2, rel=1e-12)
+
+
 # ---------------------------------------------------------------- prerequisites
 
 def test_init_style_requires_newton_bond_off(lmp):

@@ -327,6 +327,20 @@ def test_single_through_compute_pair_local(lmp):
     assert force == pytest.approx(f_nonbonded(r, abar, u) + damping, rel=1e-12)
 
 
+
+def test_single_reports_the_damping_power(lmp):
+    """single()'s extra value (compute pair/local p1): the power the damping of Eq. 5
+    dissipates, gamma w^2 (rhat . (v_i - v_j))^2, w = 1 - r / abar; zero beyond abar."""
+    u, abar = 1.3, 1.1
+    make_two(lmp, u=u, abar=abar)
+    lmp.command("compute pl all pair/local p1")
+    v1, v2 = np.array([0.3, 0.2, 0.0]), np.array([-0.1, 0.5, 0.1])
+    r = 0.92 * abar
+    place(lmp, r, v1, v2)
+    power = lmp.numpy.extract_compute("pl", 2, 1)[0]
+    assert power == pytest.approx(GAMMA * (1 - r / abar) ** 2 * (DIRECTION @ (v1 - v2)) ** 2, rel=1e-12)
+
+
 # ---------------------------------------------------------------- bonded pairs and breaks
 
 def test_bonded_pair_excluded_until_its_bond_breaks(lmp):

@@ -6,6 +6,7 @@ from typing import Literal
 
 from pydantic import Field, model_validator
 
+from driver.bpm.particle_section import BPMParticle
 from driver.schema import _Strict
 
 #: Default nominal packing fractions, just above jamming (see driver/bpm/packing.py).
@@ -35,6 +36,9 @@ class BPMModel(_Strict):
         None, gt=1.0, description="3D Delaunay edge cut; default 5/4 a (SPEC 2.1, MAX_BOND_LENGTH_3D, filled in "
                                   "when the config is read); not used in 2D, where it stays empty")
     skin: float = Field(0.3, gt=0.0, le=2.0, description="neighbour-list skin, units of a")
+    particle: BPMParticle | None = Field(
+        None, description="scenario impact only: the particle (parent shape and size, SI units, plane contact, "
+                          "G_c; driver/bpm/particle_section.py), filled with its defaults when the config is read")
 
     @model_validator(mode="after")
     def _resolve_defaults(self) -> "BPMModel":

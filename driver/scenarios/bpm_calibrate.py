@@ -157,6 +157,8 @@ def _elements(cfg) -> int:
 
 
 def _check(cfg) -> None:
+    if cfg.model.particle is not None:
+        raise ValueError("model.particle describes the particle of scenario impact; remove it here")
     if cfg.output.animation:
         raise ValueError("output.animation: a calibration test writes no periodic dumps")
     # the section is shared with the BCM block's tests (driver/scenarios/bcm_calibrate.py)

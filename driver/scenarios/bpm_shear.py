@@ -90,6 +90,8 @@ def _elements(cfg) -> int:
 
 
 def _check(cfg) -> None:
+    if cfg.model.particle is not None:
+        raise ValueError("model.particle describes the particle of scenario impact; remove it here")
     if cfg.output.animation and cfg.scenario.dump_every == 0:
         raise ValueError("output.animation needs periodic dumps: set scenario.dump_every > 0 (steps between "
                          "dumps), or animation: false")

@@ -87,6 +87,9 @@ BondBreakableCR::BondBreakableCR(LAMMPS *_lmp) :
   partial_flag = 1;    // broken bonds get type 0: the neighbor code must skip them
   writedata = 1;
   born_matrix_enable = 0;
+  // single(): svector[0] = power dissipated by the bond's damping (compute bond/local b1)
+  single_extra = 1;
+  svector = new double[single_extra];
   // created now when possible so that thermo_style can name f_BREAKABLE_SPECIAL
   if (domain->box_exist) FixBreakableSpecial::get_or_create(lmp);
 }
@@ -98,6 +101,8 @@ BondBreakableCR::BondBreakableCR(LAMMPS *_lmp) :
 
 BondBreakableCR::~BondBreakableCR()
 {
+  delete[] svector;
+  svector = nullptr;
   if (allocated) {
     memory->destroy(setflag);
     memory->destroy(lambda_c);
@@ -537,12 +542,14 @@ double BondBreakableCR::reference_length(int i, int j)
 
 /* ----------------------------------------------------------------------
    force / r (damping included, as compute() applies it) and energy of the
-   bond between atoms i and j; zero beyond lambda_c r0
+   bond between atoms i and j; zero beyond lambda_c r0. svector[0]: the power
+   the damping dissipates, gamma w^2 (rhat . (v_i - v_j))^2 >= 0
 ------------------------------------------------------------------------- */
 
 double BondBreakableCR::single(int type, double rsq, int i, int j, double &fforce)
 {
   fforce = 0.0;
+  svector[0] = 0.0;
   if (type <= 0) return 0.0;
   const TypeParams &P = params[type];
   const double r0 = reference_length(i, j);
@@ -561,6 +568,8 @@ double BondBreakableCR::single(int type, double rsq, int i, int j, double &fforc
   double ebond;
   fforce = bond_force(r, 1.0 / rsq, l, dot, r0, inv_r0, P.c1, P.c3r2, P.krep, P.gamma, P.inv_lc,
                       ebond);
+  const double w = 1.0 - l * P.inv_lc;
+  svector[0] = P.gamma * w * w * dot * dot / rsq;
   return ebond;
 }
 

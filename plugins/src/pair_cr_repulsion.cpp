@@ -58,12 +58,17 @@ PairCRRepulsion::PairCRRepulsion(LAMMPS *_lmp) :
   writedata = 1;
   restartinfo = 1;
   single_enable = 1;
+  // single(): svector[0] = power dissipated by the pair's damping (compute pair/local p1)
+  single_extra = 1;
+  svector = new double[single_extra];
 }
 
 /* ---------------------------------------------------------------------- */
 
 PairCRRepulsion::~PairCRRepulsion()
 {
+  delete[] svector;
+  svector = nullptr;
   if (allocated) {
     memory->destroy(setflag);
     memory->destroy(cutsq);
@@ -318,13 +323,15 @@ void PairCRRepulsion::write_data_all(FILE *fp)
 
 /* ----------------------------------------------------------------------
    energy and F / r of one pair, damping included as compute() applies it
-   (the velocities of i and j are read when atoms have them)
+   (the velocities of i and j are read when atoms have them); svector[0]: the
+   power the damping dissipates, gamma w^2 (rhat . (v_i - v_j))^2 >= 0
 ------------------------------------------------------------------------- */
 
 double PairCRRepulsion::single(int i, int j, int itype, int jtype, double rsq,
                                double /*factor_coul*/, double factor_lj, double &fforce)
 {
   fforce = 0.0;
+  svector[0] = 0.0;
   if (factor_lj == 0.0 || rsq >= cutsq[itype][jtype]) return 0.0;
   double dot = 0.0;
   if (atom->v) {
@@ -337,5 +344,7 @@ double PairCRRepulsion::single(int i, int j, int itype, int jtype, double rsq,
   fforce = factor_lj *
       pair_force(rsq, dot, u[itype][jtype], u12[itype][jtype], abar_sq[itype][jtype],
                  inv_abar[itype][jtype], gamma[itype][jtype], energy);
+  const double w = 1.0 - sqrt(rsq) * inv_abar[itype][jtype];
+  svector[0] = factor_lj * gamma[itype][jtype] * w * w * dot * dot / rsq;
   return factor_lj * energy;
 }
