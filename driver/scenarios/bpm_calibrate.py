@@ -125,7 +125,9 @@ def _frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
 def _elements(cfg) -> int:
     from driver.bpm.packing import particle_count  # noqa: PLC0415
 
-    return particle_count(cfg.model.dimension, cfg.model.L, cfg.model.packing_fraction)
+    m, sc = cfg.model, cfg.scenario
+    slab = sc.thickness if m.dimension == 3 and sc.test == "mode1" else None  # driver/bpm/slab.py
+    return particle_count(m.dimension, m.L, m.packing_fraction, slab, m.packing or "contact")
 
 
 def _check(cfg) -> None:
