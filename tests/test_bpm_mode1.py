@@ -253,6 +253,8 @@ def test_a_3d_slab_pull_peaks_and_breaks_first_at_the_tips(pulled_3d):
     system = json.loads((pulled_3d / "system.json").read_text())
     setup = (pulled_3d / "setup.lammps").read_text()
     assert "boundary        s s p" in setup and "enforce2d" not in setup
+    # the grips' force over the cross-section W T = 16 x 4
+    assert "variable        stress equal (c_fbottom-c_ftop)/(2*64)" in setup
     assert system["thickness"] == 4.0 and system["bonds_across_box"] > 0
     record = pd.read_csv(pulled_3d / "results" / "mode1.csv")
     k = int(record.stress.idxmax())
