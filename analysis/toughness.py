@@ -12,7 +12,9 @@ Finite width W: Feddersen's factor for a centre crack in a plate in uniform tens
 (Tada, Paris & Irwin, The Stress Analysis of Cracks Handbook, 3rd ed. 2000, centre crack in a
 strip; the unit refuses wider voids). It is the factor of a long strip: a square sample (height = W) is
 somewhat more compliant, which the factor leaves out. sigma_c is the largest far-field stress
-of the record (the grips' force over the width, the crack runs once it is passed).
+of the record (the grips' force over the width, times the slab thickness in 3D; the crack runs
+once it is passed). In 3D the void is a through-thickness cylinder in a periodic slab: plane
+strain, with the same K formula.
 """
 
 from __future__ import annotations
@@ -58,6 +60,13 @@ def tip_distances(events: pd.DataFrame, centre: np.ndarray, c: float) -> np.ndar
     return np.hypot(np.abs(xy[:, 0]) - c, xy[:, 1])
 
 
+def _density(system: dict, c: float) -> float:
+    """Number density of the sample (m = 1): particles over its area less the void's, times the
+    slab thickness in 3D (per unit area in 2D)."""
+    area = float(system["width"]) * float(system["height"]) - math.pi * c * float(system["void_semi_axes"][1])
+    return system["n_particles"] / (area * float(system.get("thickness", 1.0)))
+
+
 def analyse_mode1(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = False) -> dict:
     """Summary, results/mode1 (the record), figure plots/mode1.png and report of a mode1 run.
     partial: analysed all the same (a run cut short after the peak still has it)."""
@@ -86,7 +95,7 @@ def analyse_mode1(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = 
         summary.update(E_reference=float(E), K_IC_over_E=K / float(E))
         # wave speed sqrt(E / rho), rho the number density of the sample (m = 1): in 2D it is
         # below c_l = sqrt((B + G) / rho) = sqrt(E / ((1 - nu^2) rho)), so the count is a lower bound
-        rho = system["n_particles"] / (width * float(system["height"]) - math.pi * c * system["void_semi_axes"][1])
+        rho = _density(system, c)
         crossings = float(peak.time) / (float(system["height"]) / math.sqrt(float(E) / rho))
         summary["sound_crossings_to_peak"] = crossings
         if crossings < MIN_CROSSINGS:
@@ -112,8 +121,7 @@ def analyse_mode1(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = 
             B_ref, G_ref = cfg["scenario"].get("B_reference"), cfg["scenario"].get("G_reference")
             c_R = None
             if B_ref and G_ref:
-                rho = system["n_particles"] / (width * float(system["height"])
-                                               - math.pi * c * system["void_semi_axes"][1])
+                rho = _density(system, c)
                 c_R = rayleigh_speed(float(B_ref), float(G_ref), rho, int(cfg["model"]["dimension"]))
                 summary.update(rayleigh_speed=c_R, crack_speed_over_rayleigh=summary["crack_speed"] / c_R,
                                crack_speed_over_rayleigh_se=summary["crack_speed_se"] / c_R)

@@ -161,13 +161,14 @@ def bcm_impact(cfg: RunConfig, ranks: int) -> SizeEstimate:
         steps=int(math.ceil(sc.max_time / dt)), ranks=ranks)
 
 
-def bpm_size(cfg: RunConfig, ranks: int, steps: int) -> SizeEstimate:
-    """A BPM run of `steps` steps: the packing's particles, bonds and angles."""
+def bpm_size(cfg: RunConfig, ranks: int, steps: int, thickness: float | None = None) -> SizeEstimate:
+    """A BPM run of `steps` steps: the packing's particles, bonds and angles (3D: an L x L x
+    thickness slab when thickness is given)."""
     from driver.bpm.packing import particle_count  # noqa: PLC0415 (imports scipy)
 
     m = cfg.model
     d = m.dimension
-    n = particle_count(d, m.L, m.packing_fraction)
+    n = particle_count(d, m.L, m.packing_fraction, thickness, m.packing or "contact")
     bonds = int(round(BPM_BONDS_PER_PARTICLE[d] * n))
     angles = int(round(BPM_ANGLES_PER_PARTICLE[d] * n))
     return SizeEstimate(

@@ -1,21 +1,24 @@
 """BPM mode-I toughness test (SPEC 2.3): a square sample with an elliptic void, free boundaries,
-pulled perpendicular to the void's major axis at a fixed rate (2D only for now).
+pulled perpendicular to the void's major axis at a fixed rate; in 3D a thin slab, periodic in z.
 
 The sample is the periodic packing of the run (driver/bpm/packing.py) and its Delaunay network
-(driver/bpm/network.py), made free in x and y by cutting it out of its periodic box: every bond
+(driver/bpm/network.py); in 3D the periodic slab L x L x T of driver/bpm/slab.py (T the
+scenario's `thickness`). It is made free in x and y by cutting it out of its periodic box: every bond
 whose two ends are closer through a periodic image than directly is deleted (with the angles
 on it), and LAMMPS runs in a non-periodic, shrink-wrapped box (`boundary s s p`). Then the void:
 an ellipse of full axes (void_axes[0], void_axes[1]) centred in the box, major axis along x;
 the particles whose centre lies inside it are removed, and every bond whose segment meets the
 ellipse (interior or boundary) is deleted, with the angles that have it as an arm (SPEC 2.1: an
-angle exists only on two intact bonds).
+angle exists only on two intact bonds). In 3D the same test on the (x, y) projection cuts an
+elliptic cylinder along z (SPEC 2.3: the void through the thin periodic dimension), and z stays
+periodic: bonds through the z faces are kept.
 
 Pull: the particles of two grips, strips of `grip_width` at the top and bottom of the sample,
 move at +v and -v along y (fix move linear, x integrated freely: free-slip grips, so the
 far field is uniaxial tension), v = edot L / 2 so that the nominal strain displacement / L grows
-at edot. Stress: the force the sample exerts on the grips, sigma = (F_bottom,y - F_top,y) / (2 W),
-W = L the sample width and thickness 1 in 2D (force per unit length, the units of the 2D
-moduli of driver/bpm/moduli.py).
+at edot. Stress: the force the sample exerts on the grips over the cross-section,
+sigma = (F_bottom,y - F_top,y) / (2 W T), W = L the sample width; T the slab thickness in 3D,
+1 in 2D (force per unit length, the units of the 2D moduli of driver/bpm/moduli.py).
 """
 
 from __future__ import annotations
@@ -124,7 +127,8 @@ def run_mode1(cfg, rd, plugin_path) -> tuple[dict, object]:
 
     import driver  # noqa: PLC0415
     from driver.bpm.datafile import write_data  # noqa: PLC0415
-    from driver.bpm.shear import SYSTEM_FRESH, SYSTEM_RESUME, packing_and_network, pair_coeff_lines  # noqa: PLC0415
+    from driver.bpm.shear import SYSTEM_FRESH, SYSTEM_RESUME, pair_coeff_lines  # noqa: PLC0415
+    from driver.bpm.slab import fracture_sample  # noqa: PLC0415
     from driver.schedule import chunk_steps, segments, write_session  # noqa: PLC0415
     from driver.templates import render  # noqa: PLC0415
     from runfiles.atomic import atomic_write_json  # noqa: PLC0415
@@ -132,8 +136,8 @@ def run_mode1(cfg, rd, plugin_path) -> tuple[dict, object]:
 
     t0 = time.perf_counter()
     m, sc = cfg.model, cfg.scenario
-    # the unit's check (driver/scenarios/bpm_calibrate.py) has refused 3D and a sample without the void
-    packing, net = packing_and_network(cfg)
+    # the unit's check (driver/scenarios/bpm_calibrate.py) has refused a sample without the void
+    packing, net = fracture_sample(cfg, sc.thickness)
     sample, network, removed = cut_sample(packing, net, tuple(sc.void_axes))
     # the remaining bonds are all shorter than half the box, so write_data's minimum-image
     # references equal the direct ones of the free sample
@@ -147,11 +151,14 @@ def run_mode1(cfg, rd, plugin_path) -> tuple[dict, object]:
     steps = total_steps(sc.max_pull_strain, sc.strain_rate, m.timestep)
     y_top, y_bottom = hi[1] - sc.grip_width, lo[1] + sc.grip_width
     width = float(hi[0] - lo[0])
+    # the cross-section the grips pull on: W T in 3D, W (per unit length) in 2D
+    thickness = float(hi[2] - lo[2]) if m.dimension == 3 else 1.0
     common = dict(
         package_version=driver.__version__, config_name=cfg.name, plugin_path=plugin_path,
         comm_cutoff=f"{comm_cutoff:.6g}", skin=m.skin, timestep=m.timestep, thermo_every=sc.thermo_every,
-        enforce2d="fix             planar all enforce2d", velocity=f"{v:.12g}",
-        width=f"{width:.12g}", record_print=MODE1_RECORD.print_text(), record_title=MODE1_RECORD.title())
+        enforce2d="fix             planar all enforce2d" if m.dimension == 2 else "", velocity=f"{v:.12g}",
+        width=f"{width:.12g}", area=f"{width * thickness:.12g}", record_print=MODE1_RECORD.print_text(),
+        record_title=MODE1_RECORD.title())
     styles = (f"pair_style      cr/repulsion\n{pair_lines}\n\n"
               f"bond_style      breakable/cr\nbond_coeff      1 {m.lambda_c} {m.gamma}\n"
               f"angle_style     breakable/cr\nangle_coeff     1 {m.k_A} {m.theta_c_deg} {m.lambda_c}")
@@ -160,7 +167,7 @@ def run_mode1(cfg, rd, plugin_path) -> tuple[dict, object]:
               "group           top region top_grip\ngroup           bottom region bottom_grip\n"
               "group           grips union top bottom\ngroup           sample subtract all grips")
     setup = render("bpm_mode1.in", role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).",
-                   system=("# free sample: shrink-wrapped in x and y, periodic z (2D requires it)\n"
+                   system=("# free sample: shrink-wrapped in x and y, periodic z (2D requires it; 3D: the thin slab)\n"
                            + SYSTEM_FRESH.format(dimension=m.dimension, boundary="s s p")),
                    styles=styles, groups=groups,
                    record_target="file thermo.dat", start="run             0", **common)
@@ -175,6 +182,7 @@ def run_mode1(cfg, rd, plugin_path) -> tuple[dict, object]:
         "max_r0": float(np.max(network.r0)), "type_diameters": types, **removed,
         "void_centre": centre[:2].tolist(), "void_semi_axes": (0.5 * np.asarray(sc.void_axes, float)).tolist(),
         "width": width, "height": float(hi[1] - lo[1]), "grip_width": sc.grip_width,
+        **({"thickness": thickness} if m.dimension == 3 else {}),
         "n_top": int(np.sum(sample.positions[:, 1] > y_top)),
         "n_bottom": int(np.sum(sample.positions[:, 1] < y_bottom)),
         "grip_velocity": v, "total_steps": steps, "chunk_steps": schedule["chunk"],

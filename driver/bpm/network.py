@@ -7,8 +7,8 @@ simplex is a true simplex of the periodic triangulation when its empty circumsph
 inside the replicated region (no point outside the region can then fall inside it); this is
 checked, and the margin doubled until it holds.
 
-Bonds are the Delaunay edges (3D: only those shorter than max_length, default 5/4 a; see
-MAX_BOND_LENGTH_3D).
+Bonds are the Delaunay edges (3D: only those shorter than max_length, default 5/4 a on the
+`contact` packing and 5/4 * 2^(1/6) a on `lj_minimum`; see driver/bpm/section.py).
 Angles come from the unique triangles (2D: the Delaunay triangles; 3D: the triangular faces
 of the tetrahedra): one angle at each vertex whose two arms are both kept bonds.
 Lengths and angles use the minimum-image convention.
@@ -29,8 +29,9 @@ from scipy.spatial import Delaunay
 from driver.bpm.packing import Packing
 from driver.bpm.section import MAX_BOND_LENGTH_3D  # noqa: F401 (re-exported: the default lives with the config)
 
-#: SPEC 2.1: in 3D only Delaunay edges shorter than 5/4 * 2^(1/6) sigma become bonds, where
-#: sigma = 2^(-1/6) a is the Lennard-Jones length of the repulsion (r_min = a): the cut is 5/4 a.
+#: SPEC 2.1: in 3D only Delaunay edges shorter than 5/4 * 2^(1/6) a become bonds: read literally
+#: on the `lj_minimum` packing (nearest neighbours at about 2^(1/6) a); the same edges are those
+#: shorter than 5/4 a on the `contact` packing, 2^(1/6) times smaller (MAX_BOND_LENGTH_3D).
 
 #: Smallest box edge, in largest diameters, for which minimum images are unambiguous.
 MIN_BOX_DIAMETERS = 4.0
@@ -80,7 +81,7 @@ def minimum_image(d: np.ndarray, lengths: np.ndarray) -> np.ndarray:
 def delaunay_network(packing: Packing, max_length: float | None) -> Network:
     """Bonds (Delaunay edges shorter than max_length; None keeps all) and angles of a packing.
 
-    SPEC 2.1: pass max_length=None in 2D and MAX_BOND_LENGTH_3D in 3D.
+    SPEC 2.1: pass max_length=None in 2D and the model's bond_max_length in 3D.
     Raises ValueError for a box edge shorter than MIN_BOX_DIAMETERS largest diameters.
     """
     dim = packing.dimension

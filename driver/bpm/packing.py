@@ -25,6 +25,17 @@ is the contact network plus near neighbours, while the mean overlap stays near
 (phi - phi_J) / (d phi_J) ~ 1 % of a diameter.
 
 Serial LAMMPS minimisation is deterministic, so the same seed gives identical positions.
+
+3D preparations (model.packing, driver/bpm/section.py PACKING_SCALE): `contact` is the packing
+above, nearest neighbours at about a. `lj_minimum` (nearest neighbours at about 2^(1/6) a) is
+the contact packing of side L / 2^(1/6) scaled by s = 2^(1/6), positions and box, radii kept
+(the repulsion's diameter stays a, so no particle touches another). Scaling rather than relaxing
+again with a repulsion of diameter 2^(1/6) a: that relaxation is the same problem in units of
+s a, so it would give the same jammed geometry up to the scale (and the minimiser's path);
+scaling gives it exactly, with the same Delaunay topology, and reuses the cached relaxation.
+
+3D boxes may be slabs L x L x T (`thickness` T), periodic in all three directions: the thin
+samples of the 3D fracture tests (driver/bpm/slab.py).
 """
 
 from __future__ import annotations
@@ -38,7 +49,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import cKDTree
 
-from driver.bpm.section import DEFAULT_PHI
+from driver.bpm.section import DEFAULT_PHI, PACKING_SCALE
 from driver.engine import Lammps
 from runfiles.atomic import atomic_save
 
@@ -113,22 +124,29 @@ class Packing:
         return float(max(0.0, np.max(1.0 - r / abar)))
 
 
-def particle_count(dimension: int, L: float, phi: float) -> int:
-    """Number of particles giving nominal packing fraction phi in a box of side L."""
+def particle_count(dimension: int, L: float, phi: float, thickness: float | None = None,
+                   preparation: str = "contact") -> int:
+    """Number of particles giving nominal packing fraction phi in a box of side L (3D: L x L x
+    thickness, default L); with preparation `lj_minimum`, that of the contact packing of side
+    L / 2^(1/6) that is scaled to L (module docstring)."""
+    s = PACKING_SCALE[preparation]
     if dimension == 2:
         f = FRACTION_LARGE_2D
         mean_area = np.pi / 4.0 * (f * DIAMETER_LARGE_2D**2 + (1.0 - f) * DIAMETER_SMALL_2D**2)
         return int(round(phi * L * L / mean_area))
     if dimension == 3:
-        return int(round(phi * L**3 / (np.pi / 6.0 * DIAMETER_3D**3)))
+        T = L if thickness is None else thickness
+        return int(round(phi * (L / s) ** 2 * (T / s) / (np.pi / 6.0 * DIAMETER_3D**3)))
     raise ValueError(f"dimension must be 2 or 3, got {dimension}")
 
 
-def make_packing(dimension: int, L: float, seed: int, phi: float | None = None) -> Packing:
+def make_packing(dimension: int, L: float, seed: int, phi: float | None = None,
+                 thickness: float | None = None) -> Packing:
     """A relaxed, jammed periodic packing of side L (see module docstring).
 
-    phi: nominal packing fraction; default DEFAULT_PHI[dimension]. The particle count is
-    particle_count(dimension, L, phi).
+    phi: nominal packing fraction; default DEFAULT_PHI[dimension]. thickness: 3D only, the z
+    side of an L x L x thickness slab (default L, a cube). The particle count is
+    particle_count(dimension, L, phi, thickness).
     """
     if dimension not in (2, 3):
         raise ValueError(f"dimension must be 2 or 3, got {dimension}")
@@ -136,7 +154,10 @@ def make_packing(dimension: int, L: float, seed: int, phi: float | None = None) 
         phi = DEFAULT_PHI[dimension]
     if not 0.0 < phi < 1.0:
         raise ValueError(f"packing fraction must be in (0, 1), got {phi}")
-    n = particle_count(dimension, L, phi)
+    if thickness is not None and dimension != 3:
+        raise ValueError("thickness: 3D slabs only")
+    T = float(L if thickness is None else thickness)
+    n = particle_count(dimension, L, phi, T)
     if n < 2:
         raise ValueError(f"box of side {L} holds fewer than 2 particles at phi = {phi}")
 
@@ -152,10 +173,13 @@ def make_packing(dimension: int, L: float, seed: int, phi: float | None = None) 
         types = np.ones(n, dtype=np.int64)
         diameter = {1: DIAMETER_3D}
         lo = np.zeros(3)
-        hi = np.full(3, float(L))
+        hi = np.array([L, L, T], dtype=float)
     radii = np.array([diameter[1], diameter.get(2, 0.0)])[types - 1] / 2.0
     x = np.zeros((n, 3))
-    x[:, :dimension] = rng.uniform(0.0, L, size=(n, dimension))
+    if thickness is None:  # the draws of a square or cubic box as before slabs existed
+        x[:, :dimension] = rng.uniform(0.0, L, size=(n, dimension))
+    else:
+        x[:, :3] = rng.uniform(0.0, 1.0, size=(n, 3)) * (hi - lo)
 
     positions, relaxation = _relax(x, types, diameter, lo, hi, dimension)
     return Packing(positions=positions, radii=radii, types=types, box=(lo, hi),
@@ -230,21 +254,47 @@ def _relax(x, types, diameter, lo, hi, dimension):
     return out, relaxation
 
 
-def cached_packing(cache_dir: str | Path, dimension: int, L: float, seed: int, phi: float | None = None) -> Packing:
-    """`make_packing`, read from `cache_dir` when this (dimension, L, seed, phi) was built before.
+def scaled_packing(packing: Packing, s: float) -> Packing:
+    """The packing with positions and box multiplied by s, radii kept (the `lj_minimum`
+    preparation, module docstring). In 2D z stays as it is."""
+    lo, hi = (np.asarray(b, float).copy() for b in packing.box)
+    x = packing.positions.copy()
+    d = packing.dimension
+    x[:, :d] *= s
+    lo[:d] *= s
+    hi[:d] *= s
+    relaxation = {**packing.relaxation, "scale": s}
+    return Packing(positions=x, radii=packing.radii.copy(), types=packing.types.copy(), box=(lo, hi),
+                   dimension=d, relaxation=relaxation)
+
+
+def cached_packing(cache_dir: str | Path, dimension: int, L: float, seed: int, phi: float | None = None,
+                   preparation: str = "contact", thickness: float | None = None) -> Packing:
+    """The packing of a run: `make_packing`, read from `cache_dir` when this (dimension, L,
+    thickness, seed, phi) was built before; with preparation `lj_minimum` (3D), the contact
+    packing of side L / 2^(1/6) (cached under that side, a key no contact run of side L shares)
+    scaled to side L.
 
     Relaxing a 3D packing of 30,000 particles takes minutes; a sweep over bond parameters on the
     same packing should pay it once. The file is written atomically.
     """
+    if preparation != "contact":
+        if dimension != 3:
+            raise ValueError(f"preparation {preparation!r}: 3D only")
+        s = PACKING_SCALE[preparation]
+        base = cached_packing(cache_dir, dimension, L / s, seed, phi, "contact",
+                              None if thickness is None else thickness / s)
+        return scaled_packing(base, s)
     phi_val = DEFAULT_PHI[dimension] if phi is None else phi
     cache_dir = Path(cache_dir)
-    path = cache_dir / f"packing_d{dimension}_L{L:.12g}_s{seed}_phi{phi_val:.12g}.npz"
+    shape = f"L{L:.12g}" if thickness is None else f"L{L:.12g}x{thickness:.12g}"
+    path = cache_dir / f"packing_d{dimension}_{shape}_s{seed}_phi{phi_val:.12g}.npz"
     if path.exists():
         with np.load(path) as z:
             return Packing(positions=z["positions"], radii=z["radii"], types=z["types"],
                            box=(z["lo"], z["hi"]), dimension=dimension,
                            relaxation=json.loads(str(z["relaxation"])))
-    pack = make_packing(dimension, L, seed, phi)
+    pack = make_packing(dimension, L, seed, phi, thickness)
     atomic_save(path, lambda tmp: np.savez(tmp, positions=pack.positions, radii=pack.radii, types=pack.types,
                                             lo=pack.box[0], hi=pack.box[1],
                                             relaxation=json.dumps(pack.relaxation, default=float)))

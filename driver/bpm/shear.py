@@ -137,7 +137,8 @@ def plan_and_input(cfg: RunConfig, plugin_path: Path, type_diameters: dict[int, 
 def packing_and_network(cfg: RunConfig):
     """The run's packing (cached) and its Delaunay network (SPEC 2.1)."""
     m = cfg.model
-    packing = cached_packing(cache_base() / "packings", m.dimension, m.L, cfg.seed, m.packing_fraction)
+    packing = cached_packing(cache_base() / "packings", m.dimension, m.L, cfg.seed, m.packing_fraction,
+                             m.packing or "contact")
     return packing, delaunay_network(packing, m.bond_max_length if m.dimension == 3 else None)
 
 

@@ -41,6 +41,10 @@ class CalibrateScenario(_Strict):
                                                                      "degrees from x)")
     grip_width: float = Field(2.0, gt=0.0, description="mode1: width of the top and bottom strips moved as grips, "
                                                         "units of a")
+    thickness: float = Field(
+        5.0, ge=4.0, le=1000.0,
+        description="mode1, 3D: thickness T of the slab, periodic along z, the void a cylinder through it (SPEC "
+                    "2.3), units of a; at least 4 a (driver/bpm/slab.py); not used in 2D")
     max_pull_strain: float = Field(0.05, gt=0.0, le=0.5, description="mode1: nominal strain (grip displacement / "
                                                                       "L) at which the pull ends")
     B_reference: float | None = Field(None, gt=0.0, description="mode1: bulk modulus of the material (from a moduli "
@@ -95,7 +99,8 @@ def _estimate(cfg, ranks):
     if sc.test == "mode1":
         from driver.bpm.mode1 import total_steps  # noqa: PLC0415
 
-        return bpm_size(cfg, ranks, total_steps(sc.max_pull_strain, sc.strain_rate, m.timestep))
+        return bpm_size(cfg, ranks, total_steps(sc.max_pull_strain, sc.strain_rate, m.timestep),
+                        sc.thickness if m.dimension == 3 else None)
     if sc.test == "mode2":
         from driver.bpm.mode2 import total_steps  # noqa: PLC0415
 
@@ -153,7 +158,9 @@ def _frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
 def _elements(cfg) -> int:
     from driver.bpm.packing import particle_count  # noqa: PLC0415
 
-    return particle_count(cfg.model.dimension, cfg.model.L, cfg.model.packing_fraction)
+    m, sc = cfg.model, cfg.scenario
+    slab = sc.thickness if m.dimension == 3 and sc.test == "mode1" else None  # driver/bpm/slab.py
+    return particle_count(m.dimension, m.L, m.packing_fraction, slab, m.packing or "contact")
 
 
 def _check(cfg) -> None:
@@ -187,8 +194,6 @@ def _check_mode1(cfg) -> None:
     if not sc.void:
         raise ValueError("scenario.void = false: the mode1 test measures K_IC at the tips of the elliptic void; "
                          "a sample without it is refused")
-    if m.dimension != 2:
-        raise ValueError("scenario.test = mode1: only 2D samples for now (model.dimension: 2)")
     major, minor = sc.void_axes
     if minor > major:
         raise ValueError(f"scenario.void_axes = {list(sc.void_axes)}: the first (major, along x) must be the longer")
