@@ -167,7 +167,7 @@ def analyse_mode1_set(runs: list[dict], out: Path, plots: bool = True, left_out:
              **{k: v for k, v in r["summary"].items() if not isinstance(v, (list, dict))}} for r in runs]
     table = pd.DataFrame(rows).sort_values("lambda_c").reset_index(drop=True)
     save_table(table, out / "runs")
-    cols = [c for c in ("sigma_c", "K_IC", "K_IC_over_E") if c in table]
+    cols = [c for c in ("sigma_c", "K_IC", "K_IC_over_E", "crack_speed", "crack_speed_over_rayleigh") if c in table]
     points = table.groupby("lambda_c")[cols].agg(["mean", "std"])
     points.columns = [f"{a}_{b}" for a, b in points.columns]
     points = points.reset_index()

@@ -15,6 +15,7 @@ import yaml
 from analysis.crack import crack_fronts, rayleigh_speed, steady_speed
 from driver.config import parse_config
 from driver.pipeline import execute
+from driver.schema import ConfigError
 
 
 def test_rayleigh_speed_of_a_poisson_solid():
@@ -43,6 +44,9 @@ def test_front_and_steady_speed_on_a_hand_built_log():
     speed = steady_speed(fronts, 10.0, 40.0)
     assert speed["crack_speed_right"] == pytest.approx(2.0) and speed["crack_speed_left"] == pytest.approx(3.0)
     assert speed["crack_speed"] == pytest.approx(2.5)
+    # exact lines: the fits' errors vanish, the two sides' half spread is the mean's uncertainty
+    assert speed["crack_speed_right_se"] == pytest.approx(0.0, abs=1e-9)
+    assert speed["crack_speed_se"] == pytest.approx(0.5)
     none = steady_speed(fronts[fronts.time < 1.0], 10.0, 40.0)
     assert math.isnan(none["crack_speed"])
 
@@ -51,12 +55,12 @@ def test_front_and_steady_speed_on_a_hand_built_log():
 def test_mode1_crack_runs_below_the_rayleigh_speed(tmp_path, plugin_path):
     """2D, L = 40, k_A = 4: B and G from a moduli run of the same network, then the mode-I pull;
     the crack front's steady speed is positive and below the Rayleigh speed (measured: 0.43 c_R)."""
-    base = {"seed": 1, "model": {"kind": "bpm", "dimension": 2, "L": 40, "k_A": 4}, "output": {"plots": False}}
+    base = {"seed": 1, "model": {"kind": "bpm", "dimension": 2, "L": 40, "k_A": 4}, "output": {"plots": True}}
     mod = {**base, "name": "mod", "scenario": {"kind": "calibrate", "test": "moduli"}}
     mod["output"] = {**base["output"], "dir": str(tmp_path / "mod")}
     execute(parse_config(mod), show_progress=False)
     m = json.loads((tmp_path / "mod" / "results" / "summary.json").read_text())
-    pull = {**base, "name": "pull", "scenario": {"kind": "calibrate", "test": "mode1", "max_pull_strain": 0.02,
+    pull = {**base, "name": "pull", "scenario": {"kind": "calibrate", "test": "crack_speed", "max_pull_strain": 0.02,
                                                  "B_reference": m["B"], "G_reference": m["G"]}}
     pull["output"] = {**base["output"], "dir": str(tmp_path / "pull")}
     execute(parse_config(pull), show_progress=False)
@@ -65,4 +69,15 @@ def test_mode1_crack_runs_below_the_rayleigh_speed(tmp_path, plugin_path):
     assert 0 < s["crack_speed"] < s["rayleigh_speed"]
     assert 0.1 < s["crack_speed_over_rayleigh"] < 1.0
     assert (tmp_path / "pull" / "results" / "crack_front.parquet").exists()
+    assert (tmp_path / "pull" / "plots" / "crack_front.png").stat().st_size > 0
+    assert s["crack_speed_over_rayleigh_se"] > 0
     yaml.safe_dump(s)  # the summary is plain data
+
+
+def test_crack_speed_test_needs_the_reference_moduli(tmp_path):
+    cfg = {"name": "cs", "model": {"kind": "bpm", "dimension": 2, "L": 40},
+           "scenario": {"kind": "calibrate", "test": "crack_speed"}, "output": {"dir": str(tmp_path / "cs")}}
+    with pytest.raises(ConfigError, match="B_reference and scenario.G_reference"):
+        parse_config(cfg)
+    cfg["scenario"].update(B_reference=51.9, G_reference=40.0)
+    assert parse_config(cfg).scenario.test == "crack_speed"

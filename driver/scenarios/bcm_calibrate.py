@@ -52,7 +52,7 @@ class BlockSection(_Strict):
 class BlockCalibrateScenario(CalibrateScenario):
     """A calibration test (SPEC 2.3 for BPM, SPEC 3 for the BCM block)."""
 
-    test: Literal["moduli", "mode1", "mode2", "fracture"] = Field(
+    test: Literal["moduli", "mode1", "mode2", "crack_speed", "fracture"] = Field(
         "moduli", description="moduli: B, G, E, nu by compression and simple shear at a rate, then at half of it "
                               "(the rate check); mode1 (BPM): K_IC of a free sample with an elliptic void; mode2 (BPM): K_IIC "
                               "under pure shear; "
@@ -128,7 +128,7 @@ def _check(cfg) -> None:
     sc = cfg.scenario
     if cfg.output.animation:
         raise ValueError("output.animation: a calibration test writes no periodic dumps")
-    if sc.test in ("mode1", "mode2"):
+    if sc.test in ("mode1", "mode2", "crack_speed"):
         raise ValueError(f"scenario.test = {sc.test} is a BPM toughness test; the BCM block has moduli and fracture")
     given = sorted(set(BPM_ONLY) & sc.model_fields_set)
     if given:

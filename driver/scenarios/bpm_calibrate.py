@@ -5,7 +5,10 @@ calibration curves. Test `mode1`: K_IC from the peak stress of a free sample wit
 void pulled apart (driver/bpm/mode1.py builds it, analysis/toughness.py measures). Test `mode2`:
 K_IIC from the peak shear stress of a periodic sample with an elliptic void at 45 degrees under
 pure shear, breakable bonds only in a band along the void (driver/bpm/mode2.py builds it,
-analysis/mode2.py measures)."""
+analysis/mode2.py measures). Test `crack_speed`: the mode-I pull (2D, or the 3D slab), measured
+for its crack fronts from the break log, their steady speed and its ratio to the Rayleigh speed of
+the network from B_reference and G_reference (analysis/crack.py; a mode1 run reports the same
+when those are given)."""
 
 from __future__ import annotations
 
@@ -22,10 +25,12 @@ class CalibrateScenario(_Strict):
     """A calibration test of the model's material (SPEC 2.3)."""
 
     kind: Literal["calibrate"] = "calibrate"
-    test: Literal["moduli", "mode1", "mode2"] = Field(
+    test: Literal["moduli", "mode1", "mode2", "crack_speed"] = Field(
         "moduli", description="moduli: B, G, E, nu by compression and simple shear at strain_rate, then at half of "
                               "it (the rate check); mode1: K_IC of a free sample with an elliptic void, pulled "
-                              "apart; mode2: K_IIC of a periodic sample with the void at 45 degrees, pure shear")
+                              "apart; mode2: K_IIC of a periodic sample with the void at 45 degrees, pure shear; "
+                              "crack_speed: the mode1 pull, for the crack's speed against the Rayleigh speed "
+                              "(needs B_reference, G_reference)")
     strain_rate: float = Field(1e-4, gt=0.0, le=0.1, description="moduli: true strain rate of the compression, shear "
                                                                  "rate of the shear phases; mode1: nominal strain "
                                                                  "rate of the pull (grip separation speed / L); "
@@ -67,12 +72,17 @@ class CalibrateScenario(_Strict):
     dump_every: Literal[0] = Field(0, description="no periodic dumps in a calibration test")
 
 
+def protocol(test: str | None) -> str:
+    """The protocol a test runs: crack_speed is the mode-I pull, measured for its crack fronts."""
+    return "mode1" if test == "crack_speed" else (test or "moduli")
+
+
 def _build(cfg, rd, plugin):
     if cfg.scenario.test == "mode2":
         from driver.bpm.mode2 import run_mode2  # noqa: PLC0415
 
         return run_mode2(cfg, rd, plugin)
-    if cfg.scenario.test == "mode1":
+    if protocol(cfg.scenario.test) == "mode1":
         from driver.bpm.mode1 import run_mode1  # noqa: PLC0415
 
         return run_mode1(cfg, rd, plugin)
@@ -82,7 +92,7 @@ def _build(cfg, rd, plugin):
 
 
 def _progress(cfg, system):
-    if cfg.scenario.test == "mode1":
+    if protocol(cfg.scenario.test) == "mode1":
         from driver.bpm.mode1 import progress_spec  # noqa: PLC0415
     elif cfg.scenario.test == "mode2":
         from driver.bpm.mode2 import progress_spec  # noqa: PLC0415
@@ -96,7 +106,7 @@ def _estimate(cfg, ranks):
     from driver.estimate import bpm_size  # noqa: PLC0415
 
     sc, m = cfg.scenario, cfg.model
-    if sc.test == "mode1":
+    if protocol(sc.test) == "mode1":
         from driver.bpm.mode1 import total_steps  # noqa: PLC0415
 
         return bpm_size(cfg, ranks, total_steps(sc.max_pull_strain, sc.strain_rate, m.timestep),
@@ -113,7 +123,7 @@ def _analyse(run_dir: Path, cfg: dict, plots: bool, partial: bool) -> dict:
         from analysis.mode2 import analyse_mode2  # noqa: PLC0415
 
         return analyse_mode2(run_dir, cfg, plots=plots, partial=partial)
-    if cfg["scenario"].get("test") == "mode1":
+    if protocol(cfg["scenario"].get("test")) == "mode1":
         from analysis.toughness import analyse_mode1  # noqa: PLC0415
 
         return analyse_mode1(run_dir, cfg, plots=plots, partial=partial)
@@ -130,7 +140,7 @@ def _set_params(cfg: dict) -> dict:
 
 
 def _analyse_set(runs: list[dict], out: Path, plots: bool, left_out: list[dict], options: dict) -> dict:
-    tests = {r["cfg"]["scenario"].get("test", "moduli") for r in runs}
+    tests = {protocol(r["cfg"]["scenario"].get("test", "moduli")) for r in runs}
     if len(tests) > 1:
         raise ValueError(f"a set of calibration runs mixes the tests {sorted(tests)}: analyse each test apart")
     if tests == {"mode1"}:
@@ -148,7 +158,7 @@ def _analyse_set(runs: list[dict], out: Path, plots: bool, left_out: list[dict],
 
 def _result_tables(cfg: dict) -> tuple[str, ...]:
     """What a finished run of each test leaves for the set analysis."""
-    return {"mode1": ("mode1",), "mode2": ("mode2",)}.get(cfg["scenario"].get("test"), ("moduli_phases",))
+    return {"mode1": ("mode1",), "mode2": ("mode2",)}.get(protocol(cfg["scenario"].get("test")), ("moduli_phases",))
 
 
 def _frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
@@ -159,7 +169,7 @@ def _elements(cfg) -> int:
     from driver.bpm.packing import particle_count  # noqa: PLC0415
 
     m, sc = cfg.model, cfg.scenario
-    slab = sc.thickness if m.dimension == 3 and sc.test == "mode1" else None  # driver/bpm/slab.py
+    slab = sc.thickness if m.dimension == 3 and protocol(sc.test) == "mode1" else None  # driver/bpm/slab.py
     return particle_count(m.dimension, m.L, m.packing_fraction, slab, m.packing or "contact")
 
 
@@ -169,10 +179,14 @@ def _check(cfg) -> None:
     if cfg.output.animation:
         raise ValueError("output.animation: a calibration test writes no periodic dumps")
     # the section is shared with the BCM block's tests (driver/scenarios/bcm_calibrate.py)
-    if cfg.scenario.test not in ("moduli", "mode1", "mode2") or getattr(cfg.scenario, "block", None) is not None:
+    if cfg.scenario.test not in ("moduli", "mode1", "mode2", "crack_speed") or getattr(cfg.scenario, "block", None) is not None:
         raise ValueError("scenario: test = fracture and the block section are the BCM block's; a BPM calibration "
-                         "run has the tests moduli, mode1 and mode2")
-    if cfg.scenario.test == "mode1":
+                         "run has the tests moduli, mode1, mode2 and crack_speed")
+    if cfg.scenario.test == "crack_speed" and not (cfg.scenario.B_reference and cfg.scenario.G_reference):
+        raise ValueError("scenario.test = crack_speed compares the crack's speed with the Rayleigh speed of the "
+                         "network: give scenario.B_reference and scenario.G_reference (B and G of a moduli run of "
+                         "the same model)")
+    if protocol(cfg.scenario.test) == "mode1":
         _check_mode1(cfg)
         return
     if cfg.scenario.test == "mode2":
