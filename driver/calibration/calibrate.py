@@ -30,7 +30,8 @@ def calibrate_bpm(mat: MaterialFile, cache: Path, workers: int, console: Console
     res, tgt = mat.bpm, mat.material
     dim = res.dimension
     a = res.a()
-    moduli = cv.measure(cv.changed(cv.bpm_moduli(dim), mat.curves.get("bpm_moduli")), cache, workers, console)
+    moduli = cv.measure(cv.changed(cv.bpm_moduli(dim, res.packing), mat.curves.get("bpm_moduli")), cache, workers,
+                        console)
     t = moduli.table
     if "number_density_mean" not in t:
         raise cv.CalibrationError(f"curve {moduli.directory}: no number density (measured by an older version); "
@@ -38,7 +39,8 @@ def calibrate_bpm(mat: MaterialFile, cache: Path, workers: int, console: Console
     inv_k, units, reduced = solve.bpm_elastic(tgt.nu, tgt.E, tgt.density, a, t.k_A, _col(t, "nu"), _col(t, "E"),
                                               _col(t, "number_density"))
     G_target, K_target = tgt.toughness(dim)
-    mode1 = cv.measure(cv.changed(cv.bpm_mode1(dim, inv_k.x, res.theta_c_deg), mat.curves.get("bpm_mode1")), cache,
+    mode1 = cv.measure(cv.changed(cv.bpm_mode1(dim, inv_k.x, res.theta_c_deg, res.packing), mat.curves.get("bpm_mode1")),
+                       cache,
                        workers, console)
     m1 = mode1.table
     inv_l = solve.bpm_lambda_c(K_target, tgt.E, a, m1.lambda_c.to_numpy(float), _col(m1, "K_IC"),
@@ -80,11 +82,12 @@ def verify_bpm(mat: MaterialFile, result: dict[str, Any], directory: Path, worke
     the chosen k_A and lambda_c; their E, nu and G_c in SI against the target."""
     dim, p, u = result["dimension"], result["parameters"], result["units"]
     a, unit_u = u["length_a_m"], u["energy_u_J"]
-    moduli = cv.changed(cv.bpm_moduli(dim), mat.curves.get("bpm_moduli")).sweep["base"]
-    mode1 = cv.changed(cv.bpm_mode1(dim, p["k_A"], p["theta_c_deg"]), mat.curves.get("bpm_mode1")).sweep["base"]
+    packing = mat.bpm.packing
+    moduli = cv.changed(cv.bpm_moduli(dim, packing), mat.curves.get("bpm_moduli")).sweep["base"]
+    mode1 = cv.changed(cv.bpm_mode1(dim, p["k_A"], p["theta_c_deg"], packing), mat.curves.get("bpm_mode1")).sweep["base"]
     moduli = _with(moduli, {"model.k_A": p["k_A"]})
     mode1 = _with(mode1, {"model.lambda_c": p["lambda_c"],
-                          **{k: v[0] for k, v in cv.pull_keys([p["lambda_c"]]).items()}})
+                          **{k: v[0] for k, v in cv.pull_keys([p["lambda_c"]], dim).items()}})
     s = cv.run_configs({"bpm_moduli": moduli, "bpm_mode1": mode1}, directory, workers, console)
     E = s["bpm_moduli"]["E"] * unit_u / a ** 3
     nu = s["bpm_moduli"]["nu"]

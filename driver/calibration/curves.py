@@ -17,10 +17,12 @@ back in seconds.
 
 Default sizes (what `driver calibrate` measures unless the material file's `curves:` changes
 them; the cost on 2 cores is in the README):
-- bpm_moduli: 2D L = 24 (about 480 disks), k_A 0 to 12 by 2; 3D L = 8 (about 650 spheres),
-  k_A 0 to 5 by 1; 2 seeds; the moduli test of driver/bpm/moduli.py.
-- bpm_mode1: at the k_A chosen from nu, lambda_c in LAMBDA_C; 2D L = 40 with the 20 x 2 void;
-  2 seeds; the pull as PULL_STRAIN and PULL_RATE say.
+- bpm_moduli: the moduli test of driver/bpm/moduli.py; 2D L = 24 (976 disks), k_A 0 to 12 by
+  2, 2 seeds; 3D L = 8 (645 spheres on `contact`), k_A in K_A[3], 1 seed (the seeds differ by
+  0.4 % in B and G).
+- bpm_mode1: at the k_A chosen from nu, lambda_c in LAMBDA_C; the 20 x 2 void; 2D L = 40
+  (2711 disks), 3D L = 32 and T = 4 (5163 spheres); 2 seeds; the pull as
+  PULL_STRAIN and PULL_RATE say.
 """
 
 from __future__ import annotations
@@ -45,13 +47,24 @@ from runfiles.atomic import atomic_write_json, atomic_write_text
 CURVES_VERSION = 1
 #: lambda_c of the mode-I curve: K_IC / E grows about as lambda_c - 1, and a real material at a
 #: resolution of tens of particles across a grain needs lambda_c - 1 near 1e-3 (its strain at
-#: failure), so the points are spread logarithmically down to there.
-LAMBDA_C = (1.001, 1.003, 1.01, 1.03, 1.05, 1.1)
+#: failure), so the points are spread logarithmically down to there; 3D runs cost about 30 times
+#: more, and the curve is a power law to the measured precision (2D: K_IC = 50.0 (lambda_c - 1)
+#: from 1.001 to 1.1), so fewer points there.
+LAMBDA_C = {2: (1.001, 1.003, 1.01, 1.03, 1.05, 1.1), 3: (1.001, 1.01, 1.03, 1.1)}
 #: Pull of the mode-I runs: to PULL_STRAIN (lambda_c - 1), past the peak (near 0.16 (lambda_c - 1)),
-#: at PULL_RATE (lambda_c - 1) per tau, so every run lasts 200 tau and the peak comes after the
-#: same number of sound crossings (about 18 at L = 40 in 2D) whatever lambda_c.
-PULL_STRAIN = 0.4
-PULL_RATE = 2e-3
+#: at PULL_RATE (lambda_c - 1) per tau, so every run lasts as long and the peak comes after the
+#: same number of sound crossings whatever lambda_c (2D, L = 40: about 18; 3D, L = 32: about 9,
+#: above the 5 that analysis/toughness.py asks; 3D at half the rate measured sigma_c 2 % lower).
+PULL_STRAIN = {2: 0.4, 3: 0.3}
+PULL_RATE = {2: 2e-3, 3: 4e-3}
+#: Sizes: the moduli sample's side L, the mode-I sample's side and (3D) slab thickness, in a.
+MODULI_L = {2: 24, 3: 8}
+MODE1_L = {2: 40, 3: 32}
+MODE1_THICKNESS = 4
+#: k_A of the moduli curve (SPEC 2.2: 0 to 12 in 2D, 0 to 5 in 3D; 3D goes on to 10, where nu
+#: reaches about 0, so that the nu of a stiff ceramic is within reach) and seeds per point.
+K_A = {2: (0, 2, 4, 6, 8, 10, 12), 3: (0, 1, 2, 3, 4, 5, 6, 8, 10)}
+MODULI_SEEDS = {2: 2, 3: 1}
 #: Significant digits a chosen parameter is rounded to before it enters a later curve's
 #: sweep (so that the same target finds the same cache entry).
 DIGITS = 4
@@ -76,26 +89,37 @@ def rounded(x: float, digits: int = DIGITS) -> float:
     return float(f"{x:.{digits}g}")
 
 
-def bpm_moduli(dimension: int) -> CurveSpec:
-    size, k_a = (24, [0, 2, 4, 6, 8, 10, 12]) if dimension == 2 else (8, [0, 1, 2, 3, 4, 5])
+def _bpm_model(dimension: int, packing: str | None) -> dict[str, Any]:
+    model: dict[str, Any] = {"kind": "bpm", "dimension": dimension}
+    if dimension == 3 and packing:
+        model["packing"] = packing
+    return model
+
+
+def bpm_moduli(dimension: int, packing: str | None = None) -> CurveSpec:
     base = {"name": f"cal_bpm_moduli_{dimension}d", "seed": 1,
-            "model": {"kind": "bpm", "dimension": dimension, "L": size},
+            "model": {**_bpm_model(dimension, packing), "L": MODULI_L[dimension]},
             "scenario": {"kind": "calibrate", "test": "moduli", "strain_rate": 1e-4, "max_strain": 0.005}}
-    return CurveSpec("bpm_moduli", {"base": base, "axes": {"model.k_A": k_a}, "seeds": 2}, "moduli", "k_A")
+    return CurveSpec("bpm_moduli", {"base": base, "axes": {"model.k_A": list(K_A[dimension])},
+                                    "seeds": MODULI_SEEDS[dimension]}, "moduli", "k_A")
 
 
-def pull_keys(lambda_c) -> dict[str, list[float]]:
+def pull_keys(lambda_c, dimension: int) -> dict[str, list[float]]:
     """The pull's strain and rate for each lambda_c (PULL_STRAIN, PULL_RATE)."""
-    return {"scenario.max_pull_strain": [rounded(PULL_STRAIN * (lc - 1.0)) for lc in lambda_c],
-            "scenario.strain_rate": [rounded(PULL_RATE * (lc - 1.0)) for lc in lambda_c]}
+    return {"scenario.max_pull_strain": [rounded(PULL_STRAIN[dimension] * (lc - 1.0)) for lc in lambda_c],
+            "scenario.strain_rate": [rounded(PULL_RATE[dimension] * (lc - 1.0)) for lc in lambda_c]}
 
 
-def bpm_mode1(dimension: int, k_A: float, theta_c_deg: float) -> CurveSpec:
+def bpm_mode1(dimension: int, k_A: float, theta_c_deg: float, packing: str | None = None) -> CurveSpec:
+    scenario: dict[str, Any] = {"kind": "calibrate", "test": "mode1", "void_axes": [20, 2]}
+    if dimension == 3:
+        scenario["thickness"] = MODE1_THICKNESS
     base = {"name": f"cal_bpm_mode1_{dimension}d", "seed": 1,
-            "model": {"kind": "bpm", "dimension": dimension, "L": 40, "k_A": rounded(k_A),
+            "model": {**_bpm_model(dimension, packing), "L": MODE1_L[dimension], "k_A": rounded(k_A),
                       "theta_c_deg": theta_c_deg},
-            "scenario": {"kind": "calibrate", "test": "mode1", "void_axes": [20, 2]}}
-    zipped = [{"model.lambda_c": list(LAMBDA_C), **pull_keys(LAMBDA_C)}]
+            "scenario": scenario}
+    lcs = LAMBDA_C[dimension]
+    zipped = [{"model.lambda_c": list(lcs), **pull_keys(lcs, dimension)}]
     return CurveSpec("bpm_mode1", {"base": base, "zip": zipped, "seeds": 2}, "toughness", "lambda_c")
 
 

@@ -93,11 +93,16 @@ class BpmResolution(_Strict):
                                                                    "particles_across)")
     theta_c_deg: float = Field(10.0, gt=0.0, lt=180.0, description="critical angle change, degrees (SPEC 2.2 "
                                                                    "default; kept as given)")
+    packing: Literal["contact", "lj_minimum"] | None = Field(
+        None, description="3D: the preparation of the solid (model.packing: contact, the default, or lj_minimum); "
+                          "2D: leave out")
 
     @model_validator(mode="after")
     def _one_size(self) -> "BpmResolution":
         if (self.particles_across is None) == (self.particle_size is None):
             raise ValueError("give exactly one of particles_across and particle_size (m)")
+        if self.packing is not None and self.dimension == 2:
+            raise ValueError("packing: a 3D option (the 2D solid has one preparation)")
         return self
 
     def a(self) -> float:
