@@ -163,6 +163,12 @@ def test_bcm_block_section_is_filled_in_and_bpm_keys_refused():
     for data in bad:
         with pytest.raises((ConfigError, ValueError)):
             parse_config(data)
+    # a resolved config (every key at its value, as config.resolved.yaml and a Dask task hold
+    # it) reads back, for both models
+    for data in (_config("fracture", None), {"model": {"kind": "bpm", "dimension": 2, "L": 12},
+                                              "scenario": {"kind": "calibrate", "test": "mode1", "void_axes": [6, 1]}}):
+        resolved = parse_config(data).model_dump(mode="json")
+        assert parse_config(resolved).model_dump(mode="json") == resolved
 
 
 @pytest.mark.slow

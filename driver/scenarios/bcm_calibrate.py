@@ -22,7 +22,7 @@ from driver.scenarios.bpm_calibrate import CalibrateScenario
 
 #: Keys of the `calibrate` section that only a BPM run reads (a BCM run refuses them when set).
 BPM_ONLY = ("strain_rate", "void", "void_axes", "grip_width", "max_pull_strain", "B_reference", "G_reference",
-            "E_reference", "band_width", "max_shear_strain", "K_IC_reference")
+            "E_reference", "band_width", "max_shear_strain", "K_IC_reference", "thickness")
 
 
 class BlockSection(_Strict):
@@ -130,7 +130,9 @@ def _check(cfg) -> None:
         raise ValueError("output.animation: a calibration test writes no periodic dumps")
     if sc.test in ("mode1", "mode2", "crack_speed"):
         raise ValueError(f"scenario.test = {sc.test} is a BPM toughness test; the BCM block has moduli and fracture")
-    given = sorted(set(BPM_ONLY) & sc.model_fields_set)
+    # set to something else than their defaults: a resolved config (config.resolved.yaml, a
+    # Dask task's config) holds every key at its default, and must read back
+    given = sorted(k for k in BPM_ONLY if getattr(sc, k) != CalibrateScenario.model_fields[k].default)
     if given:
         raise ValueError(f"scenario: {', '.join(given)} only apply to BPM calibration runs; the BCM block's rates "
                          "are set in scenario.block (crossings, pull_rate, pull_strain)")
