@@ -300,3 +300,68 @@ def test_a_shear_resumed_from_a_checkpoint_goes_on_identically(sheared, tmp_path
     whole = (tmp_path / "A" / "thermo.dat").read_text().splitlines()
     resumed = (tmp_path / "B" / "thermo.dat").read_text().splitlines()
     assert len(resumed) > 20 and resumed[1:] == whole[-len(resumed) + 1:] and resumed[-1].startswith("3000 ")
+
+
+def mode2_3d_config(out, **scenario) -> dict:
+    """A small 3D slab: L = 16, thickness 4, void 10 x 1 at 45 degrees (2c = 10 <= P / 2 = 11.3),
+    the default band 4 a wide, pure shear at 5e-4 to strain 0.03."""
+    return {"name": "mode2_3d", "model": {"kind": "bpm", "dimension": 3, "L": 16},
+            "scenario": {"kind": "calibrate", "test": "mode2", "void_axes": [10, 1], "thickness": 4,
+                         "strain_rate": 5e-4, "max_shear_strain": 0.03, **scenario},
+            "output": {"dir": str(out), "plots": False}}
+
+
+@pytest.fixture(scope="module")
+def sheared_3d(tmp_path_factory, plugin_path):
+    """1,250 spheres after the cut, 2,162 band bonds, 12,000 steps (about 15 s). Measured (seed 1):
+    the first breaks at step 4,235, within 1.25 a of a tip; 78 bonds broken before the peak
+    tau_c = 1.151 at strain 0.023 (step 9,200), the crack then links along the whole period
+    (breaks at the half-period point 11.3 a from the void's centre by step 9,800) and tau falls
+    to 0.78; every break within 1.98 a of the band's plane."""
+    out = tmp_path_factory.mktemp("mode2_3d")
+    execute(parse_config(mode2_3d_config(out)), show_progress=False)
+    return out
+
+
+def test_a_3d_slab_shear_peaks_and_breaks_start_at_the_tips_inside_the_band(sheared_3d):
+    """The 2D expectations on the fully periodic slab (the void a cylinder along z, the band a slab
+    through it, z fixed: plane strain): tau = (p_yy - p_xx) / 2 of the 3D pressure tensor rises to
+    a peak before the crack links across the period, K_IIC from it with c = 5 and P = 16 sqrt 2,
+    the first breaks at the tips, before the peak, and every break in the band.
+
+    Unlike 2D, tau does not fall below half its peak on the slab: after the crack has linked, its
+    rough faces, pressed together (sigma_xx + sigma_yy < 0 builds up as the band breaks at
+    constant area), carry shear again, so the run's `failed` (tail below 0.5 tau_c) stays false."""
+    summary = json.loads((sheared_3d / "results" / "summary.json").read_text())
+    system = json.loads((sheared_3d / "system.json").read_text())
+    setup = (sheared_3d / "setup.lammps").read_text()
+    assert "dimension       3" in setup and "boundary        p p p" in setup and "enforce2d" not in setup
+    # pure shear in x-y, z not deformed (plane strain)
+    assert "fix             shear all deform 1 x trate 0.0005 y trate -0.0005 remap x\n" in setup
+    assert system["thickness"] == 4.0 and system["box_length"] == 16.0 and system["band_bonds"] > 1000
+    record = pd.read_csv(sheared_3d / "results" / "mode2.csv")
+    k = int(record.tau.idxmax())
+    assert summary["tau_c"] == pytest.approx(record.tau[k])
+    assert np.allclose(record.tau, (record.pyy - record.pxx) / 2, rtol=1e-8, atol=1e-9)
+    quarters = [record.tau[(record.strain - f * record.strain[k]).abs().idxmin()] for f in (0.25, 0.5, 0.75)]
+    assert quarters[0] < quarters[1] < quarters[2] < record.tau[k]
+    assert record.tau[k:].min() < 0.8 * record.tau[k]  # measured: 0.68 tau_c after the crack links
+    P = 16.0 * S2
+    assert summary["K_IIC"] == pytest.approx(mode2_toughness(summary["tau_c"], 5.0, P))
+    events = pd.read_csv(sheared_3d / "results" / "breaks.csv")
+    bonds = events[events.kind == "bond"].sort_values("step", kind="stable")
+    centre = np.asarray(system["void_centre"])
+    ref = reference_positions(bonds, centre, 5e-4)
+    assert np.all(tip_distances(ref[:10], centre, 5.0, 45.0, 16.0) < 2.5)  # measured: 1.25 a
+    assert summary["first_break_step"] < summary["peak_step"]
+    assert np.all(band_offsets(ref, centre, 16.0) < 2.0 + 0.5)  # measured: 1.98 a
+    # the crack runs through the whole slab (z) and links along the period: breaks within 1 a of
+    # the half-period point, P / 2 from the void's centre along the line, only after the peak
+    d = ref - centre
+    h = 16.0 / S2
+    shift = np.round((d[:, 1] - d[:, 0]) / S2 / h)  # to the line's nearest image: along by + shift h
+    along = (d[:, 0] + d[:, 1]) / S2 + shift * h
+    along -= P * np.round(along / P)
+    linked = np.abs(along) > P / 2 - 1.0
+    assert linked.any() and bonds.step[linked].min() > summary["peak_step"]
+    assert np.histogram(bonds.z, bins=4, range=(0.0, 4.0))[0].min() > 0.1 * len(bonds)
