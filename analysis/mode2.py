@@ -13,7 +13,13 @@ in mode I and mode II):
 
 The neighbouring rows (the void's images shifted by a box edge) lie a perpendicular
 L / sqrt(2) away, staggered by P / 2; their interaction is left out (the unit keeps 2c <= P / 2,
-so they are over 1.4 major axes away). As in mode I (analysis/toughness.py), the void's finite tip
+so they are over 1.4 major axes away). In 3D (driver/bpm/mode2.py: the periodic slab, the void a
+cylinder along z, the band a slab through it, z held fixed) the crack is a through-thickness
+crack whose front runs along z, the same in every z plane: a plane-strain problem. The in-plane
+stresses of a plane elastic problem loaded by tractions (the remote tau here, the crack faces
+free) do not depend on the elastic constants (Michell), so plane strain and plane stress have
+the same stress field and the same K_II for the same remote tau: the factor and formula hold
+unchanged, with tau the stress per unit volume (3D pressure tensor). As in mode I (analysis/toughness.py), the void's finite tip
 radius b^2 / c makes the measured K_IIC an upper bound of a sharp crack's. tau_c is the largest
 tau of the record: tau = (sigma_xx - sigma_yy) / 2, the remote stress of the periodic cell
 (pressure tensor over the box area, void included) resolved on the 45-degree planes.
@@ -119,8 +125,10 @@ def analyse_mode2(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = 
         summary.update(K_IC_reference=float(K_IC), K_IIC_over_K_IC=K / float(K_IC))
     G = cfg["scenario"].get("G_reference")
     if G:
-        # shear-wave speed sqrt(G / rho), rho the number density of the sample (m = 1)
-        rho = system["n_particles"] / (L * L - math.pi * c * float(system["void_semi_axes"][1]))
+        # shear-wave speed sqrt(G / rho), rho the number density of the sample (m = 1): per area
+        # in 2D, per volume of the slab (thickness T) in 3D
+        T = float(system.get("thickness", 1.0))
+        rho = system["n_particles"] / ((L * L - math.pi * c * float(system["void_semi_axes"][1])) * T)
         crossings = float(peak.time) / (L / math.sqrt(float(G) / rho))
         summary["shear_wave_crossings_to_peak"] = crossings
         if crossings < MIN_CROSSINGS:

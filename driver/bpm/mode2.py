@@ -1,13 +1,20 @@
 """BPM mode-II toughness test (SPEC 2.3): a fully periodic sample with an elliptic void at 45
-degrees under pure shear, breakable bonds only in a thin band along the void (2D only for now).
+degrees under pure shear, breakable bonds only in a thin band along the void; in 3D a thin
+slab, periodic in x, y and z, the void a cylinder through it.
 
 Sample. The periodic packing of the run (driver/bpm/packing.py) and its Delaunay network
-(driver/bpm/network.py), periodic bonds kept. The void: an ellipse of full axes
+(driver/bpm/network.py), periodic bonds kept; in 3D the periodic slab L x L x T of
+driver/bpm/slab.py (T the scenario's `thickness`; SPEC 2.3: "a thin periodic third dimension"),
+kept periodic in all three directions. The void: an ellipse of full axes
 (void_axes[0], void_axes[1]) centred in the box, its major axis at VOID_ANGLE = 45 degrees from
 +x, halfway between the tensile (x) and compressive (y) directions; the particles whose centre
 lies inside it are removed, and every bond whose segment (minimum image) meets the ellipse is
 deleted, with the angles that have it as an arm (SPEC 2.1: an angle exists only on two intact
-bonds). The geometry is mode1's (driver/bpm/mode1.py) with the ellipse rotated.
+bonds). The geometry is mode1's (driver/bpm/mode1.py) with the ellipse rotated. In 3D every test
+is on the (x, y) projection (positions, bond segments, midpoints): the void is an elliptic
+cylinder along z through the slab, and the band below a slab through it, so that the sample,
+and the crack it grows, are the same in every z plane (a through-thickness crack whose front
+runs along z).
 
 Band. In a square periodic box of side L the line through the box centre at 45 degrees closes
 on itself after L sqrt(2) (it runs through the box corners); its periodic images are the
@@ -38,9 +45,12 @@ off and are not to be changed here:
 
 Load. Pure shear of the periodic box at constant area (as SPEC 2.4 in 2D): x at true rate
 +edot, y at -edot, positions remapped affinely (fix deform ... remap x); strain eps = edot t.
-Stress: the pressure tensor (virial + kinetic) over the box area, void included, sigma = -p; the
-shear stress on the 45-degree planes, the crack's plane among them, is tau = (sigma_xx -
-sigma_yy) / 2 = (p_yy - p_xx) / 2 (analysis/mode2.py gives K_IIC from its peak).
+In 3D the same deformation with z held fixed (fix deform leaves the z edge as it is): plane
+strain, eps_zz = 0, so the slab carries sigma_zz (about nu (sigma_xx + sigma_yy), near zero under
+pure shear), which does not enter tau.
+Stress: the pressure tensor (virial + kinetic) over the box area (3D: the box volume L^2 T),
+void included, sigma = -p; the shear stress on the 45-degree planes, the crack's plane among them,
+is tau = (sigma_xx - sigma_yy) / 2 = (p_yy - p_xx) / 2 (analysis/mode2.py gives K_IIC from its peak).
 """
 
 from __future__ import annotations
@@ -151,7 +161,8 @@ def run_mode2(cfg, rd, plugin_path) -> tuple[dict, object]:
 
     import driver  # noqa: PLC0415
     from driver.bpm.datafile import write_data  # noqa: PLC0415
-    from driver.bpm.shear import SYSTEM_FRESH, SYSTEM_RESUME, packing_and_network, pair_coeff_lines  # noqa: PLC0415
+    from driver.bpm.shear import SYSTEM_FRESH, SYSTEM_RESUME, pair_coeff_lines  # noqa: PLC0415
+    from driver.bpm.slab import fracture_sample  # noqa: PLC0415
     from driver.schedule import chunk_steps, segments, write_session  # noqa: PLC0415
     from driver.templates import render  # noqa: PLC0415
     from runfiles.atomic import atomic_write_json  # noqa: PLC0415
@@ -159,8 +170,9 @@ def run_mode2(cfg, rd, plugin_path) -> tuple[dict, object]:
 
     t0 = time.perf_counter()
     m, sc = cfg.model, cfg.scenario
-    # the unit's check (driver/scenarios/bpm_calibrate.py) has refused 3D and a sample without the void
-    packing, net = packing_and_network(cfg)
+    # the unit's check (driver/scenarios/bpm_calibrate.py) has refused a sample without the void;
+    # 2D: the run's periodic packing, 3D: the periodic slab of sc.thickness
+    packing, net = fracture_sample(cfg, sc.thickness)
     sample, network, removed = cut_periodic_void(packing, net, tuple(sc.void_axes))
     btypes, atypes = band_types(sample, network, sc.band_width)
     write_data(rd.root / "system.data", sample, network, bond_type=btypes, angle_type=atypes)
@@ -174,7 +186,7 @@ def run_mode2(cfg, rd, plugin_path) -> tuple[dict, object]:
     common = dict(
         package_version=driver.__version__, config_name=cfg.name, plugin_path=plugin_path,
         comm_cutoff=f"{comm_cutoff:.6g}", skin=m.skin, timestep=m.timestep, thermo_every=sc.thermo_every,
-        enforce2d="fix             planar all enforce2d", strain_rate=f"{sc.strain_rate:.12g}",
+        enforce2d="fix             planar all enforce2d" if m.dimension == 2 else "", strain_rate=f"{sc.strain_rate:.12g}",
         record_print=MODE2_RECORD.print_text(), record_title=MODE2_RECORD.title())
     setup = render("bpm_mode2.in", role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).",
                    system=SYSTEM_FRESH.format(dimension=m.dimension, boundary="p p p"),
@@ -193,6 +205,7 @@ def run_mode2(cfg, rd, plugin_path) -> tuple[dict, object]:
         "void_centre": centre[:2].tolist(), "void_semi_axes": (0.5 * np.asarray(sc.void_axes, float)).tolist(),
         "void_angle_deg": math.degrees(VOID_ANGLE), "band_width": sc.band_width, "box_length": L,
         "crack_period": L * math.sqrt(2.0), "strain_rate": sc.strain_rate,
+        **({"thickness": float(hi[2] - lo[2])} if m.dimension == 3 else {}),
         "unbreakable_lambda_c": UNBREAKABLE_LAMBDA, "unbreakable_theta_c_deg": UNBREAKABLE_THETA_DEG,
         "unbreakable_gamma": unbreakable_gamma(m.gamma, m.lambda_c),
         "total_steps": steps, "chunk_steps": schedule["chunk"], "build_seconds": time.perf_counter() - t0}

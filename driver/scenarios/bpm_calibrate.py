@@ -48,8 +48,8 @@ class CalibrateScenario(_Strict):
                                                         "units of a")
     thickness: float = Field(
         5.0, ge=4.0, le=1000.0,
-        description="mode1, 3D: thickness T of the slab, periodic along z, the void a cylinder through it (SPEC "
-                    "2.3), units of a; at least 4 a (driver/bpm/slab.py); not used in 2D")
+        description="mode1, mode2, 3D: thickness T of the slab, periodic along z, the void a cylinder through it "
+                    "(SPEC 2.3), units of a; at least 4 a (driver/bpm/slab.py); not used in 2D")
     max_pull_strain: float = Field(0.05, gt=0.0, le=0.5, description="mode1: nominal strain (grip displacement / "
                                                                       "L) at which the pull ends")
     B_reference: float | None = Field(None, gt=0.0, description="mode1: bulk modulus of the material (from a moduli "
@@ -114,7 +114,8 @@ def _estimate(cfg, ranks):
     if sc.test == "mode2":
         from driver.bpm.mode2 import total_steps  # noqa: PLC0415
 
-        return bpm_size(cfg, ranks, total_steps(sc.max_shear_strain, sc.strain_rate, m.timestep))
+        return bpm_size(cfg, ranks, total_steps(sc.max_shear_strain, sc.strain_rate, m.timestep),
+                        sc.thickness if m.dimension == 3 else None)
     return bpm_size(cfg, ranks, phases(m.dimension, sc.strain_rate, sc.max_strain, m.timestep)[-1].end)
 
 
@@ -169,7 +170,7 @@ def _elements(cfg) -> int:
     from driver.bpm.packing import particle_count  # noqa: PLC0415
 
     m, sc = cfg.model, cfg.scenario
-    slab = sc.thickness if m.dimension == 3 and protocol(sc.test) == "mode1" else None  # driver/bpm/slab.py
+    slab = sc.thickness if m.dimension == 3 and protocol(sc.test) in ("mode1", "mode2") else None  # driver/bpm/slab.py
     return particle_count(m.dimension, m.L, m.packing_fraction, slab, m.packing or "contact")
 
 
@@ -230,9 +231,6 @@ def _check_mode2(cfg) -> None:
     if not sc.void:
         raise ValueError("scenario.void = false: the mode2 test measures K_IIC at the tips of the elliptic void; "
                          "a sample without it is refused")
-    if m.dimension != 2:
-        raise ValueError("scenario.test = mode2: only 2D samples for now (model.dimension: 2); the 3D test needs "
-                         "a thin periodic slab, not available yet")
     major, minor = sc.void_axes
     if minor > major:
         raise ValueError(f"scenario.void_axes = {list(sc.void_axes)}: the first (major, at 45 degrees) must be "
