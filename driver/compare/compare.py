@@ -30,7 +30,8 @@ from analysis.report import Report, clear_report, write_report
 from analysis.statistics import histogram_table, normalised_mass_distribution
 from analysis.tables import save_table
 from driver.compare import stats
-from driver.compare.params import calibrate_bcm, calibrate_bpm_3d, grid_parameters
+from driver.compare.params import (MODE1_SLOPE_2D, calibrate_bcm, calibrate_bpm_3d, estimated_lambda_c,
+                                    grid_parameters)
 from driver.compare.runs import MODELS, g_values, grid_runs, n_cells_of, run_grid
 from driver.calibration.material import MaterialFile
 from driver.compare.schema import CompareFile, material_of
@@ -48,12 +49,15 @@ def calibrate_both(cmp: CompareFile, compare_path: Path, cache: Path, workers: i
     bcm = calibrate_bcm(mat, cache, workers, console, reuse)
     bpm = calibrate_bpm_3d(mat, cache, workers, console)
     G_ref = mat.material.toughness(3)[0]
-    bpm["parameters"]["lambda_c_at_material_G_c"] = cmp.bpm.lambda_c
-    bpm["lambda_c_note"] = ("not calibrated: the mode-I test is 2D only; given at the material's G_c and scaled "
-                            "as lambda_c - 1 ~ sqrt(G_c) (K_IC ~ E sqrt(a) (lambda_c - 1))")
+    lam = cmp.bpm.lambda_c if cmp.bpm.lambda_c is not None else estimated_lambda_c(mat)
+    bpm["parameters"]["lambda_c_at_material_G_c"] = lam
+    bpm["lambda_c_note"] = ("not calibrated (the mode-I test is 2D only): "
+                            + ("given in the compare file" if cmp.bpm.lambda_c is not None else
+                               f"estimated from the 2D mode-I law K_IC = {MODE1_SLOPE_2D} E sqrt(a) (lambda_c - 1)")
+                            + "; scaled to other G_c as lambda_c - 1 ~ sqrt(G_c)")
     return {"material_source": str(where), "material": mat.model_dump(mode="json"), "G_c_material": G_ref,
             "bcm_n_cells": n_cells_of(mat), "bcm": bcm, "bpm": bpm,
-            "grid": grid_parameters(bcm, bpm, g_values(cmp, mat), G_ref, cmp.bpm.lambda_c)}, mat
+            "grid": grid_parameters(bcm, bpm, g_values(cmp, mat), G_ref, lam)}, mat
 
 
 def tidy_table(runs: list[tuple[dict[str, Any], RunConfig]]) -> pd.DataFrame:
@@ -139,7 +143,7 @@ def calibration_rows(cal: dict[str, Any]) -> pd.DataFrame:
             ("BPM", "m", p["units"]["mass_m_kg"], "kg", "density"),
             ("BPM", "u", p["units"]["energy_u_J"], "J", "E"),
             ("BPM", "lambda_c at the material's G_c", p["parameters"]["lambda_c_at_material_G_c"], "",
-             "given (" + p["lambda_c_note"] + ")")]
+             p["lambda_c_note"])]
     rows += [(r["model"].upper(), f"{r['parameter']} at G_c = {r['G_c']:g}", r["value"], "", "per grid G_c")
              for r in cal["grid"]]
     return pd.DataFrame(rows, columns=["model", "parameter", "value", "unit", "from"])

@@ -13,7 +13,7 @@ from typing import Any
 from driver.calibration.material import MaterialFile
 from driver.compare.params import bcm_interface_gc, bpm_lambda_c
 from driver.compare.schema import CompareFile
-from driver.config import RunConfig
+from driver.config import ConfigError, RunConfig
 from driver.sweep import Group, _assign, _seed_group, expand_groups, format_value, value_list
 
 MODELS = ("bcm", "bpm")
@@ -42,7 +42,7 @@ def base_configs(cmp: CompareFile, mat: MaterialFile, bcm: dict[str, Any], bpm: 
                 "scenario": copy.deepcopy(scenario)},
         "bpm": {"name": f"{cmp.name}_bpm", "seed": 1,
                 "model": {"kind": "bpm", "dimension": 3, "k_A": pp["k_A"], "theta_c_deg": pp["theta_c_deg"],
-                          "lambda_c": bpm_lambda_c(cmp.bpm.lambda_c, G_ref, G_c),
+                          "lambda_c": bpm_lambda_c(bpm["parameters"]["lambda_c_at_material_G_c"], G_ref, G_c),
                           "particle": {**shape, "G_c": G_c,
                                        "units": {k: bpm["units"][k] for k in ("length_a_m", "mass_m_kg",
                                                                                "energy_u_J")}}},
@@ -76,6 +76,22 @@ def grid_runs(cmp: CompareFile, mat: MaterialFile, bcm: dict[str, Any], bpm: dic
     return runs
 
 
+def check_kept(runs: list[tuple[dict[str, Any], RunConfig]]) -> None:
+    """A run directory already there (finished or interrupted) must hold the run planned now:
+    the same model and scenario sections (a changed calibration or compare file would otherwise
+    mix two comparisons in one table); ConfigError naming the run and the way out."""
+    from driver.config import load_config  # noqa: PLC0415
+
+    for _, cfg in runs:
+        resolved = cfg.run_dir() / "config.resolved.yaml"
+        if not resolved.exists():
+            continue
+        old = load_config(resolved)
+        if old.model != cfg.model or old.scenario != cfg.scenario:
+            raise ConfigError(f"{cfg.run_dir()}: made with other model or scenario parameters than this comparison "
+                              "plans (a changed calibration, resolution or compare file); give a new --out")
+
+
 def run_grid(runs: list[tuple[dict[str, Any], RunConfig]], workers: int, console) -> list[str]:
     """Run the unfinished runs (both models, the longest first on Dask); the failed run directories."""
     from driver.calibration.curves import run_pending  # noqa: PLC0415
@@ -84,6 +100,7 @@ def run_grid(runs: list[tuple[dict[str, Any], RunConfig]], workers: int, console
 
     for folder in sorted({cfg.run_dir().parent for _, cfg in runs}):
         claim_dir(folder, SWEEP_MARKER, "sweep directory")
+    check_kept(runs)
     todo = pending(runs)
     if not todo:
         return []

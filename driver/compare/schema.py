@@ -9,16 +9,19 @@
       G_c: [3.3]                          # J/m^2, the material's fracture energy (default: the material's)
       seeds: 2                            # seeds 1..2, or a list
     bcm: {n_cells: 300}                   # resolution: replaces the material file's (or cell_size)
-    bpm: {particles_across: 8, lambda_c: 1.02}
+    bpm: {particles_across: 8}            # lambda_c: given, else estimated (below)
     scenario: {max_time: 2.0e-4}          # the shared impact section (velocity comes from the grid)
+    curves: {bpm_moduli: {seeds: 1}}      # as a material file's curves: (replace its entries)
     base: {bcm: {}, bpm: {}}              # further dotted keys of either model's run config
     workers: 2                            # runs at a time (default: cores)
 
 The BPM's lambda_c: the mode-I calibration test is 2D only (driver/bpm/mode1.py), and the
-impact needs a 3D particle, so the BPM's break stretch is not calibrated to G_c here: it is
-given (`bpm.lambda_c`, at the material's G_c) and scaled to the grid's other G_c by the law of
-the mode-I curve, K_IC ~ E sqrt(a) (lambda_c - 1), i.e. lambda_c - 1 ~ sqrt(G_c) (params.py).
-Its k_A and units are calibrated (the 3D moduli curve).
+impact needs a 3D particle, so the BPM's break stretch is not calibrated to G_c here. By
+default it is estimated from the law of the 2D mode-I curve, K_IC = c E sqrt(a) (lambda_c - 1)
+with c = 0.62 (params.MODE1_SLOPE_2D), at the material's K_IC; `bpm.lambda_c` gives it at the
+material's G_c instead. Either is scaled to the grid's other G_c by the same law,
+lambda_c - 1 ~ K_IC ~ sqrt(G_c) (params.py). Its k_A and units are calibrated (the 3D moduli
+curve).
 """
 
 from __future__ import annotations
@@ -62,8 +65,8 @@ class BpmCompare(_Strict):
                                                                                "diameter (a = d / this)")
     particle_size: float | None = Field(None, gt=0.0, description="particle diameter a, m (instead)")
     theta_c_deg: float | None = Field(None, gt=0.0, lt=180.0, description="critical angle change, degrees")
-    lambda_c: float = Field(1.02, gt=1.0, le=2.0, description="break stretch at the material's G_c (module "
-                                                              "docstring: not calibrated in 3D)")
+    lambda_c: float | None = Field(None, gt=1.0, le=2.0, description="break stretch at the material's G_c "
+                                                                     "(default: estimated, module docstring)")
 
     @model_validator(mode="after")
     def _size(self) -> "BpmCompare":
@@ -103,6 +106,8 @@ class CompareFile(_Strict):
     scenario: dict[str, Any] = Field(default_factory=dict, description="keys of the shared impact section "
                                                                        "(not velocity: the grid's)")
     base: Bases = Field(default_factory=Bases)
+    curves: dict[str, Any] = Field(default_factory=dict, description="changes to the calibration curves, as a "
+                                                                     "material file's curves: (replace its entries)")
     breakup_fraction: float = Field(0.9, gt=0.0, lt=1.0, description="break-up: largest fragment below this "
                                                                      "fraction of the parent's mass (SPEC 1.5)")
     z_agree: float = Field(2.0, gt=0.0, description="|difference| / combined standard error at or below which "
@@ -124,9 +129,16 @@ def load_compare(path: str | Path) -> CompareFile:
     if not isinstance(data, dict):
         raise ConfigError(f"{source}: the top level must be a mapping (name, material, test, grid, bcm, bpm, ...)")
     try:
-        return CompareFile.model_validate(data)
+        cmp = CompareFile.model_validate(data)
     except ValidationError as exc:
         raise ConfigError(format_validation_error(exc, source, data)) from None
+    from driver.calibration.curves import CURVES  # noqa: PLC0415
+
+    unknown = sorted(set(cmp.curves) - set(CURVES))
+    if unknown:
+        raise ConfigError(f"{source}: curves: unknown curve(s) {', '.join(unknown)}; the curves are "
+                          f"{', '.join(sorted(CURVES))}")
+    return cmp
 
 
 def material_of(cmp: CompareFile, compare_path: Path) -> tuple[MaterialFile, dict[str, Any] | None, Path]:
@@ -158,13 +170,13 @@ def material_of(cmp: CompareFile, compare_path: Path) -> tuple[MaterialFile, dic
         bpm["theta_c_deg"] = cmp.bpm.theta_c_deg
     if not bcm:
         bcm = BcmResolution(diameter=bpm["diameter"]).model_dump()
-    data.update({"bcm": bcm, "bpm": bpm})
+    data.update({"bcm": bcm, "bpm": bpm, "curves": {**data.get("curves", {}), **cmp.curves}})
     try:
         out = MaterialFile.model_validate(data)
     except ValidationError as exc:
         raise ConfigError(format_validation_error(exc, f"{compare_path} (material {where} with the compare "
                                                        f"file's resolutions)", data)) from None
     reuse = None
-    if calibration is not None and calibration.get("bcm") and out.bcm == mat.bcm:
+    if calibration is not None and calibration.get("bcm") and out.bcm == mat.bcm and out.curves == mat.curves:
         reuse = calibration["bcm"]
     return out, reuse, where
