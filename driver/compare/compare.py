@@ -103,13 +103,12 @@ def _fmt(v: float) -> str:
 def agreement_words(points: pd.DataFrame, summary: pd.DataFrame, pairs: pd.DataFrame, z_agree: float) -> list[str]:
     """The report's sentences, generated from the tables: per measure where the models agree
     within error bars and where they differ (the points and their z), then the crossovers."""
-    out = []
+    out, silent = [], []
     for s in summary.itertuples():
         label = stats.MEASURES.get(s.measure, (s.measure, s.measure))[1]
         p = points[points.measure == s.measure]
         if s.agree + s.differ == 0:
-            out.append(f"{s.measure} ({label}): no verdict at any of {s.points} points ({s.undetermined} without an "
-                       f"error bar: fewer than two runs of a model; {s.missing} missing).")
+            silent.append(s.measure)
             continue
         where = "; ".join(f"G_c = {r.G_c:g}, v = {r.velocity:g} m/s: BCM {_fmt(r.mean_bcm)} ± {_fmt(r.std_bcm)}, "
                           f"BPM {_fmt(r.mean_bpm)} ± {_fmt(r.std_bpm)}, z = {r.z:+.2g}"
@@ -120,8 +119,12 @@ def agreement_words(points: pd.DataFrame, summary: pd.DataFrame, pairs: pd.DataF
             head = f"differ at all {s.differ} points with a verdict"
         else:
             head = f"agree within error bars at {s.agree} points and differ at {s.differ}"
-        tail = f" ({s.undetermined} undetermined)" if s.undetermined else ""
+        tail = f" ({s.undetermined} undetermined, {s.missing} missing)" if s.undetermined + s.missing else ""
         out.append(f"{s.measure} ({label}): {head}{tail}." + (f" They differ at {where}." if where else ""))
+    if silent:
+        out.append(f"No verdict at any point for {', '.join(silent)}: fewer than two runs of a model at every "
+                   "point (no error bar), or the measure missing in a model (e.g. no multi-element fragment for "
+                   "the shapes).")
     for r in pairs.itertuples():
         out.append(f"{r.threshold} at G_c = {r.G_c:g}: BCM in [{_fmt(r.lo_bcm)}, {_fmt(r.hi_bcm)}], BPM in "
                    f"[{_fmt(r.lo_bpm)}, {_fmt(r.hi_bpm)}]: the brackets "
@@ -142,10 +145,11 @@ def calibration_rows(cal: dict[str, Any]) -> pd.DataFrame:
             ("BPM", "a", p["units"]["length_a_m"], "m", "resolution"),
             ("BPM", "m", p["units"]["mass_m_kg"], "kg", "density"),
             ("BPM", "u", p["units"]["energy_u_J"], "J", "E"),
-            ("BPM", "lambda_c at the material's G_c", p["parameters"]["lambda_c_at_material_G_c"], "",
+            ("BPM", "lambda_c - 1 at the material's G_c", p["parameters"]["lambda_c_at_material_G_c"] - 1.0, "",
              p["lambda_c_note"])]
-    rows += [(r["model"].upper(), f"{r['parameter']} at G_c = {r['G_c']:g}", r["value"], "", "per grid G_c")
-             for r in cal["grid"]]
+    rows += [(r["model"].upper(), f"{r['parameter']}{' - 1' if r['model'] == 'bpm' else ''} at G_c = {r['G_c']:g}",
+              r["value"] - (1.0 if r["model"] == "bpm" else 0.0), "J/m^2" if r["model"] == "bcm" else "",
+              "per grid G_c") for r in cal["grid"]]
     return pd.DataFrame(rows, columns=["model", "parameter", "value", "unit", "from"])
 
 
@@ -202,6 +206,13 @@ def analyse_compare(cmp: CompareFile, cal: dict[str, Any], runs: list[tuple[dict
     if len(pairs):
         rep.table(pairs, "crossovers side by side (crossover_pairs.csv; brackets [lo, hi] on the common omega)")
     rep.table(points, "per point, side by side (points.csv)", max_rows=60)
+    gained = done[done.e_k2 > 1.0] if "e_k2" in done else done.iloc[0:0]
+    if len(gained):
+        rep.text(f"Flag: in {len(gained)} runs the kinetic energy after the impact exceeds the impact's (e_k^2 > 1): "
+                 + "; ".join(f"{r.model.upper()} v = {r.velocity:g} m/s seed {r.seed}: e_k^2 = {r.e_k2:.3g}"
+                             for r in gained.itertuples())
+                 + ". Energy came from the model itself (broken elements releasing stored or overlap energy), not "
+                   "from the impact: these points are not a result for that model.")
     if len(failed):
         rep.text(f"{len(failed)} runs did not finish and are left out: "
                  + "; ".join(f"{r.run_dir} ({r.state}: {r.error})" for r in failed.itertuples()))
