@@ -208,6 +208,11 @@ def test_tiny_grid_writes_tables_plots_report_and_resumes(tmp_path, monkeypatch,
         assert (out / "plots" / f"{f}.png").stat().st_size > 0, f
     report = (out / "report.md").read_text()
     assert "Where the models agree" in report and "D_w (damage" in report and "wall time per run" in report
+    # W_f twice in the BCM too (issue 13, point 2): W_f_held, the interfaces' energy at break, is
+    # the break log's energy (results/breaks), and 2 A G_c beside it
+    for r in table[(table.model == "bcm") & (table.D_w > 0)].itertuples():
+        log = pd.read_parquet(f"{r.run_dir}/results/breaks.parquet")
+        assert r.W_f_held == pytest.approx(log.energy.sum(), rel=1e-6) and r.W_f_held > 0
     cal = json.loads((out / "calibration.json").read_text())
     assert cal["bcm"]["parameters"]["G_c"] > 0 and cal["bpm"]["parameters"]["lambda_c_at_material_G_c"] > 1.0
 
