@@ -138,7 +138,8 @@ bcm: {diameter: 2.0e-3, n_cells: 1728}
 
 def test_compare_file_refusals_and_resolutions(tmp_path):
     write(tmp_path, "m.yaml", MATERIAL)
-    ok = "name: c\nmaterial: m.yaml\ngrid: {velocity: [1, 2], seeds: 1}\nbcm: {n_cells: 200}\nbpm: {particles_across: 7}\n"
+    ok = ("name: c\nmaterial: m.yaml\ngrid: {velocity: [1, 2], seeds: 1}\nbcm: {n_cells: 200}\n"
+          "bpm: {particles_across: 7}\n")
     cmp = load_compare(write(tmp_path, "c.yaml", ok))
     mat, reuse, _ = material_of(cmp, tmp_path / "c.yaml")
     assert mat.bcm.n_cells == 200 and mat.bpm.dimension == 3 and mat.bpm.a() == pytest.approx(2e-3 / 7)

@@ -16,7 +16,6 @@ write one directory:
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Any
