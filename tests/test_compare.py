@@ -47,6 +47,8 @@ def test_side_by_side_difference_in_combined_standard_errors():
     assert d.z == pytest.approx(0.5 / se) and d.verdict == "differ"
     e = p.loc["e_k2"]
     assert e.z == pytest.approx(0.0) and e.verdict == "agree"
+    w = stats.wide(stats.side_by_side(t, ["D_w", "e_k2"]))
+    assert len(w) == 1 and w.D_w_mean_bpm.iloc[0] == pytest.approx(0.7) and w.e_k2_verdict.iloc[0] == "agree"
     # a wider agreement band turns the difference into agreement
     assert stats.side_by_side(t, ["D_w"], z_agree=4.0).verdict.iloc[0] == "agree"
 

@@ -7,6 +7,7 @@ write one directory:
                         summary; the G_c measures with the material's G_c, stats.py)
     points.csv/.parquet the side-by-side table: per (G_c, velocity, measure) both models' n,
                         mean, std, the difference, the combined standard error, z, verdict
+    points_wide.csv     the same, one row per (G_c, velocity)
     agreement.csv       per measure: points that agree, differ, are undetermined
     crossovers.csv      omega_0 and omega_1 of each model per G_c, side by side
     fragment_masses.csv, shape_factor.csv   p(m/m_max) and p(S_f) of each model (all runs)
@@ -167,6 +168,7 @@ def analyse_compare(cmp: CompareFile, cal: dict[str, Any], runs: list[tuple[dict
     pairs = stats.crossover_pairs(cross)
     mass, sf, _ = fragment_tables(table)
     save_table(points, out / "points")
+    save_table(stats.wide(points), out / "points_wide")
     save_table(summary, out / "agreement")
     save_table(cross, out / "crossovers")
     save_table(pairs, out / "crossover_pairs")

@@ -121,6 +121,22 @@ def side_by_side(table: pd.DataFrame, measures: list[str] | None = None, z_agree
     return pd.DataFrame(rows, columns=cols)
 
 
+def wide(points: pd.DataFrame, models: tuple[str, str] = ("bcm", "bpm")) -> pd.DataFrame:
+    """The side-by-side table with one row per parameter point: <measure>_<mean|std>_<model>,
+    <measure>_z and <measure>_verdict columns, in the measures' order."""
+    if points.empty:
+        return pd.DataFrame(columns=["G_c", "velocity"])
+    rows = {}
+    for r in points.itertuples():
+        row = rows.setdefault((r.G_c, r.velocity), {"G_c": r.G_c, "velocity": r.velocity})
+        for m in models:
+            row[f"{r.measure}_mean_{m}"] = getattr(r, f"mean_{m}")
+            row[f"{r.measure}_std_{m}"] = getattr(r, f"std_{m}")
+        row[f"{r.measure}_z"] = r.z
+        row[f"{r.measure}_verdict"] = r.verdict
+    return pd.DataFrame(list(rows.values()))
+
+
 def crossovers(table: pd.DataFrame, breakup_fraction: float = 0.9) -> pd.DataFrame:
     """omega_0 (first cracks, D_w > 0) and omega_1 (SPEC 1.5's break-up: largest fragment below
     breakup_fraction of the mass) of each model per G_c, located between velocities on the
