@@ -126,6 +126,14 @@ def test_parameters_at_a_grid_gc():
     assert bpm_lambda_c(1.01, 1.0, 1.0) == pytest.approx(1.01)
 
 
+def test_kept_runs_compare_floats_to_a_tolerance():
+    from driver.compare.runs import same  # noqa: PLC0415
+
+    assert same({"u": {"m": 7.44485294117647e-08}, "n": [1, 2]}, {"u": {"m": 7.444852940935607e-08}, "n": [1, 2]})
+    assert not same({"u": {"m": 7.4e-08}}, {"u": {"m": 7.5e-08}})
+    assert not same({"a": 1}, {"b": 1}) and not same({"s": "x"}, {"s": "y"})
+
+
 def write(tmp_path, name, text):
     p = tmp_path / name
     p.write_text(text)

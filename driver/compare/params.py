@@ -73,7 +73,8 @@ def calibrate_bpm_3d(mat: MaterialFile, cache: Path, workers: int, console: Cons
     return {"model": "bpm", "dimension": 3,
             "parameters": {"k_A": cv.rounded(inv_k.x), "theta_c_deg": res.theta_c_deg,
                            "particles_across": res.diameter / res.a()},
-            "units": units.as_dict(), "reduced": reduced,
+            # 8 digits: the same units whether the curve was just measured or read from the cache
+            "units": {k: cv.rounded(v, 8) for k, v in units.as_dict().items()}, "reduced": reduced,
             "achieved": {"density": tgt.density, "E": tgt.E, "nu": inv_k.y},
             "target": {"density": tgt.density, "E": tgt.E, "nu": tgt.nu},
             "reach": {"nu": inv_k.as_dict()},

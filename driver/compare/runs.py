@@ -76,6 +76,18 @@ def grid_runs(cmp: CompareFile, mat: MaterialFile, bcm: dict[str, Any], bpm: dic
     return runs
 
 
+def same(a: Any, b: Any, rel: float = 1e-6) -> bool:
+    """Equal config values, floats to `rel` (a calibration read back from the cache's JSON
+    differs from the freshly measured one in the last digits)."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(same(a[k], b[k], rel) for k in a)
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return len(a) == len(b) and all(same(x, y, rel) for x, y in zip(a, b))
+    if isinstance(a, float) and isinstance(b, (int, float)) or isinstance(b, float) and isinstance(a, (int, float)):
+        return abs(a - b) <= rel * max(abs(a), abs(b))
+    return a == b
+
+
 def check_kept(runs: list[tuple[dict[str, Any], RunConfig]]) -> None:
     """A run directory already there (finished or interrupted) must hold the run planned now:
     the same model and scenario sections (a changed calibration or compare file would otherwise
@@ -87,7 +99,8 @@ def check_kept(runs: list[tuple[dict[str, Any], RunConfig]]) -> None:
         if not resolved.exists():
             continue
         old = load_config(resolved)
-        if old.model != cfg.model or old.scenario != cfg.scenario:
+        if not (same(old.model.model_dump(), cfg.model.model_dump())
+                and same(old.scenario.model_dump(), cfg.scenario.model_dump())):
             raise ConfigError(f"{cfg.run_dir()}: made with other model or scenario parameters than this comparison "
                               "plans (a changed calibration, resolution or compare file); give a new --out")
 
