@@ -543,6 +543,10 @@ def compare(compare_yaml: Path = typer.Argument(..., help="a compare file: mater
     except CalibrationError as exc:
         _fail(str(exc), 1)
     console = Console(width=max(100, Console().width))
+    ct = Table("model", "parameter", "value", "unit", "from", title="calibration (SPEC 3)")
+    for r in result["calibration"]:
+        ct.add_row(r["model"], r["parameter"], f"{r['value']:.5g}", r["unit"], r["from"])
+    console.print(ct)
     at = Table("measure", "points", "agree", "differ", "undetermined", "max |z|", title="BCM against BPM")
     for r in result["agreement"]:
         at.add_row(r["measure"], str(r["points"]), str(r["agree"]), str(r["differ"]), str(r["undetermined"]),

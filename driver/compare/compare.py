@@ -242,5 +242,6 @@ def run_compare(cmp: CompareFile, compare_path: Path, out: Path, cache: Path, wo
     failed = run_grid(runs, workers, console)
     result = analyse_compare(cmp, cal, runs, out, plots)
     result["failed_now"] = failed
+    result["calibration"] = calibration_rows(cal).to_dict(orient="records")
     atomic_write_json(out / "compare.json", result)
     return result
