@@ -166,6 +166,26 @@ def test_compare_file_refusals_and_resolutions(tmp_path):
         material_of(load_compare(write(tmp_path, "c6.yaml", ok.replace("m.yaml", "nope.yaml"))), tmp_path / "c6.yaml")
 
 
+def test_a_calibration_json_as_the_material(tmp_path):
+    """driver calibrate's calibration.json: its material, and its BCM result reused while the
+    BCM resolution and curves stay the same (a changed n_cells calibrates again)."""
+    from driver.calibration.material import load_material  # noqa: PLC0415
+
+    mat = load_material(write(tmp_path, "m.yaml", MATERIAL))
+    bcm = {"parameters": {"kn": 1e7, "kt": 8e6, "G_c": 1.0}, "fracture_slope": {"slope": 3.3}}
+    (tmp_path / "calibration.json").write_text(json.dumps({"material": mat.model_dump(mode="json"), "bcm": bcm}))
+    text = "name: c\nmaterial: calibration.json\ngrid: {velocity: [1]}\nbpm: {particles_across: 7}\n"
+    cmp = load_compare(write(tmp_path, "c.yaml", text))
+    got, reuse, _ = material_of(cmp, tmp_path / "c.yaml")
+    assert reuse == bcm and got.bcm.n_cells == 1728 and got.material.G_c == 3.3
+    other = load_compare(write(tmp_path, "c2.yaml", text + "bcm: {n_cells: 300}\n"))
+    assert material_of(other, tmp_path / "c2.yaml")[1] is None
+    (tmp_path / "bad.json").write_text("{}")
+    with pytest.raises(ConfigError, match="not a calibration.json"):
+        material_of(load_compare(write(tmp_path, "c3.yaml", text.replace("calibration.json", "bad.json"))),
+                    tmp_path / "c3.yaml")
+
+
 # ------------------------------------------------------------------------------ LAMMPS: a tiny grid
 TINY_MATERIAL = """name: tiny
 material: {density: 6000, E: 2.21e11, nu: 0.05, G_c: 3.3}

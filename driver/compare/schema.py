@@ -177,6 +177,7 @@ def material_of(cmp: CompareFile, compare_path: Path) -> tuple[MaterialFile, dic
         raise ConfigError(format_validation_error(exc, f"{compare_path} (material {where} with the compare "
                                                        f"file's resolutions)", data)) from None
     reuse = None
-    if calibration is not None and calibration.get("bcm") and out.bcm == mat.bcm and out.curves == mat.curves:
+    bcm_curves = lambda m: {k: v for k, v in m.curves.items() if k.startswith("bcm_")}  # noqa: E731
+    if calibration is not None and calibration.get("bcm") and out.bcm == mat.bcm and bcm_curves(out) == bcm_curves(mat):
         reuse = calibration["bcm"]
     return out, reuse, where
