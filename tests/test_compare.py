@@ -113,7 +113,7 @@ def test_report_words_come_from_the_table():
     assert summary.iloc[0][["agree", "differ", "undetermined"]].tolist() == [1, 1, 0]
     assert summary.iloc[0].at_velocity == 2.0
     words = agreement_words(points, summary, stats.crossover_pairs(stats.crossovers(t.assign(omega=t.velocity))), 2.0)
-    assert words[0].startswith("D_w") and "agree within error bars at 1 points and differ at 1" in words[0]
+    assert words[0].startswith("D_w") and "agree within error bars at 1 point and differ at 1" in words[0]
     assert "v = 2 m/s" in words[0] and "v = 1 m/s" not in words[0]
 
 

@@ -100,6 +100,10 @@ def _fmt(v: float) -> str:
     return "n/a" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.3g}"
 
 
+def _points(n: int) -> str:
+    return f"{n} point" + ("" if n == 1 else "s")
+
+
 def agreement_words(points: pd.DataFrame, summary: pd.DataFrame, pairs: pd.DataFrame, z_agree: float) -> list[str]:
     """The report's sentences, generated from the tables: per measure where the models agree
     within error bars and where they differ (the points and their z), then the crossovers."""
@@ -118,7 +122,7 @@ def agreement_words(points: pd.DataFrame, summary: pd.DataFrame, pairs: pd.DataF
         elif s.agree == 0:
             head = f"differ at all {s.differ} points with a verdict"
         else:
-            head = f"agree within error bars at {s.agree} points and differ at {s.differ}"
+            head = f"agree within error bars at {_points(s.agree)} and differ at {s.differ}"
         tail = f" ({s.undetermined} undetermined, {s.missing} missing)" if s.undetermined + s.missing else ""
         out.append(f"{s.measure} ({label}): {head}{tail}." + (f" They differ at {where}." if where else ""))
     if silent:
