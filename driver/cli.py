@@ -1,4 +1,4 @@
-"""The `driver` command: run, validate, post, scaling, sweep, calibrate, cluster, plugins."""
+"""The `driver` command: run, validate, post, scaling, sweep, calibrate, compare, cluster, plugins."""
 
 from __future__ import annotations
 
@@ -509,6 +509,58 @@ def calibrate(material_yaml: Path = typer.Argument(..., help="a material file: t
                 vt.add_row(k, f"{v['target']:.5g}", f"{v['measured']:.5g}", f"{v['relative_error']:+.1%}")
             console.print(vt)
     err.print(f"written: {files['markdown']}, {files['json']}")
+
+
+@app.command()
+def compare(compare_yaml: Path = typer.Argument(..., help="a compare file: material (or calibration.json), test, "
+                                                          "grid, both models' resolutions (README, Comparing "
+                                                          "the models)"),
+            out: Optional[Path] = typer.Option(None, "--out", help="the comparison directory (default "
+                                                                   "runs/compare_<name>); a re-run resumes it"),
+            workers: Optional[int] = typer.Option(None, "--workers", min=1, help="runs at a time (default: the "
+                                                                                 "file's workers, else cores)"),
+            no_plots: bool = typer.Option(False, "--no-plots", help="tables and report only")) -> None:
+    """Calibrate both models to one material, run the same grid with both, and put every measure
+    side by side: tables, plots and a report of where they agree within error bars."""
+    from rich.table import Table  # noqa: PLC0415
+
+    from driver.calibration.curves import CalibrationError  # noqa: PLC0415
+    from driver.compare.compare import run_compare  # noqa: PLC0415
+    from driver.compare.schema import load_compare  # noqa: PLC0415
+    from driver.distributed import default_workers  # noqa: PLC0415
+    from driver.plugin_build import cache_base, plugin_library  # noqa: PLC0415
+
+    try:
+        cmp = load_compare(compare_yaml)
+        target = out if out is not None else Path("runs") / f"compare_{cmp.name}"
+        plugin_library()
+        result = run_compare(cmp, compare_yaml, target, cache_base(), workers or cmp.workers or default_workers(None),
+                             err, plots=not no_plots)
+    except (ConfigError, RunDirError) as exc:
+        _fail(str(exc), 2)
+    except (PluginBuildError, LammpsSiteError) as exc:
+        _fail(str(exc), 3)
+    except CalibrationError as exc:
+        _fail(str(exc), 1)
+    console = Console(width=max(100, Console().width))
+    ct = Table("model", "parameter", "value", "unit", "from", title="calibration (SPEC 3)")
+    for r in result["calibration"]:
+        ct.add_row(r["model"], r["parameter"], f"{r['value']:.5g}", r["unit"], r["from"])
+    console.print(ct)
+    at = Table("measure", "points", "agree", "differ", "undetermined", "max |z|", title="BCM against BPM")
+    for r in result["agreement"]:
+        at.add_row(r["measure"], str(r["points"]), str(r["agree"]), str(r["differ"]), str(r["undetermined"]),
+                   f"{r['max_abs_z']:.3g}")
+    console.print(at)
+    for r in result["wall_seconds"]:
+        err.print(f"{r['model'].upper()}: {r['count']} runs, wall time per run {r['mean']:.3g} s "
+                  f"({r['min']:.3g} to {r['max']:.3g})", highlight=False)
+    if result["failed"]:
+        err.print(f"[yellow]{len(result['failed'])} runs did not finish (listed in the report); run the same command "
+                  "again to retry them")
+    err.print(f"written: {target}/report.html, {target}/points.csv (side by side), {target}/runs.csv (every run)")
+    if result["failed"]:
+        raise typer.Exit(1)
 
 
 @app.command("cluster")

@@ -1,0 +1,251 @@
+"""`driver compare`: calibrate both models (reusing the cache), run the grid with both, and
+write one directory:
+
+    calibration.json    each model's parameters, at every G_c of the grid (params.py)
+    runs/<model>/G_c<G_c>/velocity<v>_seed<s>/   the run directories (a re-run resumes them)
+    runs.csv/.parquet   the tidy table: every run of both models (state, error, wall time,
+                        summary; the G_c measures with the material's G_c, stats.py)
+    points.csv/.parquet the side-by-side table: per (G_c, velocity, measure) both models' n,
+                        mean, std, the difference, the combined standard error, z, verdict
+    points_wide.csv     the same, one row per (G_c, velocity)
+    agreement.csv       per measure: points that agree, differ, are undetermined
+    crossovers.csv      omega_0 and omega_1 of each model per G_c, side by side
+    fragment_masses.csv, shape_factor.csv   p(m/m_max) and p(S_f) of each model (all runs)
+    plots/              both models on the same axes
+    report.md/.html     where the models agree within error bars and where not, in words
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from rich.console import Console
+
+from analysis.plots import PlotGuard
+from analysis.report import Report, clear_report, write_report
+from analysis.statistics import histogram_table, normalised_mass_distribution
+from analysis.tables import save_table
+from driver.compare import stats
+from driver.compare.params import (MODE1_SLOPE_2D, calibrate_bcm, calibrate_bpm_3d, estimated_lambda_c,
+                                    grid_parameters)
+from driver.compare.runs import MODELS, g_values, grid_runs, n_cells_of, run_grid
+from driver.calibration.material import MaterialFile
+from driver.compare.schema import CompareFile, material_of
+from driver.config import RunConfig
+from runfiles.atomic import atomic_write_json
+
+COMPARE_MARKER = ".brittle-compare"
+
+
+def calibrate_both(cmp: CompareFile, compare_path: Path, cache: Path, workers: int, console: Console
+                   ) -> tuple[dict[str, Any], MaterialFile]:
+    """Both models' calibration for the compare file (params.py) with the per-G_c parameters,
+    and the material (the compare file's resolutions in it)."""
+    mat, reuse, where = material_of(cmp, compare_path)
+    bcm = calibrate_bcm(mat, cache, workers, console, reuse)
+    bpm = calibrate_bpm_3d(mat, cache, workers, console)
+    G_ref = mat.material.toughness(3)[0]
+    lam = cmp.bpm.lambda_c if cmp.bpm.lambda_c is not None else estimated_lambda_c(mat)
+    bpm["parameters"]["lambda_c_at_material_G_c"] = lam
+    bpm["lambda_c_note"] = ("not calibrated (the mode-I test is 2D only): "
+                            + ("given in the compare file" if cmp.bpm.lambda_c is not None else
+                               f"estimated from the 2D mode-I law K_IC = {MODE1_SLOPE_2D} E sqrt(a) (lambda_c - 1)")
+                            + "; scaled to other G_c as lambda_c - 1 ~ sqrt(G_c)")
+    return {"material_source": str(where), "material": mat.model_dump(mode="json"), "G_c_material": G_ref,
+            "bcm_n_cells": n_cells_of(mat), "bcm": bcm, "bpm": bpm,
+            "grid": grid_parameters(bcm, bpm, g_values(cmp, mat), G_ref, lam)}, mat
+
+
+def tidy_table(runs: list[tuple[dict[str, Any], RunConfig]]) -> pd.DataFrame:
+    """Every run of both models (driver/sweep.py sweep_table) with its wall time, the G_c
+    measures with the material's G_c (stats.common_measures)."""
+    from driver.sweep import _wall_seconds, sweep_table  # noqa: PLC0415
+
+    table = sweep_table(runs)
+    table["wall_seconds"] = [_wall_seconds(cfg.run_dir()) if s == "finished" else None
+                             for (_, cfg), s in zip(runs, table["state"])]
+    return stats.common_measures(table)
+
+
+def fragment_tables(table: pd.DataFrame) -> tuple[dict[str, pd.DataFrame], dict[str, pd.DataFrame], pd.DataFrame]:
+    """p(m/m_max) per (model, G_c) and p(S_f) per model (multi-element fragments), over all
+    finished runs; and the fragments of every run (model, G_c, run_dir columns added)."""
+    parts = []
+    for r in table[table.state == "finished"].itertuples():
+        f = Path(r.run_dir) / "results" / "fragments.parquet"
+        if f.exists():
+            parts.append(pd.read_parquet(f).assign(model=r.model, G_c=r.G_c, velocity=r.velocity,
+                                                   run_dir=r.run_dir))
+    if not parts:
+        return {}, {}, pd.DataFrame()
+    frags = pd.concat(parts, ignore_index=True)
+    frags["m_over_m_max"] = frags.mass / frags.groupby("run_dir").mass.transform("max")
+    mass, sf = {}, {}
+    for (model, g), grp in frags.groupby(["model", "G_c"], sort=True):
+        mass[f"{model.upper()}, G_c = {g:g} J/m²"] = normalised_mass_distribution(grp.m_over_m_max.to_numpy())
+    multi = frags[~frags.single_cell.astype(bool)]
+    finite = multi.shape_factor[np.isfinite(multi.shape_factor)]
+    if len(finite):
+        edges = np.linspace(float(finite.min()), float(finite.max()) + 1e-9, 16)
+        for model, grp in multi.groupby("model", sort=True):
+            sf[model.upper()] = histogram_table(grp.shape_factor.to_numpy(), bins=edges)
+    return mass, sf, frags
+
+
+def _fmt(v: float) -> str:
+    return "n/a" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.3g}"
+
+
+def _points(n: int) -> str:
+    return f"{n} point" + ("" if n == 1 else "s")
+
+
+def agreement_words(points: pd.DataFrame, summary: pd.DataFrame, pairs: pd.DataFrame, z_agree: float) -> list[str]:
+    """The report's sentences, generated from the tables: per measure where the models agree
+    within error bars and where they differ (the points and their z), then the crossovers."""
+    out, silent = [], []
+    for s in summary.itertuples():
+        label = stats.MEASURES.get(s.measure, (s.measure, s.measure))[1]
+        p = points[points.measure == s.measure]
+        if s.agree + s.differ == 0:
+            silent.append(s.measure)
+            continue
+        where = "; ".join(f"G_c = {r.G_c:g}, v = {r.velocity:g} m/s: BCM {_fmt(r.mean_bcm)} ± {_fmt(r.std_bcm)}, "
+                          f"BPM {_fmt(r.mean_bpm)} ± {_fmt(r.std_bpm)}, z = {r.z:+.2g}"
+                          for r in p[p.verdict == "differ"].itertuples())
+        if s.differ == 0:
+            head = f"agree within error bars at all {s.agree} points with a verdict"
+        elif s.agree == 0:
+            head = f"differ at all {s.differ} points with a verdict"
+        else:
+            head = f"agree within error bars at {_points(s.agree)} and differ at {s.differ}"
+        tail = f" ({s.undetermined} undetermined, {s.missing} missing)" if s.undetermined + s.missing else ""
+        out.append(f"{s.measure} ({label}): {head}{tail}." + (f" They differ at {where}." if where else ""))
+    if silent:
+        out.append(f"No verdict at any point for {', '.join(silent)}: fewer than two runs of a model at every "
+                   "point (no error bar), or the measure missing in a model (e.g. no multi-element fragment for "
+                   "the shapes).")
+    for r in pairs.itertuples():
+        out.append(f"{r.threshold} at G_c = {r.G_c:g}: BCM in [{_fmt(r.lo_bcm)}, {_fmt(r.hi_bcm)}], BPM in "
+                   f"[{_fmt(r.lo_bpm)}, {_fmt(r.hi_bpm)}]: the brackets "
+                   + ("overlap (agree)." if r.verdict == "agree" else "do not overlap (differ)."))
+    return out
+
+
+def calibration_rows(cal: dict[str, Any]) -> pd.DataFrame:
+    """The calibration table of the report: per model its parameters and where they come from."""
+    b, p = cal["bcm"], cal["bpm"]
+    rows = [("BCM", "n_cells", cal["bcm_n_cells"], "", "the compare file's resolution"),
+            ("BCM", "k_n", b["parameters"]["kn"], "N/m", "moduli curve: E"),
+            ("BCM", "k_t / k_n", b["parameters"]["kt_over_kn"], "", "moduli curve: nu"),
+            ("BCM", "fracture slope s", b["fracture_slope"]["slope"], "", "fracture curve: W/A per interface G_c"),
+            ("BPM", "particles across", p["parameters"]["particles_across"], "", "the compare file's resolution"),
+            ("BPM", "k_A", p["parameters"]["k_A"], "u", "3D moduli curve: nu"
+             + ("" if p["reach"]["nu"]["reached"] else " (OUT OF REACH: nearest)")),
+            ("BPM", "a", p["units"]["length_a_m"], "m", "resolution"),
+            ("BPM", "m", p["units"]["mass_m_kg"], "kg", "density"),
+            ("BPM", "u", p["units"]["energy_u_J"], "J", "E"),
+            ("BPM", "lambda_c - 1 at the material's G_c", p["parameters"]["lambda_c_at_material_G_c"] - 1.0, "",
+             p["lambda_c_note"])]
+    rows += [(r["model"].upper(), f"{r['parameter']}{' - 1' if r['model'] == 'bpm' else ''} at G_c = {r['G_c']:g}",
+              r["value"] - (1.0 if r["model"] == "bpm" else 0.0), "J/m^2" if r["model"] == "bcm" else "",
+              "per grid G_c") for r in cal["grid"]]
+    return pd.DataFrame(rows, columns=["model", "parameter", "value", "unit", "from"])
+
+
+def analyse_compare(cmp: CompareFile, cal: dict[str, Any], runs: list[tuple[dict[str, Any], RunConfig]],
+                    out: Path, plots: bool = True) -> dict[str, Any]:
+    """The tables, plots and report of the comparison into `out` (module docstring)."""
+    out = Path(out)
+    clear_report(out)
+    table = tidy_table(runs)
+    save_table(table.drop(columns=[c for c in table.columns if table[c].map(
+        lambda v: isinstance(v, (list, dict))).any()]), out / "runs")
+    points = stats.side_by_side(table, z_agree=cmp.z_agree)
+    summary = stats.agreement_summary(points)
+    cross = stats.crossovers(table, cmp.breakup_fraction) if (table.state == "finished").any() else pd.DataFrame(
+        columns=["model", "G_c", "threshold", "value", "lo", "hi"])
+    pairs = stats.crossover_pairs(cross)
+    mass, sf, _ = fragment_tables(table)
+    save_table(points, out / "points")
+    save_table(stats.wide(points), out / "points_wide")
+    save_table(summary, out / "agreement")
+    save_table(cross, out / "crossovers")
+    save_table(pairs, out / "crossover_pairs")
+    if mass:
+        save_table(pd.concat([t.assign(label=k) for k, t in mass.items()], ignore_index=True), out / "fragment_masses")
+    if sf:
+        save_table(pd.concat([t.assign(model=k) for k, t in sf.items()], ignore_index=True), out / "shape_factor")
+    guard = PlotGuard()
+    title = f"{cmp.name}: BCM and BPM, {cmp.test}"
+    figures = {}
+    if plots and (table.state == "finished").any():
+        from driver.compare.plots import draw_all  # noqa: PLC0415
+
+        figures = draw_all(guard, table, cross, mass, sf, out / "plots", title)
+
+    done = table[table.state == "finished"]
+    failed = table[table.state != "finished"]
+    walls = done.groupby("model").wall_seconds.agg(["count", "mean", "min", "max"]).reset_index()
+    rep = Report(f"Comparison {cmp.name}: BCM and BPM, {cmp.test}",
+                 f"material {cal['material_source']}; {len(table)} runs ({len(done)} finished, {len(failed)} not)")
+    rep.heading("Calibration")
+    rep.text(f"Both models calibrated to density {cal['material']['material']['density']:g} kg/m³, E = "
+             f"{cal['material']['material']['E']:.4g} Pa, nu = {cal['material']['material']['nu']:g}, G_c = "
+             f"{cal['G_c_material']:.4g} J/m² (SPEC 3). The BPM's nu reached: {cal['bpm']['achieved']['nu']:.4g}"
+             + ("" if cal["bpm"]["reach"]["nu"]["reached"] else f" ({cal['bpm']['reach']['nu'].get('note', '')})")
+             + ". Measures holding G_c (W_f = 2 A G_c, W_s, omega, eta, chi, W_c) use the material's G_c in both "
+               "models; the BCM's own (its interface G_c) are the runs table's <name>_model columns.")
+    rep.table(calibration_rows(cal), "calibration table")
+    rep.heading("Where the models agree")
+    rep.text(f"Agree within error bars: |z| <= {cmp.z_agree:g}, z = (BPM mean - BCM mean) / sqrt(s_BCM²/n_BCM + "
+             "s_BPM²/n_BPM) over the seeds of a point; a point with one run of a model has no error bar "
+             "(undetermined). Crossovers agree when their brackets between velocities overlap.")
+    for line in agreement_words(points, summary, pairs, cmp.z_agree):
+        rep.text(line)
+    rep.table(summary, "verdicts per measure (agreement.csv)")
+    if len(pairs):
+        rep.table(pairs, "crossovers side by side (crossover_pairs.csv; brackets [lo, hi] on the common omega)")
+    rep.table(points, "per point, side by side (points.csv)", max_rows=60)
+    gained = done[done.e_k2 > 1.0] if "e_k2" in done else done.iloc[0:0]
+    if len(gained):
+        rep.text(f"Flag: in {len(gained)} runs the kinetic energy after the impact exceeds the impact's (e_k^2 > 1): "
+                 + "; ".join(f"{r.model.upper()} v = {r.velocity:g} m/s seed {r.seed}: e_k^2 = {r.e_k2:.3g}"
+                             for r in gained.itertuples())
+                 + ". Energy came from the model itself (broken elements releasing stored or overlap energy), not "
+                   "from the impact: these points are not a result for that model.")
+    if len(failed):
+        rep.text(f"{len(failed)} runs did not finish and are left out: "
+                 + "; ".join(f"{r.run_dir} ({r.state}: {r.error})" for r in failed.itertuples()))
+    rep.table(walls, "wall time per run, s (each model)")
+    for name, path in figures.items():
+        rep.figure(path, name.replace("_", " "))
+    if guard.failed:
+        rep.text("figures not drawn: " + "; ".join(f"{f['plot']}: {f['error']}" for f in guard.failed))
+    write_report(rep, out)
+    return {"runs": len(table), "finished": len(done), "failed": failed.run_dir.tolist(),
+            "agreement": summary.to_dict(orient="records"), "crossovers": pairs.to_dict(orient="records"),
+            "wall_seconds": walls.to_dict(orient="records"), "plots_failed": guard.failed}
+
+
+def run_compare(cmp: CompareFile, compare_path: Path, out: Path, cache: Path, workers: int, console: Console,
+                plots: bool = True) -> dict[str, Any]:
+    """Calibrate, run the grid, analyse (module docstring); failed runs are recorded, not fatal."""
+    from driver.rundir import claim_dir  # noqa: PLC0415
+
+    out = claim_dir(Path(out), COMPARE_MARKER, "comparison directory")
+    cal, mat = calibrate_both(cmp, compare_path, cache, workers, console)
+    atomic_write_json(out / "calibration.json", cal)
+    runs = grid_runs(cmp, mat, cal["bcm"], cal["bpm"], out, str(compare_path))
+    per_model = ", ".join(f"{sum(v['model'] == m for v, _ in runs)} {m.upper()}" for m in MODELS)
+    console.print(f"compare [bold]{cmp.name}[/]: {len(runs)} runs ({per_model}) in {out}/runs")
+    failed = run_grid(runs, workers, console)
+    result = analyse_compare(cmp, cal, runs, out, plots)
+    result["failed_now"] = failed
+    result["calibration"] = calibration_rows(cal).to_dict(orient="records")
+    atomic_write_json(out / "compare.json", result)
+    return result

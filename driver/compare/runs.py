@@ -1,0 +1,120 @@
+"""The runs of a comparison: one base config per model from its calibrated parameters, expanded
+over the grid by the sweep machinery (driver/sweep.py expand_groups) into
+`<out>/runs/<model>/G_c<G_c>/velocity<v>_seed<s>`, and run together (finished runs kept, a
+re-run resumes, a failed run recorded and the others carried on: driver/calibration/curves.py
+run_pending, in-process or on a local Dask cluster)."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Any
+
+from driver.calibration.material import MaterialFile
+from driver.compare.params import bcm_interface_gc, bpm_lambda_c
+from driver.compare.schema import CompareFile
+from driver.config import ConfigError, RunConfig
+from driver.sweep import Group, _assign, _seed_group, expand_groups, format_value, value_list
+
+MODELS = ("bcm", "bpm")
+
+
+def n_cells_of(mat: MaterialFile) -> int:
+    """The BCM particle's cell count (n_cells, or the parent's volume over cell_size^3)."""
+    res = mat.bcm
+    if res.n_cells is not None:
+        return res.n_cells
+    from driver.bcm.particle import parent_shape  # noqa: PLC0415
+
+    return max(2, int(round(parent_shape(res.shape, res.diameter, res.diameter_kind).volume / res.cell_size ** 3)))
+
+
+def base_configs(cmp: CompareFile, mat: MaterialFile, bcm: dict[str, Any], bpm: dict[str, Any],
+                 G_c: float, G_ref: float) -> dict[str, dict[str, Any]]:
+    """The run config of each model at the material's G_c (the velocity and seed set by the grid)."""
+    shape = {"shape": mat.bcm.shape, "diameter": mat.bcm.diameter, "diameter_kind": mat.bcm.diameter_kind}
+    pb, pp = bcm["parameters"], bpm["parameters"]
+    scenario = {"kind": cmp.test, **copy.deepcopy(cmp.scenario)}
+    configs = {
+        "bcm": {"name": f"{cmp.name}_bcm", "seed": 1,
+                "model": {"kind": "bcm", **shape, "n_cells": n_cells_of(mat), "density": mat.material.density,
+                          "interface": {"kn": pb["kn"], "kt": pb["kt"], "G_c": bcm_interface_gc(bcm, G_c)}},
+                "scenario": copy.deepcopy(scenario)},
+        "bpm": {"name": f"{cmp.name}_bpm", "seed": 1,
+                "model": {"kind": "bpm", "dimension": 3, "k_A": pp["k_A"], "theta_c_deg": pp["theta_c_deg"],
+                          "lambda_c": bpm_lambda_c(bpm["parameters"]["lambda_c_at_material_G_c"], G_ref, G_c),
+                          "particle": {**shape, "G_c": G_c,
+                                       "units": {k: bpm["units"][k] for k in ("length_a_m", "mass_m_kg",
+                                                                               "energy_u_J")}}},
+                "scenario": copy.deepcopy(scenario)},
+    }
+    for model, extra in (("bcm", cmp.base.bcm), ("bpm", cmp.base.bpm)):
+        for key, value in extra.items():
+            _assign(configs[model], key, value)
+    return configs
+
+
+def g_values(cmp: CompareFile, mat: MaterialFile) -> list[float]:
+    return list(cmp.grid.G_c) if cmp.grid.G_c else [mat.material.toughness(3)[0]]
+
+
+def grid_runs(cmp: CompareFile, mat: MaterialFile, bcm: dict[str, Any], bpm: dict[str, Any], out: Path,
+              source: str) -> list[tuple[dict[str, Any], RunConfig]]:
+    """Every run of both models: (its grid values {model, G_c, velocity, seed}, its config), each
+    validated before anything runs (ConfigError naming the run)."""
+    velocities = value_list(cmp.grid.velocity, f"{source}: grid.velocity")
+    G_ref = mat.material.toughness(3)[0]
+    groups: list[Group] = [(("scenario.velocity",), [(float(v),) for v in velocities]),
+                           _seed_group(cmp.grid.seeds, source)]
+    runs = []
+    for g in g_values(cmp, mat):
+        for model, data in base_configs(cmp, mat, bcm, bpm, g, G_ref).items():
+            where = Path(out) / "runs" / model / f"G_c{format_value(g)}"
+            for values, cfg in expand_groups(data, groups, where, f"{source} ({model}, G_c = {g:g})"):
+                runs.append(({"model": model, "G_c": g, "velocity": values["scenario.velocity"],
+                              "seed": values["seed"]}, cfg))
+    return runs
+
+
+def same(a: Any, b: Any, rel: float = 1e-6) -> bool:
+    """Equal config values, floats to `rel` (a calibration read back from the cache's JSON
+    differs from the freshly measured one in the last digits)."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(same(a[k], b[k], rel) for k in a)
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return len(a) == len(b) and all(same(x, y, rel) for x, y in zip(a, b))
+    if isinstance(a, float) and isinstance(b, (int, float)) or isinstance(b, float) and isinstance(a, (int, float)):
+        return abs(a - b) <= rel * max(abs(a), abs(b))
+    return a == b
+
+
+def check_kept(runs: list[tuple[dict[str, Any], RunConfig]]) -> None:
+    """A run directory already there (finished or interrupted) must hold the run planned now:
+    the same model and scenario sections (a changed calibration or compare file would otherwise
+    mix two comparisons in one table); ConfigError naming the run and the way out."""
+    from driver.config import load_config  # noqa: PLC0415
+
+    for _, cfg in runs:
+        resolved = cfg.run_dir() / "config.resolved.yaml"
+        if not resolved.exists():
+            continue
+        old = load_config(resolved)
+        if not (same(old.model.model_dump(), cfg.model.model_dump())
+                and same(old.scenario.model_dump(), cfg.scenario.model_dump())):
+            raise ConfigError(f"{cfg.run_dir()}: made with other model or scenario parameters than this comparison "
+                              "plans (a changed calibration, resolution or compare file); give a new --out")
+
+
+def run_grid(runs: list[tuple[dict[str, Any], RunConfig]], workers: int, console) -> list[str]:
+    """Run the unfinished runs (both models, the longest first on Dask); the failed run directories."""
+    from driver.calibration.curves import run_pending  # noqa: PLC0415
+    from driver.rundir import SWEEP_MARKER, claim_dir  # noqa: PLC0415
+    from driver.sweep import pending  # noqa: PLC0415
+
+    for folder in sorted({cfg.run_dir().parent for _, cfg in runs}):
+        claim_dir(folder, SWEEP_MARKER, "sweep directory")
+    check_kept(runs)
+    todo = pending(runs)
+    if not todo:
+        return []
+    return run_pending(todo, workers, console)

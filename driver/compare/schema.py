@@ -1,0 +1,183 @@
+"""The input of `driver compare` (issue 13, point 3):
+
+    name: compare_impact_small
+    material: material_bcm_default.yaml   # a material file, or a calibration.json (driver calibrate);
+                                          # a path relative to this file
+    test: impact                          # the only test for now (the shear test will join here)
+    grid:
+      velocity: [1.0, 2.0, 4.0, 8.0]      # v_0, m/s (or {logspace: [a, b, n]})
+      G_c: [3.3]                          # J/m^2, the material's fracture energy (default: the material's)
+      seeds: 2                            # seeds 1..2, or a list
+    bcm: {n_cells: 300}                   # resolution: replaces the material file's (or cell_size)
+    bpm: {particles_across: 8}            # lambda_c: given, else estimated (below)
+    scenario: {max_time: 2.0e-4}          # the shared impact section (velocity comes from the grid)
+    curves: {bpm_moduli: {seeds: 1}}      # as a material file's curves: (replace its entries)
+    base: {bcm: {}, bpm: {}}              # further dotted keys of either model's run config
+    workers: 2                            # runs at a time (default: cores)
+
+The BPM's lambda_c: the mode-I calibration test is 2D only (driver/bpm/mode1.py), and the
+impact needs a 3D particle, so the BPM's break stretch is not calibrated to G_c here. By
+default it is estimated from the law of the 2D mode-I curve, K_IC = c E sqrt(a) (lambda_c - 1)
+with c = 0.62 (params.MODE1_SLOPE_2D), at the material's K_IC; `bpm.lambda_c` gives it at the
+material's G_c instead. Either is scaled to the grid's other G_c by the same law,
+lambda_c - 1 ~ K_IC ~ sqrt(G_c) (params.py). Its k_A and units are calibrated (the 3D moduli
+curve).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import Field, ValidationError, model_validator
+
+from driver.calibration.material import BcmResolution, MaterialFile, load_material
+from driver.config import format_validation_error, load_yaml, read_config_text
+from driver.schema import ConfigError, _Strict
+
+
+class Grid(_Strict):
+    """The parameter points: velocities x G_c values x seeds."""
+
+    velocity: Any = Field(None, description="impact velocities v_0, m/s: a list or {linspace|logspace: [a, b, n]}")
+    omega: Any = Field(None, description="damage potentials omega instead of velocities: not available yet")
+    G_c: list[float] | None = Field(None, description="the material's fracture energy, J/m^2 (default: the "
+                                                      "material's own)")
+    seeds: Any = Field(2, description="seeds 1..n, or a list of seeds (tessellations / packings per point)")
+
+    @model_validator(mode="after")
+    def _velocities(self) -> "Grid":
+        if self.omega is not None:
+            raise ValueError("grid.omega: not available yet (omega = W_k^- / (2 A_0 G_c) needs each model's A_0, "
+                             "known only once its particle is built); give grid.velocity")
+        if self.velocity is None:
+            raise ValueError("grid.velocity: the impact velocities are required")
+        if self.G_c is not None and (not self.G_c or any(g <= 0 for g in self.G_c)):
+            raise ValueError("grid.G_c: a non-empty list of positive fracture energies (J/m^2)")
+        return self
+
+
+class BpmCompare(_Strict):
+    """The BPM particle of the comparison: its resolution and its break stretch."""
+
+    particles_across: float | None = Field(None, ge=2.0, le=1e4, description="particles across the parent "
+                                                                               "diameter (a = d / this)")
+    particle_size: float | None = Field(None, gt=0.0, description="particle diameter a, m (instead)")
+    theta_c_deg: float | None = Field(None, gt=0.0, lt=180.0, description="critical angle change, degrees")
+    lambda_c: float | None = Field(None, gt=1.0, le=2.0, description="break stretch at the material's G_c "
+                                                                     "(default: estimated, module docstring)")
+
+    @model_validator(mode="after")
+    def _size(self) -> "BpmCompare":
+        if self.particles_across is not None and self.particle_size is not None:
+            raise ValueError("give particles_across or particle_size, not both")
+        return self
+
+
+class BcmCompare(_Strict):
+    """The BCM particle's resolution (replaces the material file's)."""
+
+    n_cells: int | None = Field(None, ge=2, le=200_000)
+    cell_size: float | None = Field(None, gt=0.0)
+
+    @model_validator(mode="after")
+    def _size(self) -> "BcmCompare":
+        if self.n_cells is not None and self.cell_size is not None:
+            raise ValueError("give n_cells or cell_size, not both")
+        return self
+
+
+class Bases(_Strict):
+    bcm: dict[str, Any] = Field(default_factory=dict, description="dotted keys of the BCM run config")
+    bpm: dict[str, Any] = Field(default_factory=dict, description="dotted keys of the BPM run config")
+
+
+class CompareFile(_Strict):
+    """A `driver compare` input (module docstring)."""
+
+    name: str = Field("compare", min_length=1, max_length=80, pattern=r"^[A-Za-z0-9_.-]+$")
+    material: str = Field(..., min_length=1, description="a material file or a calibration.json, relative to "
+                                                         "the compare file")
+    test: Literal["impact"] = Field("impact", description="the test both models run (impact; shear to come)")
+    grid: Grid
+    bcm: BcmCompare = Field(default_factory=BcmCompare)
+    bpm: BpmCompare = Field(default_factory=BpmCompare)
+    scenario: dict[str, Any] = Field(default_factory=dict, description="keys of the shared impact section "
+                                                                       "(not velocity: the grid's)")
+    base: Bases = Field(default_factory=Bases)
+    curves: dict[str, Any] = Field(default_factory=dict, description="changes to the calibration curves, as a "
+                                                                     "material file's curves: (replace its entries)")
+    breakup_fraction: float = Field(0.9, gt=0.0, lt=1.0, description="break-up: largest fragment below this "
+                                                                     "fraction of the parent's mass (SPEC 1.5)")
+    z_agree: float = Field(2.0, gt=0.0, description="|difference| / combined standard error at or below which "
+                                                    "the models agree within error bars")
+    workers: int | None = Field(None, ge=1, description="runs at a time (default: cores)")
+
+    @model_validator(mode="after")
+    def _scenario(self) -> "CompareFile":
+        if "velocity" in self.scenario or "kind" in self.scenario:
+            raise ValueError("scenario: velocity comes from grid.velocity and kind from test; leave them out")
+        return self
+
+
+def load_compare(path: str | Path) -> CompareFile:
+    """Read and validate a compare file; ConfigError naming the file, field and what is allowed."""
+    path = Path(path)
+    source = str(path)
+    data = load_yaml(read_config_text(path), source)
+    if not isinstance(data, dict):
+        raise ConfigError(f"{source}: the top level must be a mapping (name, material, test, grid, bcm, bpm, ...)")
+    try:
+        cmp = CompareFile.model_validate(data)
+    except ValidationError as exc:
+        raise ConfigError(format_validation_error(exc, source, data)) from None
+    from driver.calibration.curves import CURVES  # noqa: PLC0415
+
+    unknown = sorted(set(cmp.curves) - set(CURVES))
+    if unknown:
+        raise ConfigError(f"{source}: curves: unknown curve(s) {', '.join(unknown)}; the curves are "
+                          f"{', '.join(sorted(CURVES))}")
+    return cmp
+
+
+def material_of(cmp: CompareFile, compare_path: Path) -> tuple[MaterialFile, dict[str, Any] | None, Path]:
+    """The material both models are calibrated to, with the compare file's resolutions: from a
+    material file, or from a calibration.json (its material; its BCM result is returned too,
+    reused when the BCM resolution is unchanged). The BPM is always 3D (the impact's particle)."""
+    where = (Path(compare_path).parent / cmp.material).expanduser()
+    if not where.exists():
+        raise ConfigError(f"{compare_path}: material: {where} does not exist (a material file or a calibration.json)")
+    calibration = None
+    if where.suffix == ".json":
+        try:
+            calibration = json.loads(where.read_text())
+            mat = MaterialFile.model_validate(calibration["material"])
+        except (ValueError, KeyError, TypeError, ValidationError) as exc:
+            raise ConfigError(f"{where}: not a calibration.json of driver calibrate ({type(exc).__name__}: "
+                              f"{exc})") from None
+    else:
+        mat = load_material(where)
+    data = mat.model_dump()
+    bcm = dict(data.get("bcm") or {})
+    if cmp.bcm.n_cells is not None or cmp.bcm.cell_size is not None:
+        bcm.update({"n_cells": cmp.bcm.n_cells, "cell_size": cmp.bcm.cell_size})
+    bpm = dict(data.get("bpm") or {"diameter": bcm.get("diameter", 2e-3)})
+    bpm["dimension"] = 3
+    if cmp.bpm.particles_across is not None or cmp.bpm.particle_size is not None:
+        bpm.update({"particles_across": cmp.bpm.particles_across, "particle_size": cmp.bpm.particle_size})
+    if cmp.bpm.theta_c_deg is not None:
+        bpm["theta_c_deg"] = cmp.bpm.theta_c_deg
+    if not bcm:
+        bcm = BcmResolution(diameter=bpm["diameter"]).model_dump()
+    data.update({"bcm": bcm, "bpm": bpm, "curves": {**data.get("curves", {}), **cmp.curves}})
+    try:
+        out = MaterialFile.model_validate(data)
+    except ValidationError as exc:
+        raise ConfigError(format_validation_error(exc, f"{compare_path} (material {where} with the compare "
+                                                       f"file's resolutions)", data)) from None
+    reuse = None
+    bcm_curves = lambda m: {k: v for k, v in m.curves.items() if k.startswith("bcm_")}  # noqa: E731
+    if calibration is not None and calibration.get("bcm") and out.bcm == mat.bcm and bcm_curves(out) == bcm_curves(mat):
+        reuse = calibration["bcm"]
+    return out, reuse, where
