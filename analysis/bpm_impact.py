@@ -142,6 +142,15 @@ def analyse_bpm_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bo
 
     m_p = un["m"]
     wk_minus = 0.5 * system["mass"] * scen["velocity"] ** 2
+    n_in = system.get("bonds_breaking_in_repulsion", 0)
+    if n_in:
+        # driver/bpm/network.py repulsion_at_break: such a break creates U_NB(lambda_c r0)
+        warnings_.append(
+            f"{n_in} of {system['n_bonds']} bonds break inside the non-bonded repulsion (lambda_c r0 < a: bonded "
+            f"neighbours that overlap in the packing); each such break switches Eq. 1 on and creates up to "
+            f"{system['repulsion_energy_per_break_max']:.3g} u, {system['repulsion_energy_if_all_break_J']:.3g} J "
+            f"if all break ({system['repulsion_energy_if_all_break_J'] / wk_minus:.3g} W_k^-): the energy balance "
+            "cannot close. Use model.packing: lj_minimum (neighbours beyond a) or a larger lambda_c")
     last = thermo.iloc[-1]
     w_f_held = held["bond"] + held["angle"]
     elastic_end = float(last.elastic)

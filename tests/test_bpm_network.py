@@ -287,3 +287,15 @@ def test_data_file_round_trip(which, request, tmp_path):
     # LAMMPS measures the same lengths and (vertex = atom2) angles as the network
     np.testing.assert_allclose(np.sort(r), np.sort(net.r0), atol=1e-12)
     np.testing.assert_allclose(np.sort(t), np.sort(np.degrees(net.theta0)), atol=1e-9)
+
+
+def test_repulsion_at_break_by_hand():
+    """A bond breaks at lambda_c r0; below the sum of radii its break switches the non-bonded
+    repulsion on (SPEC 2.2: Eq. 1 acts on pairs not bonded) with U = (abar/r)^12 - 2 (abar/r)^6 + 1."""
+    from driver.bpm.network import repulsion_at_break  # noqa: PLC0415
+
+    n, u_max, u_sum = repulsion_at_break(np.array([0.98, 1.0, 1.1, 0.95]), 1.0, 1.01)
+    r = np.array([0.98, 0.95]) * 1.01
+    u = (1 / r) ** 12 - 2 * (1 / r) ** 6 + 1
+    assert n == 2 and u_max == pytest.approx(u.max()) and u_sum == pytest.approx(u.sum())
+    assert repulsion_at_break(np.array([1.0, 1.2]), 1.0, 1.05) == (0, 0.0, 0.0)

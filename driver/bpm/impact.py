@@ -32,7 +32,7 @@ import driver
 from driver.bcm.placement import random_rotation
 from driver.bpm.clipped import box_side, clip_packing, parent_in_a, voronoi_cells
 from driver.bpm.datafile import write_references
-from driver.bpm.network import Network, delaunay_network
+from driver.bpm.network import Network, delaunay_network, repulsion_at_break
 from driver.bpm.packing import cached_packing
 from driver.plugin_build import cache_base
 from driver.schedule import chunk_steps, settle, settle_windows, write_session
@@ -113,7 +113,7 @@ def build_particle(cfg, seed: int) -> dict:
     un = lj_units(p.units)
     parent = parent_in_a(p.shape, p.diameter, p.diameter_kind, un["a"])
     L = box_side(parent, p.margin)
-    packing = cached_packing(cache_base() / "packings", 3, L, seed, m.packing_fraction)
+    packing = cached_packing(cache_base() / "packings", 3, L, seed, m.packing_fraction, m.packing or "contact")
     net = delaunay_network(packing, m.bond_max_length)
     clipped = clip_packing(packing, net, parent)
     cells = voronoi_cells(parent, clipped.positions, clipped.network.bonds)
@@ -158,6 +158,9 @@ def build_system(cfg, rd) -> dict:
         "timestep_rule": (f"dt = min(model.timestep = {m.timestep:g}, 2 pi sqrt(m / k_n) / {sc.steps_per_period:g}) "
                           f"tau, k_n = {law['kn']:.6g} u/a^2"),
         "contact_radius": 0.5 * DIAMETER, "build_seconds": time.perf_counter() - t0}
+    n_in, u_max, u_sum = repulsion_at_break(net.r0, DIAMETER, m.lambda_c)
+    system.update(bonds_breaking_in_repulsion=n_in, repulsion_energy_per_break_max=u_max,
+                  repulsion_energy_if_all_break=u_sum, repulsion_energy_if_all_break_J=u_sum * un["u"])
     return system
 
 

@@ -210,3 +210,17 @@ def _is_bond(bonds: np.ndarray, n: int, i: np.ndarray, j: np.ndarray) -> np.ndar
     q = np.minimum(i, j) * n + np.maximum(i, j)
     pos = np.clip(np.searchsorted(keys, q), 0, max(len(keys) - 1, 0))
     return (len(keys) > 0) & (keys[pos] == q)
+
+
+def repulsion_at_break(r0: np.ndarray, abar: np.ndarray | float, lambda_c: float) -> tuple[int, float, float]:
+    """Bonds that break inside the non-bonded repulsion (SPEC 2.2: Eq. 1 acts on pairs not
+    bonded): a bond breaks at r = lambda_c r0, and where that is below abar (the pair's sum of
+    radii, bonded neighbours that overlap in the packing) its break switches Eq. 1 on with the
+    energy U_NB(r) = u [(abar/r)^12 - 2 (abar/r)^6 + 1] > 0, which nothing supplied: energy is
+    created. Returns (how many bonds, the largest U_NB per break, the sum over them) in u."""
+    r = lambda_c * np.asarray(r0, float)
+    ab = np.broadcast_to(np.asarray(abar, float), r.shape)
+    inside = r < ab
+    q6 = (ab[inside] / r[inside]) ** 6
+    u = q6 * q6 - 2.0 * q6 + 1.0
+    return int(inside.sum()), float(u.max()) if len(u) else 0.0, float(u.sum())

@@ -45,6 +45,7 @@ def calibrate_bpm(mat: MaterialFile, cache: Path, workers: int, console: Console
     m1 = mode1.table
     inv_l = solve.bpm_lambda_c(K_target, tgt.E, a, m1.lambda_c.to_numpy(float), _col(m1, "K_IC"),
                                reduced["E_reduced"])
+    notes = repulsion_notes(moduli.spec.sweep["base"], inv_l.x)
     nu_model = inv_k.y
     E_model = tgt.E  # the energy unit makes the network's E the target's
     K_model = inv_l.y * tgt.E * math.sqrt(a)
@@ -57,11 +58,34 @@ def calibrate_bpm(mat: MaterialFile, cache: Path, workers: int, console: Console
         "achieved": {"density": tgt.density, "E": E_model, "nu": nu_model, "K_IC": K_model, "G_c": K_model ** 2 / ep},
         "target": {"density": tgt.density, "E": tgt.E, "nu": tgt.nu, "K_IC": K_target, "G_c": G_target},
         "reach": {"nu": inv_k.as_dict(), "K_IC_over_E": inv_l.as_dict()},
+        "notes": notes,
         "curves": {c.spec.name: _curve_record(c) for c in (moduli, mode1)},
         "_curves": {"nu": panel(t.k_A, _col(t, "nu"), inv_k, "$k_A$", r"$\nu$"),
                     "toughness": panel(m1.lambda_c.to_numpy(float) - 1.0, _col(m1, "K_IC") / reduced["E_reduced"],
                                        inv_l, r"$\lambda_c - 1$", r"$K_{IC}^*/E^*$", log=True, shift=1.0)},
     }
+
+
+def repulsion_notes(base: dict[str, Any], lambda_c: float) -> list[str]:
+    """Whether bonds of the packing the curves were measured on break inside the non-bonded
+    repulsion at this lambda_c (driver/bpm/network.py repulsion_at_break): in a dynamic test
+    (an impact) each such break creates energy; the quasi-static calibration tests barely
+    notice it."""
+    from driver.bpm.network import repulsion_at_break  # noqa: PLC0415
+    from driver.bpm.shear import packing_and_network  # noqa: PLC0415
+    from driver.config import parse_config  # noqa: PLC0415
+
+    cfg = parse_config({**base, "scenario": {"kind": "calibrate", "test": "moduli"}}, "calibration curve base")
+    packing, net = packing_and_network(cfg)  # cached: read back, not relaxed again
+    abar = packing.radii[net.bonds[:, 0]] + packing.radii[net.bonds[:, 1]]
+    n_in, u_max, _ = repulsion_at_break(net.r0, abar, lambda_c)
+    if not n_in:
+        return []
+    where = "model.packing: lj_minimum" if cfg.model.dimension == 3 else "a larger lambda_c (a finer resolution)"
+    return [f"at lambda_c = {lambda_c:.6g}, {n_in / net.n_bonds:.0%} of the bonds of this packing "
+            f"({cfg.model.packing or '2D'}) break inside the non-bonded repulsion (lambda_c r0 below the sum of "
+            f"radii: bonded neighbours that overlap), and each such break creates up to {u_max:.3g} u: a dynamic "
+            f"run (an impact) gains energy at its breaks; use {where}"]
 
 
 def panel(x, y, inv: solve.Inverse, xlabel: str, ylabel: str, log: bool = False, shift: float = 0.0) -> dict:

@@ -94,8 +94,10 @@ class BpmResolution(_Strict):
     theta_c_deg: float = Field(10.0, gt=0.0, lt=180.0, description="critical angle change, degrees (SPEC 2.2 "
                                                                    "default; kept as given)")
     packing: Literal["contact", "lj_minimum"] | None = Field(
-        None, description="3D: the preparation of the solid (model.packing: contact, the default, or lj_minimum); "
-                          "2D: leave out")
+        None, description="3D: the preparation of the solid (model.packing); default lj_minimum here: its bonded "
+                          "neighbours lie beyond the repulsion's diameter a, so no bond breaks inside the "
+                          "repulsion at the small lambda_c a brittle material needs (on contact, 60 % of the bonds "
+                          "overlap, and below lambda_c = 1.026 breaks create energy); 2D: leave out")
 
     @model_validator(mode="after")
     def _one_size(self) -> "BpmResolution":
@@ -103,6 +105,8 @@ class BpmResolution(_Strict):
             raise ValueError("give exactly one of particles_across and particle_size (m)")
         if self.packing is not None and self.dimension == 2:
             raise ValueError("packing: a 3D option (the 2D solid has one preparation)")
+        if self.packing is None and self.dimension == 3:
+            self.packing = "lj_minimum"
         return self
 
     def a(self) -> float:

@@ -43,7 +43,8 @@ def comparison(result: dict[str, Any]) -> list[tuple[str, str, str, str, str]]:
 
 
 def reach_notes(result: dict[str, Any]) -> list[str]:
-    return [f"{name}: {r['note']}" for name, r in result["reach"].items() if r["note"]]
+    return ([f"{name}: {r['note']}" for name, r in result["reach"].items() if r["note"]]
+            + [f"warning: {n}" for n in result.get("notes", [])])
 
 
 def markdown(mat: MaterialFile, results: dict[str, Any], source: str) -> str:

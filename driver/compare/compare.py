@@ -30,8 +30,7 @@ from analysis.report import Report, clear_report, write_report
 from analysis.statistics import histogram_table, normalised_mass_distribution
 from analysis.tables import save_table
 from driver.compare import stats
-from driver.compare.params import (MODE1_SLOPE_2D, calibrate_bcm, calibrate_bpm_3d, estimated_lambda_c,
-                                    grid_parameters)
+from driver.compare.params import calibrate_bcm, calibrate_bpm, grid_parameters, lambda_c_table
 from driver.compare.runs import MODELS, g_values, grid_runs, n_cells_of, run_grid
 from driver.calibration.material import MaterialFile
 from driver.compare.schema import CompareFile, material_of
@@ -47,17 +46,18 @@ def calibrate_both(cmp: CompareFile, compare_path: Path, cache: Path, workers: i
     and the material (the compare file's resolutions in it)."""
     mat, reuse, where = material_of(cmp, compare_path)
     bcm = calibrate_bcm(mat, cache, workers, console, reuse)
-    bpm = calibrate_bpm_3d(mat, cache, workers, console)
+    bpm = calibrate_bpm(mat, cache, workers, console)
     G_ref = mat.material.toughness(3)[0]
-    lam = cmp.bpm.lambda_c if cmp.bpm.lambda_c is not None else estimated_lambda_c(mat)
-    bpm["parameters"]["lambda_c_at_material_G_c"] = lam
-    bpm["lambda_c_note"] = ("not calibrated (the mode-I test is 2D only): "
-                            + ("given in the compare file" if cmp.bpm.lambda_c is not None else
-                               f"estimated from the 2D mode-I law K_IC = {MODE1_SLOPE_2D} E sqrt(a) (lambda_c - 1)")
-                            + "; scaled to other G_c as lambda_c - 1 ~ sqrt(G_c)")
+    grid = g_values(cmp, mat)
+    bpm["lambda_c_by_G_c"] = lambda_c_table(bpm, mat, grid, cmp.bpm.lambda_c, G_ref)
+    bpm["parameters"]["lambda_c_at_material_G_c"] = (
+        cmp.bpm.lambda_c if cmp.bpm.lambda_c is not None else bpm["parameters"]["lambda_c"])
+    bpm["lambda_c_note"] = ("given in the compare file, scaled to other G_c as lambda_c - 1 ~ sqrt(G_c)"
+                            if cmp.bpm.lambda_c is not None else
+                            "calibrated: the 3D mode-I curve at the chosen k_A, inverted at each G_c's K_IC")
     return {"material_source": str(where), "material": mat.model_dump(mode="json"), "G_c_material": G_ref,
             "bcm_n_cells": n_cells_of(mat), "bcm": bcm, "bpm": bpm,
-            "grid": grid_parameters(bcm, bpm, g_values(cmp, mat), G_ref, lam)}, mat
+            "grid": grid_parameters(bcm, bpm, grid)}, mat
 
 
 def tidy_table(runs: list[tuple[dict[str, Any], RunConfig]]) -> pd.DataFrame:

@@ -6,11 +6,12 @@ energy per unit crack area of the block is linear through zero in the interface 
 scaling; calibrate_bcm fits its slope s), so every G_c of the grid is reached with the same
 curve: G_c(interface) = G_c / s. One fracture curve, whatever the grid.
 
-BPM: k_A from nu and the LJ units from E and the density on the 3D moduli curve (as
-driver/calibration/calibrate.py calibrate_bpm, in 3D). lambda_c is not calibrated (the mode-I
-test is 2D only): at the material's G_c it is given, or estimated from the 2D mode-I law
-K_IC = c E sqrt(a) (lambda_c - 1) (solve.bpm_lambda_c's law; c = MODE1_SLOPE_2D), and scaled to
-another G_c by the same law with G_c = K_IC^2 / E': lambda_c - 1 ~ sqrt(G_c).
+BPM (driver/calibration/calibrate.py calibrate_bpm, in 3D): k_A from nu and the LJ units from
+E and the density on the 3D moduli curve, lambda_c from the 3D mode-I curve measured at that
+k_A. Every G_c of the grid inverts the same mode-I curve at its own K_IC = sqrt(G_c E') (E' =
+E / (1 - nu^2), the target's): one curve, whatever the grid. `bpm.lambda_c` of the compare file
+overrides it at the material's G_c, and is then scaled to the grid's other G_c by the curve's
+law, lambda_c - 1 ~ K_IC ~ sqrt(G_c).
 """
 
 from __future__ import annotations
@@ -24,18 +25,6 @@ from rich.console import Console
 from driver.calibration import curves as cv
 from driver.calibration import solve
 from driver.calibration.material import MaterialFile
-
-
-#: c of K_IC / (E sqrt(a)) = c (lambda_c - 1), measured in 2D (README, the BPM mode-I
-#: toughness: K_IC / E = 0.0309 at lambda_c = 1.05 and 0.0188 at 1.03, k_A = 4, L = 40; their
-#: ratio 0.61 against 0.6 for proportionality). An estimate for the 3D particle, stated so.
-MODE1_SLOPE_2D = 0.62
-
-
-def estimated_lambda_c(mat: MaterialFile) -> float:
-    """lambda_c at the material's K_IC (plane strain) by the 2D mode-I law (MODE1_SLOPE_2D)."""
-    _, K = mat.material.toughness(3)
-    return 1.0 + cv.rounded(K / (mat.material.E * math.sqrt(mat.bpm.a())) / MODE1_SLOPE_2D)
 
 
 def bcm_interface_gc(result: dict[str, Any], G_c: float) -> float:
@@ -61,33 +50,57 @@ def calibrate_bcm(mat: MaterialFile, cache: Path, workers: int, console: Console
     return out
 
 
-def calibrate_bpm_3d(mat: MaterialFile, cache: Path, workers: int, console: Console) -> dict[str, Any]:
-    """k_A and the units of the 3D BPM (the moduli curve in 3D; `curves.bpm_moduli` of the
-    material file changes it)."""
-    res, tgt = mat.bpm, mat.material
-    moduli = cv.measure(cv.changed(cv.bpm_moduli(3), mat.curves.get("bpm_moduli")), cache, workers, console)
-    t = moduli.table
-    col = lambda name: t[f"{name}_mean"].to_numpy(float)  # noqa: E731
-    inv_k, units, reduced = solve.bpm_elastic(tgt.nu, tgt.E, tgt.density, res.a(), t.k_A, col("nu"), col("E"),
-                                              col("number_density"))
-    return {"model": "bpm", "dimension": 3,
-            "parameters": {"k_A": cv.rounded(inv_k.x), "theta_c_deg": res.theta_c_deg,
-                           "particles_across": res.diameter / res.a()},
-            # 8 digits: the same units whether the curve was just measured or read from the cache
-            "units": {k: cv.rounded(v, 8) for k, v in units.as_dict().items()}, "reduced": reduced,
-            "achieved": {"density": tgt.density, "E": tgt.E, "nu": inv_k.y},
-            "target": {"density": tgt.density, "E": tgt.E, "nu": tgt.nu},
-            "reach": {"nu": inv_k.as_dict()},
-            "curves": {"bpm_moduli": {"directory": str(moduli.directory), "from_cache": moduli.cached}}}
+def calibrate_bpm(mat: MaterialFile, cache: Path, workers: int, console: Console) -> dict[str, Any]:
+    """The 3D BPM's calibration (driver/calibration/calibrate.py): k_A, units, lambda_c."""
+    from driver.calibration.calibrate import calibrate_bpm as run  # noqa: PLC0415
+
+    out = run(mat, cache, workers, console)
+    out.pop("_curves", None)
+    # 8 digits: the same units whether the curves were just measured or read from the cache
+    out["units"] = {k: cv.rounded(v, 8) for k, v in out["units"].items()}
+    return out
 
 
-def grid_parameters(bcm: dict[str, Any], bpm: dict[str, Any], g_values: list[float], G_ref: float,
-                    lambda_ref: float) -> list[dict[str, Any]]:
+def lambda_c_on_curve(bpm: dict[str, Any], mat: MaterialFile, G_c: float) -> solve.Inverse:
+    """lambda_c at the material's fracture energy G_c: the calibration's 3D mode-I curve
+    (K_IC* against lambda_c at the chosen k_A) inverted at K_IC = sqrt(G_c E')."""
+    tgt = mat.material
+    table = bpm["curves"]["bpm_mode1"]["table"]
+    lc = [row["lambda_c"] for row in table]
+    K_red = [row["K_IC_mean"] for row in table]
+    K = math.sqrt(G_c * tgt.plane_modulus(3))
+    return solve.bpm_lambda_c(K, tgt.E, mat.bpm.a(), lc, K_red, bpm["reduced"]["E_reduced"])
+
+
+def lambda_c_table(bpm: dict[str, Any], mat: MaterialFile, g_values: list[float], given: float | None,
+                   G_ref: float) -> list[dict[str, Any]]:
+    """lambda_c at each G_c of the grid: from the mode-I curve (lambda_c_on_curve), or from the
+    compare file's `given` value at the material's G_c scaled by lambda_c - 1 ~ sqrt(G_c)."""
+    rows = []
+    for g in g_values:
+        if given is not None:
+            rows.append({"G_c": g, "lambda_c": bpm_lambda_c(given, G_ref, g), "reached": True,
+                         "note": "given in the compare file at the material's G_c, scaled as sqrt(G_c)"})
+            continue
+        inv = lambda_c_on_curve(bpm, mat, g)
+        rows.append({"G_c": g, "lambda_c": 1.0 + cv.rounded(inv.x - 1.0), "reached": inv.reached,
+                     "note": inv.note or "the 3D mode-I curve at the chosen k_A"})
+    return rows
+
+
+def lambda_c_for(bpm: dict[str, Any], G_c: float) -> float:
+    """The BPM's lambda_c at G_c, from bpm["lambda_c_by_G_c"] (lambda_c_table)."""
+    for row in bpm["lambda_c_by_G_c"]:
+        if math.isclose(row["G_c"], G_c, rel_tol=1e-9):
+            return row["lambda_c"]
+    raise KeyError(f"no lambda_c for G_c = {G_c:g}")
+
+
+def grid_parameters(bcm: dict[str, Any], bpm: dict[str, Any], g_values: list[float]) -> list[dict[str, Any]]:
     """One row per (model, G_c): the model's fracture parameter at the material's G_c."""
     rows = []
     for g in g_values:
         rows.append({"model": "bcm", "G_c": g, "parameter": "model.interface.G_c",
                      "value": bcm_interface_gc(bcm, g)})
-        rows.append({"model": "bpm", "G_c": g, "parameter": "model.lambda_c", "value": bpm_lambda_c(lambda_ref,
-                                                                                                  G_ref, g)})
+        rows.append({"model": "bpm", "G_c": g, "parameter": "model.lambda_c", "value": lambda_c_for(bpm, g)})
     return rows

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from driver.calibration.material import MaterialFile
-from driver.compare.params import bcm_interface_gc, bpm_lambda_c
+from driver.compare.params import bcm_interface_gc, lambda_c_for
 from driver.compare.schema import CompareFile
 from driver.config import ConfigError, RunConfig
 from driver.sweep import Group, _assign, _seed_group, expand_groups, format_value, value_list
@@ -41,8 +41,9 @@ def base_configs(cmp: CompareFile, mat: MaterialFile, bcm: dict[str, Any], bpm: 
                           "interface": {"kn": pb["kn"], "kt": pb["kt"], "G_c": bcm_interface_gc(bcm, G_c)}},
                 "scenario": copy.deepcopy(scenario)},
         "bpm": {"name": f"{cmp.name}_bpm", "seed": 1,
-                "model": {"kind": "bpm", "dimension": 3, "k_A": pp["k_A"], "theta_c_deg": pp["theta_c_deg"],
-                          "lambda_c": bpm_lambda_c(bpm["parameters"]["lambda_c_at_material_G_c"], G_ref, G_c),
+                "model": {"kind": "bpm", "dimension": 3, "packing": mat.bpm.packing, "k_A": pp["k_A"],
+                          "theta_c_deg": pp["theta_c_deg"],
+                          "lambda_c": lambda_c_for(bpm, G_c),
                           "particle": {**shape, "G_c": G_c,
                                        "units": {k: bpm["units"][k] for k in ("length_a_m", "mass_m_kg",
                                                                                "energy_u_J")}}},

@@ -9,19 +9,16 @@
       G_c: [3.3]                          # J/m^2, the material's fracture energy (default: the material's)
       seeds: 2                            # seeds 1..2, or a list
     bcm: {n_cells: 300}                   # resolution: replaces the material file's (or cell_size)
-    bpm: {particles_across: 8}            # lambda_c: given, else estimated (below)
+    bpm: {particles_across: 8}            # lambda_c: calibrated, or given (below)
     scenario: {max_time: 2.0e-4}          # the shared impact section (velocity comes from the grid)
     curves: {bpm_moduli: {seeds: 1}}      # as a material file's curves: (replace its entries)
     base: {bcm: {}, bpm: {}}              # further dotted keys of either model's run config
     workers: 2                            # runs at a time (default: cores)
 
-The BPM's lambda_c: the mode-I calibration test is 2D only (driver/bpm/mode1.py), and the
-impact needs a 3D particle, so the BPM's break stretch is not calibrated to G_c here. By
-default it is estimated from the law of the 2D mode-I curve, K_IC = c E sqrt(a) (lambda_c - 1)
-with c = 0.62 (params.MODE1_SLOPE_2D), at the material's K_IC; `bpm.lambda_c` gives it at the
-material's G_c instead. Either is scaled to the grid's other G_c by the same law,
-lambda_c - 1 ~ K_IC ~ sqrt(G_c) (params.py). Its k_A and units are calibrated (the 3D moduli
-curve).
+The BPM's lambda_c is calibrated in 3D (the mode-I curve of the thin periodic slab at the chosen
+k_A, driver/calibration/curves.py) and read off that curve at each G_c of the grid
+(params.py); `bpm.lambda_c` overrides it at the material's G_c (scaled to the grid's other G_c
+as lambda_c - 1 ~ K_IC ~ sqrt(G_c)). Its k_A and units come from the 3D moduli curve.
 """
 
 from __future__ import annotations
@@ -66,7 +63,7 @@ class BpmCompare(_Strict):
     particle_size: float | None = Field(None, gt=0.0, description="particle diameter a, m (instead)")
     theta_c_deg: float | None = Field(None, gt=0.0, lt=180.0, description="critical angle change, degrees")
     lambda_c: float | None = Field(None, gt=1.0, le=2.0, description="break stretch at the material's G_c "
-                                                                     "(default: estimated, module docstring)")
+                                                                     "(default: calibrated on the 3D mode-I curve)")
 
     @model_validator(mode="after")
     def _size(self) -> "BpmCompare":
