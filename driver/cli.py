@@ -13,7 +13,7 @@ from typing import Optional
 import typer
 from rich.console import Console
 
-from driver.config import ConfigError, load_config, load_yaml, read_config_text
+from driver.config import ConfigError, load_config
 from driver.engine import LammpsError
 from driver.lammps_site import LammpsSiteError
 from driver.plugin_build import PluginBuildError
@@ -455,6 +455,22 @@ def _sweep_results(expanded, columns: str) -> None:
               f"deviations over seeds)")
 
 
+@contextlib.contextmanager
+def _calibration_errors():
+    """The exit codes of calibrate and compare: 2 a refused input or folder, 3 the plugins or
+    the site LAMMPS, 1 curves or runs that failed (the finished ones are kept)."""
+    from driver.calibration.curves import CalibrationError  # noqa: PLC0415
+
+    try:
+        yield
+    except (ConfigError, RunDirError) as exc:
+        _fail(str(exc), 2)
+    except (PluginBuildError, LammpsSiteError) as exc:
+        _fail(str(exc), 3)
+    except CalibrationError as exc:
+        _fail(str(exc), 1)
+
+
 @app.command()
 def calibrate(material_yaml: Path = typer.Argument(..., help="a material file: the target material and each "
                                                              "model's resolution (README, Calibration)"),
@@ -469,28 +485,19 @@ def calibrate(material_yaml: Path = typer.Argument(..., help="a material file: t
     from rich.table import Table  # noqa: PLC0415
 
     from driver.calibration.calibrate import calibrate as run_calibration  # noqa: PLC0415
-    from driver.calibration.curves import CalibrationError  # noqa: PLC0415
     from driver.calibration.material import load_material  # noqa: PLC0415
     from driver.calibration.report import TITLES, comparison, reach_notes, rows, write_outputs  # noqa: PLC0415
     from driver.distributed import default_workers  # noqa: PLC0415
-    from driver.plugin_build import cache_base  # noqa: PLC0415
+    from driver.plugin_build import cache_base, plugin_library  # noqa: PLC0415
     from driver.rundir import claim_dir  # noqa: PLC0415
 
-    try:
+    with _calibration_errors():
         mat = load_material(material_yaml)
         target = claim_dir(out if out is not None else Path("runs") / f"calibrate_{mat.name}", ".brittle-calibration",
                            "calibration directory")
-        from driver.plugin_build import plugin_library  # noqa: PLC0415
-
         plugin_library()
         results = run_calibration(mat, cache_base(), workers or default_workers(None), err, verify=verify,
                                   verify_dir=target / "verify")
-    except (ConfigError, RunDirError) as exc:
-        _fail(str(exc), 2)
-    except (PluginBuildError, LammpsSiteError) as exc:
-        _fail(str(exc), 3)
-    except CalibrationError as exc:
-        _fail(str(exc), 1)
     files = write_outputs(mat, results, target, str(material_yaml))
     console = Console(width=max(100, Console().width))
     for model, r in results.items():
@@ -524,24 +531,17 @@ def compare(compare_yaml: Path = typer.Argument(..., help="a compare file: mater
     side by side: tables, plots and a report of where they agree within error bars."""
     from rich.table import Table  # noqa: PLC0415
 
-    from driver.calibration.curves import CalibrationError  # noqa: PLC0415
     from driver.compare.compare import run_compare  # noqa: PLC0415
     from driver.compare.schema import load_compare  # noqa: PLC0415
     from driver.distributed import default_workers  # noqa: PLC0415
     from driver.plugin_build import cache_base, plugin_library  # noqa: PLC0415
 
-    try:
+    with _calibration_errors():
         cmp = load_compare(compare_yaml)
         target = out if out is not None else Path("runs") / f"compare_{cmp.name}"
         plugin_library()
         result = run_compare(cmp, compare_yaml, target, cache_base(), workers or cmp.workers or default_workers(None),
                              err, plots=not no_plots)
-    except (ConfigError, RunDirError) as exc:
-        _fail(str(exc), 2)
-    except (PluginBuildError, LammpsSiteError) as exc:
-        _fail(str(exc), 3)
-    except CalibrationError as exc:
-        _fail(str(exc), 1)
     console = Console(width=max(100, Console().width))
     ct = Table("model", "parameter", "value", "unit", "from", title="calibration (SPEC 3)")
     for r in result["calibration"]:

@@ -139,21 +139,28 @@ class MaterialFile(_Strict):
         return self
 
 
-def load_material(path: str | Path) -> MaterialFile:
-    """Read and validate a material file; ConfigError naming the file, field and what is allowed."""
+def read_input(path: str | Path, cls, keys: str):
+    """Read a YAML input file into the pydantic model `cls` (keys: its top-level keys, for the
+    message), then check its `curves:` names; ConfigError naming the file, field and what is
+    allowed."""
     path = Path(path)
     source = str(path)
     data = load_yaml(read_config_text(path), source)
     if not isinstance(data, dict):
-        raise ConfigError(f"{source}: the top level must be a mapping (name, material, bcm, bpm, curves)")
+        raise ConfigError(f"{source}: the top level must be a mapping ({keys})")
     try:
-        mat = MaterialFile.model_validate(data)
+        out = cls.model_validate(data)
     except ValidationError as exc:
         raise ConfigError(format_validation_error(exc, source, data)) from None
     from driver.calibration.curves import CURVES  # noqa: PLC0415
 
-    unknown = sorted(set(mat.curves) - set(CURVES))
+    unknown = sorted(set(out.curves) - set(CURVES))
     if unknown:
         raise ConfigError(f"{source}: curves: unknown curve(s) {', '.join(unknown)}; the curves are "
                           f"{', '.join(sorted(CURVES))}")
-    return mat
+    return out
+
+
+def load_material(path: str | Path) -> MaterialFile:
+    """Read and validate a material file (read_input)."""
+    return read_input(path, MaterialFile, "name, material, bcm, bpm, curves")

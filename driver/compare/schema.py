@@ -29,8 +29,8 @@ from typing import Any, Literal
 
 from pydantic import Field, ValidationError, model_validator
 
-from driver.calibration.material import BcmResolution, MaterialFile, load_material
-from driver.config import format_validation_error, load_yaml, read_config_text
+from driver.calibration.material import BcmResolution, MaterialFile, load_material, read_input
+from driver.config import format_validation_error
 from driver.schema import ConfigError, _Strict
 
 
@@ -119,23 +119,8 @@ class CompareFile(_Strict):
 
 
 def load_compare(path: str | Path) -> CompareFile:
-    """Read and validate a compare file; ConfigError naming the file, field and what is allowed."""
-    path = Path(path)
-    source = str(path)
-    data = load_yaml(read_config_text(path), source)
-    if not isinstance(data, dict):
-        raise ConfigError(f"{source}: the top level must be a mapping (name, material, test, grid, bcm, bpm, ...)")
-    try:
-        cmp = CompareFile.model_validate(data)
-    except ValidationError as exc:
-        raise ConfigError(format_validation_error(exc, source, data)) from None
-    from driver.calibration.curves import CURVES  # noqa: PLC0415
-
-    unknown = sorted(set(cmp.curves) - set(CURVES))
-    if unknown:
-        raise ConfigError(f"{source}: curves: unknown curve(s) {', '.join(unknown)}; the curves are "
-                          f"{', '.join(sorted(CURVES))}")
-    return cmp
+    """Read and validate a compare file (driver/calibration/material.py read_input)."""
+    return read_input(path, CompareFile, "name, material, test, grid, bcm, bpm, ...")
 
 
 def material_of(cmp: CompareFile, compare_path: Path) -> tuple[MaterialFile, dict[str, Any] | None, Path]:
