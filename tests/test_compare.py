@@ -194,6 +194,9 @@ curves:
   bcm_moduli: {base: {scenario.block.n_cells: 64}, axes: {model.interface.kt: [5.0e6, 1.0e7]}, seeds: 1}
   bcm_fracture: {base: {scenario.block.n_cells: 64}, axes: {model.interface.G_c: [0.5, 1.0]}, seeds: 1}
   bpm_moduli: {base: {model.L: 6}, axes: {model.k_A: [0, 1, 2]}, seeds: 1}
+  bpm_mode1: {base: {model.L: 12, scenario.void_axes: [8, 1]}, seeds: 1,
+              zip: [{model.lambda_c: [1.003, 1.03], scenario.max_pull_strain: [0.0009, 0.009],
+                     scenario.strain_rate: [1.2e-5, 1.2e-4]}]}
 """
 TINY = """name: tiny
 material: m.yaml
@@ -247,6 +250,8 @@ def test_tiny_grid_writes_tables_plots_report_and_resumes(tmp_path, monkeypatch,
         assert r.W_f_held == pytest.approx(log.energy.sum(), rel=1e-6) and r.W_f_held > 0
     cal = json.loads((out / "calibration.json").read_text())
     assert cal["bcm"]["parameters"]["G_c"] > 0 and cal["bpm"]["parameters"]["lambda_c_at_material_G_c"] > 1.0
+    # lambda_c from the 3D mode-I curve, at the material's packing (lj_minimum by default)
+    assert "bpm_mode1" in cal["bpm"]["curves"] and cal["material"]["bpm"]["packing"] == "lj_minimum"
 
     summaries = sorted(out.glob("runs/*/*/*/results/summary.json"))
     stamps = [p.stat().st_mtime_ns for p in summaries]

@@ -143,14 +143,15 @@ def calibration_rows(cal: dict[str, Any]) -> pd.DataFrame:
             ("BCM", "k_n", b["parameters"]["kn"], "N/m", "moduli curve: E"),
             ("BCM", "k_t / k_n", b["parameters"]["kt_over_kn"], "", "moduli curve: nu"),
             ("BCM", "fracture slope s", b["fracture_slope"]["slope"], "", "fracture curve: W/A per interface G_c"),
-            ("BPM", "particles across", p["parameters"]["particles_across"], "", "the compare file's resolution"),
+            ("BPM", "particles across", p["parameters"]["grain_diameter_in_a"], "", "the compare file's resolution"),
             ("BPM", "k_A", p["parameters"]["k_A"], "u", "3D moduli curve: nu"
              + ("" if p["reach"]["nu"]["reached"] else " (OUT OF REACH: nearest)")),
             ("BPM", "a", p["units"]["length_a_m"], "m", "resolution"),
             ("BPM", "m", p["units"]["mass_m_kg"], "kg", "density"),
             ("BPM", "u", p["units"]["energy_u_J"], "J", "E"),
             ("BPM", "lambda_c - 1 at the material's G_c", p["parameters"]["lambda_c_at_material_G_c"] - 1.0, "",
-             p["lambda_c_note"])]
+             p["lambda_c_note"] + ("" if all(r["reached"] for r in p.get("lambda_c_by_G_c", []))
+                                   else " (OUT OF REACH at some G_c: nearest)"))]
     rows += [(r["model"].upper(), f"{r['parameter']}{' - 1' if r['model'] == 'bpm' else ''} at G_c = {r['G_c']:g}",
               r["value"] - (1.0 if r["model"] == "bpm" else 0.0), "J/m^2" if r["model"] == "bcm" else "",
               "per grid G_c") for r in cal["grid"]]
