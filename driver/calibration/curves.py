@@ -46,11 +46,12 @@ from runfiles.atomic import atomic_write_json, atomic_write_text
 #: Bumped whenever what a curve's sweep measures changes beyond its sweep file (the key).
 CURVES_VERSION = 1
 #: lambda_c of the mode-I curve: K_IC / E grows about as lambda_c - 1, and a real material at a
-#: resolution of tens of particles across a grain needs lambda_c - 1 near 1e-3 (its strain at
-#: failure), so the points are spread logarithmically down to there; 3D runs cost about 30 times
-#: more, and the curve is a power law to the measured precision (2D: K_IC = 50.0 (lambda_c - 1)
-#: from 1.001 to 1.1), so fewer points there.
-LAMBDA_C = {2: (1.001, 1.003, 1.01, 1.03, 1.05, 1.1), 3: (1.001, 1.01, 1.03, 1.1)}
+#: resolution of tens of particles across a grain needs lambda_c - 1 of 1e-4 to 1e-3 (its strain
+#: at failure; the material of the BCM defaults at 12 across: 4.5e-4), so the points are spread
+#: logarithmically down to 3e-4; 3D runs cost about 30 times more, and the curve is a power law to
+#: the measured precision (2D: K_IC = 50.0 (lambda_c - 1) from 1.001 to 1.1; 3D on lj_minimum:
+#: 77.8 (lambda_c - 1)), so fewer points there.
+LAMBDA_C = {2: (1.0003, 1.001, 1.003, 1.01, 1.03, 1.05, 1.1), 3: (1.0003, 1.001, 1.01, 1.03, 1.1)}
 #: Pull of the mode-I runs: to PULL_STRAIN (lambda_c - 1), past the peak (near 0.16 (lambda_c - 1)),
 #: at PULL_RATE (lambda_c - 1) per tau, so every run lasts as long and the peak comes after the
 #: same number of sound crossings whatever lambda_c (2D, L = 40: about 18; 3D, L = 32: about 9,
