@@ -180,39 +180,10 @@ def plot_shear(record: pd.DataFrame, peak: int, path: Path) -> None:
 
 
 def analyse_mode2_set(runs: list[dict], out: Path, plots: bool = True, left_out: list[dict] | None = None) -> dict:
-    """K_IIC (and K_IIC / K_IC where K_IC_reference was given) against theta_c: table `runs`
-    (one row per run) and `toughness` (mean and standard deviation per theta_c)."""
-    out = Path(out)
-    rows = [{"run": r["cfg"]["name"], "run_dir": str(r["dir"]),
-             **{k: v for k, v in r["summary"].items() if not isinstance(v, (list, dict))}} for r in runs]
-    table = pd.DataFrame(rows).sort_values("theta_c_deg").reset_index(drop=True)
-    save_table(table, out / "runs")
-    cols = [c for c in ("tau_c", "K_IIC", "K_IIC_over_K_IC") if c in table]
-    points = table.groupby("theta_c_deg")[cols].agg(["mean", "std"])
-    points.columns = [f"{a}_{b}" for a, b in points.columns]
-    points = points.reset_index()
-    save_table(points, out / "toughness")
-    guard = PlotGuard()
-    png = out / "plots" / "toughness_vs_theta_c.png"
-    if plots:
-        guard.draw("toughness_vs_theta_c", png, plot_toughness, points, png)
-    clear_report(out)
-    rep = Report("BPM mode-II toughness against theta_c", f"{len(table)} runs")
-    rep.table(points, "K_IIC per theta_c (mean and standard deviation over runs)")
-    if plots and not guard.failed:
-        rep.figure(png, "K_IIC (or K_IIC / K_IC where K_IC_reference was given) against theta_c")
-    write_report(rep, out)
-    return {"runs": len(table), "left_out": left_out or []}
+    """K_IIC (and K_IIC / K_IC where K_IC_reference was given) against theta_c
+    (analysis/toughness.py toughness_set)."""
+    from analysis.toughness import toughness_set  # noqa: PLC0415
 
-
-def plot_toughness(points: pd.DataFrame, path: Path) -> None:
-    import matplotlib.pyplot as plt  # noqa: PLC0415
-    from runfiles.atomic import atomic_save  # noqa: PLC0415
-
-    name = "K_IIC_over_K_IC" if "K_IIC_over_K_IC_mean" in points else "K_IIC"
-    fig, ax = plt.subplots(figsize=(5.0, 3.6), dpi=150)
-    ax.errorbar(points.theta_c_deg, points[f"{name}_mean"], yerr=points[f"{name}_std"].fillna(0), fmt="o-")
-    ax.set(xlabel=r"$\theta_c$ (degrees)", ylabel=r"$K_{IIC}/K_{IC}$" if name == "K_IIC_over_K_IC" else r"$K_{IIC}$")
-    fig.tight_layout()
-    atomic_save(path, lambda p: fig.savefig(p))
-    plt.close(fig)
+    return toughness_set(runs, out, plots, left_out, "theta_c_deg", ("tau_c", "K_IIC", "K_IIC_over_K_IC"),
+                         "K_IIC_over_K_IC", "K_IIC", r"$\theta_c$ (degrees)", (r"$K_{IIC}$", r"$K_{IIC}/K_{IC}$"),
+                         "mode-II toughness")

@@ -159,40 +159,50 @@ def plot_pull(record: pd.DataFrame, peak: int, path: Path) -> None:
     plt.close(fig)
 
 
-def analyse_mode1_set(runs: list[dict], out: Path, plots: bool = True, left_out: list[dict] | None = None) -> dict:
-    """K_IC (and K_IC / E where E_reference was given) against lambda_c: table `runs` (one
-    row per run) and `toughness` (mean and standard deviation per lambda_c)."""
+def toughness_set(runs: list[dict], out: Path, plots: bool, left_out: list[dict] | None, x: str, cols: tuple[str, ...],
+                  ratio: str, name: str, xlabel: str, ylabels: tuple[str, str], what: str) -> dict:
+    """The set analysis of a toughness test: table `runs` (one row per run) and `toughness`
+    (mean and standard deviation of `cols` per value of `x`), the figure of `ratio` (where the
+    runs have it, else the toughness `name`) against x, and the report."""
     out = Path(out)
     rows = [{"run": r["cfg"]["name"], "run_dir": str(r["dir"]),
              **{k: v for k, v in r["summary"].items() if not isinstance(v, (list, dict))}} for r in runs]
-    table = pd.DataFrame(rows).sort_values("lambda_c").reset_index(drop=True)
+    table = pd.DataFrame(rows).sort_values(x).reset_index(drop=True)
     save_table(table, out / "runs")
-    cols = [c for c in ("sigma_c", "K_IC", "K_IC_over_E", "crack_speed", "crack_speed_over_rayleigh") if c in table]
-    points = table.groupby("lambda_c")[cols].agg(["mean", "std"])
+    points = table.groupby(x)[[c for c in cols if c in table]].agg(["mean", "std"])
     points.columns = [f"{a}_{b}" for a, b in points.columns]
     points = points.reset_index()
     save_table(points, out / "toughness")
     guard = PlotGuard()
-    png = out / "plots" / "toughness_vs_lambda_c.png"
+    png = out / "plots" / f"toughness_vs_{x.removesuffix('_deg')}.png"
+    y = ratio if f"{ratio}_mean" in points else name
     if plots:
-        guard.draw("toughness_vs_lambda_c", png, plot_toughness, points, png)
+        guard.draw(png.stem, png, plot_toughness, points, x, y, xlabel, ylabels[y != name], png)
     clear_report(out)
-    rep = Report("BPM mode-I toughness against lambda_c", f"{len(table)} runs")
-    rep.table(points, "K_IC per lambda_c (mean and standard deviation over runs)")
+    shown = x.removesuffix("_deg")
+    rep = Report(f"BPM {what} against {shown}", f"{len(table)} runs")
+    rep.table(points, f"{name} per {shown} (mean and standard deviation over runs)")
     if plots and not guard.failed:
-        rep.figure(png, "K_IC (or K_IC / E where E_reference was given) against lambda_c")
+        rep.figure(png, f"{y} against {shown}")
     write_report(rep, out)
     return {"runs": len(table), "left_out": left_out or []}
 
 
-def plot_toughness(points: pd.DataFrame, path: Path) -> None:
+def analyse_mode1_set(runs: list[dict], out: Path, plots: bool = True, left_out: list[dict] | None = None) -> dict:
+    """K_IC (and K_IC / E where E_reference was given; the crack speed where the runs have it)
+    against lambda_c (toughness_set)."""
+    return toughness_set(runs, out, plots, left_out, "lambda_c",
+                         ("sigma_c", "K_IC", "K_IC_over_E", "crack_speed", "crack_speed_over_rayleigh"),
+                         "K_IC_over_E", "K_IC", r"$\lambda_c$", (r"$K_{IC}$", r"$K_{IC}/E$"), "mode-I toughness")
+
+
+def plot_toughness(points: pd.DataFrame, x: str, y: str, xlabel: str, ylabel: str, path: Path) -> None:
     import matplotlib.pyplot as plt  # noqa: PLC0415
     from runfiles.atomic import atomic_save  # noqa: PLC0415
 
-    name = "K_IC_over_E" if "K_IC_over_E_mean" in points else "K_IC"
     fig, ax = plt.subplots(figsize=(5.0, 3.6), dpi=150)
-    ax.errorbar(points.lambda_c, points[f"{name}_mean"], yerr=points[f"{name}_std"].fillna(0), fmt="o-")
-    ax.set(xlabel=r"$\lambda_c$", ylabel=r"$K_{IC}/E$" if name == "K_IC_over_E" else r"$K_{IC}$")
+    ax.errorbar(points[x], points[f"{y}_mean"], yerr=points[f"{y}_std"].fillna(0), fmt="o-")
+    ax.set(xlabel=xlabel, ylabel=ylabel)
     fig.tight_layout()
     atomic_save(path, lambda p: fig.savefig(p))
     plt.close(fig)
