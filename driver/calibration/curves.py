@@ -200,7 +200,10 @@ def measure(spec: CurveSpec, cache: Path, workers: int = 1, console: Console | N
     if failed:
         raise CalibrationError(f"curve {spec.name}: {len(failed)} of {len(sweep.runs)} runs failed ({', '.join(failed)}"
                                f"); see their status.json; run the same command again to retry them")
-    result = analyse_set([cfg.run_dir() for _, cfg in sweep.runs], where / "set")
+    try:
+        result = analyse_set([cfg.run_dir() for _, cfg in sweep.runs], where / "set")
+    except ValueError as exc:  # RunSetError is one: the runs finished but their set cannot be analysed
+        raise CalibrationError(f"curve {spec.name}: the set analysis of {where / 'runs'} failed: {exc}") from None
     if result.get("left_out"):
         raise CalibrationError(f"curve {spec.name}: runs left out of the set analysis: {result['left_out']}")
     table = pd.read_csv(where / "set" / f"{spec.table}.csv")
