@@ -54,8 +54,8 @@ class BlockCalibrateScenario(CalibrateScenario):
 
     test: Literal["moduli", "mode1", "mode2", "crack_speed", "fracture"] = Field(
         "moduli", description="moduli: B, G, E, nu by compression and simple shear at a rate, then at half of it "
-                              "(the rate check); mode1 (BPM): K_IC of a free sample with an elliptic void; mode2 (BPM): K_IIC "
-                              "under pure shear; "
+                              "(the rate check); mode1 (BPM): K_IC of a free sample with an elliptic void; "
+                              "mode2 (BPM): K_IIC under pure shear; crack_speed (BPM): the mode1 pull's crack speed; "
                               "fracture (BCM): a notched periodic block pulled in mode I")
     block: BlockSection | None = Field(None, description="BCM: the periodic block (filled in with its defaults "
                                                          "for a BCM run; a BPM run leaves it out)")

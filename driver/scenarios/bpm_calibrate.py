@@ -170,7 +170,8 @@ def _elements(cfg) -> int:
     from driver.bpm.packing import particle_count  # noqa: PLC0415
 
     m, sc = cfg.model, cfg.scenario
-    slab = sc.thickness if m.dimension == 3 and protocol(sc.test) in ("mode1", "mode2") else None  # driver/bpm/slab.py
+    # the 3D toughness tests run on the slab of driver/bpm/slab.py
+    slab = sc.thickness if m.dimension == 3 and protocol(sc.test) in ("mode1", "mode2") else None
     return particle_count(m.dimension, m.L, m.packing_fraction, slab, m.packing or "contact")
 
 
@@ -180,7 +181,8 @@ def _check(cfg) -> None:
     if cfg.output.animation:
         raise ValueError("output.animation: a calibration test writes no periodic dumps")
     # the section is shared with the BCM block's tests (driver/scenarios/bcm_calibrate.py)
-    if cfg.scenario.test not in ("moduli", "mode1", "mode2", "crack_speed") or getattr(cfg.scenario, "block", None) is not None:
+    if (cfg.scenario.test not in ("moduli", "mode1", "mode2", "crack_speed")
+            or getattr(cfg.scenario, "block", None) is not None):
         raise ValueError("scenario: test = fracture and the block section are the BCM block's; a BPM calibration "
                          "run has the tests moduli, mode1, mode2 and crack_speed")
     if cfg.scenario.test == "crack_speed" and not (cfg.scenario.B_reference and cfg.scenario.G_reference):
