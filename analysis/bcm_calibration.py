@@ -37,7 +37,7 @@ import numpy as np
 import pandas as pd
 
 from analysis.breaks import read_break_log
-from analysis.moduli import (MIN_CROSSINGS, RATE_TOLERANCE, elastic_constants, linear_fit, moduli_of, phase_fits,
+from analysis.moduli import (RATE_TOLERANCE, elastic_constants, linear_fit, moduli_flags, moduli_of, phase_fits,
                              plot_phases)
 from analysis.plots import PlotGuard
 from analysis.report import Report, clear_report, provenance_line, write_report
@@ -82,16 +82,8 @@ def block_moduli(record: pd.DataFrame, system: dict, density: float) -> tuple[di
     c_l = math.sqrt((B + 4 * G / 3) / density)
     shortest = min(ph["steps"] for ph in system["phases"]) * system["timestep"]
     crossings = shortest / (system["side"] / c_l)
-    flags = []
-    if crossings < MIN_CROSSINGS:
-        flags.append(f"rate: the shortest phase lasts {crossings:.2g} sound-crossing times of the block (< "
-                     f"{MIN_CROSSINGS:g}): raise scenario.block.crossings")
-    if rate_dev > RATE_TOLERANCE:
-        flags.append(f"rate: the moduli at rate {fast:g} differ from those at {slow:g} by {rate_dev:.1%} "
-                     f"(> {RATE_TOLERANCE:.0%}): raise scenario.block.crossings")
-    if fits.bonds_broken.sum() > 0:
-        flags.append(f"{int(fits.bonds_broken.sum())} interfaces broke: the test left the elastic range (lower "
-                     "scenario.max_strain)")
+    flags = moduli_flags(crossings, rate_dev, fast, slow, int(fits.bonds_broken.sum()), "interfaces",
+                         "raise scenario.block.crossings")
     summary = {"B": B, "B_se": B_se, "G": G, "G_se": G_se, "E": E, "E_se": dE, "nu": nu, "nu_se": dnu,
                "B_at_rate": B_fast, "G_at_rate": G_fast, "rate_deviation": rate_dev, "rate_flagged":
                rate_dev > RATE_TOLERANCE, "strain_rate": system["strain_rate"], "sound_speed": c_l,

@@ -91,6 +91,23 @@ def moduli_of(fits: pd.DataFrame, rate: float) -> tuple[float, float, float, flo
             float(np.sqrt((shear.modulus_se ** 2).sum()) / len(shear)))
 
 
+def moduli_flags(crossings: float, rate_dev: float, fast: float, slow: float, broken: int, elements: str,
+                 remedy: str) -> list[str]:
+    """The checks of a moduli run (module docstring), as flags: too few sound crossings in the
+    shortest phase, moduli that depend on the rate, elements broken (`remedy`: what to change
+    for the first two)."""
+    flags = []
+    if crossings < MIN_CROSSINGS:
+        flags.append(f"rate: the shortest phase lasts {crossings:.2g} sound-crossing times of the box (< "
+                     f"{MIN_CROSSINGS:g}): the solid is deformed faster than it can relax; {remedy}")
+    if rate_dev > RATE_TOLERANCE:
+        flags.append(f"rate: the moduli at rate {fast:g} differ from those at {slow:g} by {rate_dev:.1%} "
+                     f"(> {RATE_TOLERANCE:.0%}): {remedy}")
+    if broken > 0:
+        flags.append(f"{broken} {elements} broke: the test left the elastic range (lower scenario.max_strain)")
+    return flags
+
+
 def analyse_moduli(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = False) -> dict:
     """Tables (results/moduli_phases), figure (plots/moduli.png), report and summary of a
     moduli run. partial: refused (a moduli run is short; run it again)."""
@@ -114,15 +131,8 @@ def analyse_moduli(run_dir: Path, cfg: dict, plots: bool = True, partial: bool =
     length = float(record.vol.iloc[0]) ** (1 / dim)
     shortest = min(ph["steps"] for ph in system["phases"]) * float(cfg["model"]["timestep"])
     crossings = shortest / (length / c_l)
-    if crossings < MIN_CROSSINGS:
-        flags.append(f"rate: the shortest phase lasts {crossings:.2g} sound-crossing times of the box (< "
-                     f"{MIN_CROSSINGS:g}): the solid is deformed faster than it can relax; deform more slowly")
-    if rate_dev > RATE_TOLERANCE:
-        flags.append(f"rate: the moduli at rate {fast:g} differ from those at {slow:g} by {rate_dev:.1%} "
-                     f"(> {RATE_TOLERANCE:.0%}): deform more slowly")
-    if fits.bonds_broken.sum() > 0:
-        flags.append(f"{int(fits.bonds_broken.sum())} bonds broke: the test left the elastic range (lower "
-                     "scenario.max_strain)")
+    flags += moduli_flags(crossings, rate_dev, fast, slow, int(fits.bonds_broken.sum()), "bonds",
+                          "deform more slowly")
     summary = {"k_A": cfg["model"]["k_A"], "B": B, "B_se": B_se, "G": G, "G_se": G_se, "E": E, "nu": nu,
                "B_at_rate": B_fast, "G_at_rate": G_fast, "rate_deviation": rate_dev,
                "number_density": rho, "sound_speed": c_l, "sound_crossings": crossings,

@@ -156,7 +156,8 @@ def test_bcm_block_section_is_filled_in_and_bpm_keys_refused():
     cfg = parse_config(_config("moduli", None))
     assert cfg.scenario.block.n_cells == 300
     assert cfg.scenario.block.cell_size == pytest.approx(particle_cell_size(cfg.model))
-    assert 1.2e-4 < cfg.scenario.block.cell_size < 1.4e-4  # 2 mm particle, 1728 cells
+    # by hand: the 92-face parent of circumscribed diameter 2 mm holds 3.990e-9 m^3, / 1728 cells
+    assert cfg.scenario.block.cell_size == pytest.approx(1.3218e-4, rel=1e-3)
     bad = [_config("mode1", None), _config("moduli", None) | {"scenario": {"kind": "calibrate", "strain_rate": 1e-3}},
            {"model": {"kind": "bpm", "dimension": 2, "L": 12}, "scenario": {"kind": "calibrate", "test": "fracture"}},
            {"model": {"kind": "bpm", "dimension": 2, "L": 12}, "scenario": {"kind": "calibrate", "block": {}}}]
