@@ -10,6 +10,7 @@ import json
 import math
 import os
 import time
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -154,8 +155,11 @@ def test_compare_file_refusals_and_resolutions(tmp_path):
     mat, reuse, _ = material_of(cmp, tmp_path / "c.yaml")
     assert mat.bcm.n_cells == 200 and mat.bpm.dimension == 3 and mat.bpm.a() == pytest.approx(2e-3 / 7)
     assert reuse is None
-    with pytest.raises(ConfigError, match="grid.omega.*not available"):
-        load_compare(write(tmp_path, "c2.yaml", ok.replace("velocity: [1, 2]", "omega: [1, 2]")))
+    on_omega = load_compare(write(tmp_path, "c2.yaml", ok.replace("velocity: [1, 2]", "omega: [1, 2]")))
+    assert on_omega.grid.axis == "omega_target" and cmp.grid.axis == "velocity"
+    for grid in ("velocity: [1, 2], omega: [1, 2]", "seeds: 2"):
+        with pytest.raises(ConfigError, match="grid.velocity.*or grid.omega.*exactly one"):
+            load_compare(write(tmp_path, "c2.yaml", ok.replace("velocity: [1, 2], seeds: 1", grid)))
     with pytest.raises(ConfigError, match="scenario: velocity comes from grid"):
         load_compare(write(tmp_path, "c3.yaml", ok + "scenario: {velocity: 3}\n"))
     with pytest.raises(ConfigError, match="unknown curve"):
@@ -261,3 +265,25 @@ def test_tiny_grid_writes_tables_plots_report_and_resumes(tmp_path, monkeypatch,
     assert time.time() - t0 < 30  # curves from the cache, every run kept
     assert len(summaries) == 4 and [p.stat().st_mtime_ns for p in summaries] == stamps
     assert len(pd.read_csv(out / "runs.csv")) == 4
+
+    # an omega grid (the curves cached): each particle hit at its own v_0, and each run's
+    # omega with the material's G_c (W_k^- / (2 A_0 G_c), from its own analysis) is the target
+    write(tmp_path, "w.yaml", TINY.replace("velocity: [2.0, 8.0]", "omega: [0.3]"))
+    res = CliRunner().invoke(app, ["compare", "w.yaml", "--out", "cmpw"])
+    assert res.exit_code == 0, res.output
+    table = pd.read_csv(tmp_path / "cmpw" / "runs.csv")
+    assert len(table) == 2 and (table.state == "finished").all()
+    assert table.omega.to_numpy() == pytest.approx([0.3, 0.3], rel=1e-9)
+    assert table.omega_target.tolist() == [0.3, 0.3] and table.velocity.nunique() == 2
+    assert all(Path(d).name == "omega0.3_seed1" for d in table.run_dir)
+    points = pd.read_csv(tmp_path / "cmpw" / "points.csv")
+    assert "omega_target" in points and len(points) == points.measure.nunique()
+    assert "same damage potential omega" in (tmp_path / "cmpw" / "report.md").read_text()
+
+
+@pytest.mark.parametrize("name", ["compare_impact_small.yaml", "compare_impact.yaml"])
+def test_the_compare_examples_load_with_their_material(name):
+    path = Path(__file__).resolve().parent.parent / "examples" / name
+    cmp = load_compare(path)
+    mat, _, _ = material_of(cmp, path)
+    assert cmp.grid.axis == "omega_target" and mat.bpm.dimension == 3

@@ -2,12 +2,17 @@
 write one directory:
 
     calibration.json    each model's parameters, at every G_c of the grid (params.py)
-    runs/<model>/G_c<G_c>/velocity<v>_seed<s>/   the run directories (a re-run resumes them)
+    runs/<model>/G_c<G_c>/velocity<v>_seed<s>/   the run directories (a re-run resumes them;
+                        omega<w>_seed<s> on an omega grid)
     runs.csv/.parquet   the tidy table: every run of both models (state, error, wall time,
                         summary; the G_c measures with the material's G_c, stats.py)
-    points.csv/.parquet the side-by-side table: per (G_c, velocity, measure) both models' n,
+    points.csv/.parquet the side-by-side table: per (G_c, grid point, measure) both models' n,
                         mean, std, the difference, the combined standard error, z, verdict
-    points_wide.csv     the same, one row per (G_c, velocity)
+    points_wide.csv     the same, one row per (G_c, grid point)
+
+A grid point is a velocity (both models hit the plane at the same v_0) or, with grid.omega, a
+damage potential (each model's particle at the v_0 that gives that omega with the material's
+G_c: driver/compare/omega.py); the runs of a point are paired over its seeds.
     agreement.csv       per measure: points that agree, differ, are undetermined
     crossovers.csv      omega_0 and omega_1 of each model per G_c, side by side
     fragment_masses.csv, shape_factor.csv   p(m/m_max) and p(S_f) of each model (all runs)
@@ -104,7 +109,13 @@ def _points(n: int) -> str:
     return f"{n} point" + ("" if n == 1 else "s")
 
 
-def agreement_words(points: pd.DataFrame, summary: pd.DataFrame, pairs: pd.DataFrame, z_agree: float) -> list[str]:
+def point_label(axis: str, value: float) -> str:
+    """A grid point in words: `v = 2 m/s` or `omega = 0.2`."""
+    return f"v = {value:g} m/s" if axis == "velocity" else f"omega = {value:g}"
+
+
+def agreement_words(points: pd.DataFrame, summary: pd.DataFrame, pairs: pd.DataFrame, z_agree: float,
+                    axis: str = "velocity") -> list[str]:
     """The report's sentences, generated from the tables: per measure where the models agree
     within error bars and where they differ (the points and their z), then the crossovers."""
     out, silent = [], []
@@ -114,7 +125,7 @@ def agreement_words(points: pd.DataFrame, summary: pd.DataFrame, pairs: pd.DataF
         if s.agree + s.differ == 0:
             silent.append(s.measure)
             continue
-        where = "; ".join(f"G_c = {r.G_c:g}, v = {r.velocity:g} m/s: BCM {_fmt(r.mean_bcm)} ± {_fmt(r.std_bcm)}, "
+        where = "; ".join(f"G_c = {r.G_c:g}, {point_label(axis, getattr(r, axis))}: BCM {_fmt(r.mean_bcm)} ± {_fmt(r.std_bcm)}, "
                           f"BPM {_fmt(r.mean_bpm)} ± {_fmt(r.std_bpm)}, z = {r.z:+.2g}"
                           for r in p[p.verdict == "differ"].itertuples())
         if s.differ == 0:
@@ -166,14 +177,15 @@ def analyse_compare(cmp: CompareFile, cal: dict[str, Any], runs: list[tuple[dict
     table = tidy_table(runs)
     save_table(table.drop(columns=[c for c in table.columns if table[c].map(
         lambda v: isinstance(v, (list, dict))).any()]), out / "runs")
-    points = stats.side_by_side(table, z_agree=cmp.z_agree)
-    summary = stats.agreement_summary(points)
-    cross = stats.crossovers(table, cmp.breakup_fraction) if (table.state == "finished").any() else pd.DataFrame(
+    axis = cmp.grid.axis
+    points = stats.side_by_side(table, z_agree=cmp.z_agree, keys=("G_c", axis))
+    summary = stats.agreement_summary(points, axis)
+    cross = stats.crossovers(table, cmp.breakup_fraction, axis) if (table.state == "finished").any() else pd.DataFrame(
         columns=["model", "G_c", "threshold", "value", "lo", "hi"])
     pairs = stats.crossover_pairs(cross)
     mass, sf, _ = fragment_tables(table)
     save_table(points, out / "points")
-    save_table(stats.wide(points), out / "points_wide")
+    save_table(stats.wide(points, axis=axis), out / "points_wide")
     save_table(summary, out / "agreement")
     save_table(cross, out / "crossovers")
     save_table(pairs, out / "crossover_pairs")
@@ -187,7 +199,7 @@ def analyse_compare(cmp: CompareFile, cal: dict[str, Any], runs: list[tuple[dict
     if plots and (table.state == "finished").any():
         from driver.compare.plots import draw_all  # noqa: PLC0415
 
-        figures = draw_all(guard, table, cross, mass, sf, out / "plots", title)
+        figures = draw_all(guard, table, cross, mass, sf, out / "plots", title, axis)
 
     done = table[table.state == "finished"]
     failed = table[table.state != "finished"]
@@ -205,8 +217,12 @@ def analyse_compare(cmp: CompareFile, cal: dict[str, Any], runs: list[tuple[dict
     rep.heading("Where the models agree")
     rep.text(f"Agree within error bars: |z| <= {cmp.z_agree:g}, z = (BPM mean - BCM mean) / sqrt(s_BCM²/n_BCM + "
              "s_BPM²/n_BPM) over the seeds of a point; a point with one run of a model has no error bar "
-             "(undetermined). Crossovers agree when their brackets between velocities overlap.")
-    for line in agreement_words(points, summary, pairs, cmp.z_agree):
+             "(undetermined). Crossovers agree when their brackets between grid points overlap. "
+             + ("Pairing: both models at the same impact velocity v_0 (their omega differ where their A_0 / M do)."
+                if axis == "velocity" else
+                "Pairing: both models at the same damage potential omega (with the material's G_c); each "
+                "particle hit at its own v_0 = sqrt(4 omega A_0 G_c / M) (the runs table's velocity)."))
+    for line in agreement_words(points, summary, pairs, cmp.z_agree, axis):
         rep.text(line)
     rep.table(summary, "verdicts per measure (agreement.csv)")
     if len(pairs):

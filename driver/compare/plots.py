@@ -22,20 +22,23 @@ STYLE = {"bcm": ("BCM", "o", "black"), "bpm": ("BPM", "s", "tab:red")}
 _G_LINES = ["-", "--", "-.", ":"]
 
 
-def point_means(table: pd.DataFrame, cols: list[str]) -> pd.DataFrame:
-    """Means and standard deviations over seeds per (model, G_c, velocity) of the finished runs."""
+def point_means(table: pd.DataFrame, cols: list[str], axis: str = "velocity") -> pd.DataFrame:
+    """Means and standard deviations over seeds per (model, G_c, grid point `axis`: velocity or
+    omega_target) of the finished runs."""
     done = table[table["state"] == "finished"] if "state" in table else table
     cols = [c for c in cols if c in done]
-    g = done.groupby(["model", "G_c", "velocity"], sort=True)[cols]
+    g = done.groupby(["model", "G_c", axis], sort=True)[cols]
     out = g.agg(["mean", "std"])
     out.columns = [f"{a}_{b}" for a, b in out.columns]
     return out.reset_index()
 
 
-def plot_vs_omega(table: pd.DataFrame, cross: pd.DataFrame, cols: list[str], path: Path, title: str = "") -> None:
-    """One panel per measure against omega (log), both models, one line style per G_c."""
+def plot_vs_omega(table: pd.DataFrame, cross: pd.DataFrame, cols: list[str], path: Path, title: str = "",
+                  axis: str = "velocity") -> None:
+    """One panel per measure against omega (log), both models, one line style per G_c; the
+    means over the seeds of each grid point (`axis`)."""
     cols = [c for c in cols if c in table]
-    pts = point_means(table, ["omega", *cols])
+    pts = point_means(table, ["omega", *cols], axis)
     n = len(cols)
     ncol = min(3, n)
     nrow = int(np.ceil(n / ncol))
@@ -99,7 +102,7 @@ def plot_crossovers(cross: pd.DataFrame, path: Path, title: str = "") -> None:
 
 
 def draw_all(guard, table: pd.DataFrame, cross: pd.DataFrame, mass_tables: dict, sf_tables: dict, plot_dir: Path,
-             title: str) -> dict[str, Path]:
+             title: str, axis: str = "velocity") -> dict[str, Path]:
     """Every figure of the comparison through `guard` (analysis.plots.PlotGuard); name -> path."""
     files = {"measures_vs_omega": plot_dir / "measures_vs_omega.png",
              "shapes_vs_omega": plot_dir / "shapes_vs_omega.png",
@@ -107,10 +110,10 @@ def draw_all(guard, table: pd.DataFrame, cross: pd.DataFrame, mass_tables: dict,
              "fragment_masses": plot_dir / "fragment_masses.png",
              "shape_factor": plot_dir / "shape_factor.png"}
     guard.draw("measures_vs_omega", files["measures_vs_omega"], plot_vs_omega, table, cross,
-               ["D_w", "e_k2", "eta", "eta_held", "chi", "W_c_over_W_s"], files["measures_vs_omega"], title)
+               ["D_w", "e_k2", "eta", "eta_held", "chi", "W_c_over_W_s"], files["measures_vs_omega"], title, axis)
     guard.draw("shapes_vs_omega", files["shapes_vs_omega"], plot_vs_omega, table, cross,
                ["shape_elongation_mean", "shape_flatness_mean", "largest_fragment_mass_fraction"],
-               files["shapes_vs_omega"], title)
+               files["shapes_vs_omega"], title, axis)
     guard.draw("crossovers", files["crossovers"], plot_crossovers, cross, files["crossovers"], title)
     guard.draw("fragment_masses", files["fragment_masses"], plot_mass_pdf, mass_tables, files["fragment_masses"],
                title)

@@ -1,8 +1,8 @@
 """The runs of a comparison: one base config per model from its calibrated parameters, expanded
 over the grid by the sweep machinery (driver/sweep.py expand_groups) into
-`<out>/runs/<model>/G_c<G_c>/velocity<v>_seed<s>`, and run together (finished runs kept, a
-re-run resumes, a failed run recorded and the others carried on: driver/calibration/curves.py
-run_pending, in-process or on a local Dask cluster)."""
+`<out>/runs/<model>/G_c<G_c>/velocity<v>_seed<s>` (`omega<w>_seed<s>` on an omega grid), and
+run together (finished runs kept, a re-run resumes, a failed run recorded and the others
+carried on: driver/calibration/curves.py run_pending, in-process or on a local Dask cluster)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from typing import Any
 from driver.calibration.material import MaterialFile
 from driver.compare.params import bcm_interface_gc, lambda_c_for
 from driver.compare.schema import CompareFile
-from driver.config import ConfigError, RunConfig
+from driver.config import ConfigError, RunConfig, parse_config
 from driver.sweep import Group, _assign, _seed_group, expand_groups, format_value, value_list
 
 MODELS = ("bcm", "bpm")
@@ -61,19 +61,56 @@ def g_values(cmp: CompareFile, mat: MaterialFile) -> list[float]:
 
 def grid_runs(cmp: CompareFile, mat: MaterialFile, bcm: dict[str, Any], bpm: dict[str, Any], out: Path,
               source: str) -> list[tuple[dict[str, Any], RunConfig]]:
-    """Every run of both models: (its grid values {model, G_c, velocity, seed}, its config), each
-    validated before anything runs (ConfigError naming the run)."""
-    velocities = value_list(cmp.grid.velocity, f"{source}: grid.velocity")
+    """Every run of both models: (its grid values {model, G_c, velocity, seed} and, on an omega
+    grid, omega_target; its config), each validated before anything runs (ConfigError naming
+    the run). A velocity grid gives both models the same v_0; an omega grid gives each particle
+    the v_0 of the target omega with the material's G_c (driver/compare/omega.py)."""
     G_ref = mat.material.toughness(3)[0]
-    groups: list[Group] = [(("scenario.velocity",), [(float(v),) for v in velocities]),
-                           _seed_group(cmp.grid.seeds, source)]
+    seeds = _seed_group(cmp.grid.seeds, source)
     runs = []
     for g in g_values(cmp, mat):
         for model, data in base_configs(cmp, mat, bcm, bpm, g, G_ref).items():
             where = Path(out) / "runs" / model / f"G_c{format_value(g)}"
-            for values, cfg in expand_groups(data, groups, where, f"{source} ({model}, G_c = {g:g})"):
-                runs.append(({"model": model, "G_c": g, "velocity": values["scenario.velocity"],
-                              "seed": values["seed"]}, cfg))
+            label = f"{source} ({model}, G_c = {g:g})"
+            if cmp.grid.omega is None:
+                velocities = value_list(cmp.grid.velocity, f"{source}: grid.velocity")
+                groups: list[Group] = [(("scenario.velocity",), [(float(v),) for v in velocities]), seeds]
+                for values, cfg in expand_groups(data, groups, where, label):
+                    runs.append(({"model": model, "G_c": g, "velocity": values["scenario.velocity"],
+                                  "seed": values["seed"]}, cfg))
+            else:
+                runs += _omega_runs(data, value_list(cmp.grid.omega, f"{source}: grid.omega"),
+                                    [s for (s,) in seeds[1]], g, model, where, label)
+    return runs
+
+
+def _omega_runs(data: dict[str, Any], omegas: list[Any], seeds: list[int], G_c: float, model: str, where: Path,
+                source: str) -> list[tuple[dict[str, Any], RunConfig]]:
+    """The runs of one model at one G_c on an omega grid, in `where`/omega<w>_seed<s>: each
+    seed's particle built once (its A_0 and mass), v_0 from the target omega."""
+    from driver.compare.omega import particle_area_mass, velocity_for_omega  # noqa: PLC0415
+
+    if any(not isinstance(w, (int, float)) or isinstance(w, bool) or not w > 0 for w in omegas):
+        raise ConfigError(f"{source}: grid.omega: positive damage potentials (got {omegas!r})")
+    names = [format_value(float(w)) for w in omegas]
+    if len(set(names)) != len(names):
+        raise ConfigError(f"{source}: grid.omega: repeated values {omegas!r}")
+    runs = []
+    for seed in seeds:
+        A0 = mass = None
+        for w, name in zip(omegas, names):
+            run = copy.deepcopy(data)
+            run["seed"] = seed
+            run["name"] = f"{data['name']}_omega{name}_seed{seed}"
+            run.setdefault("output", {})["dir"] = str(where / f"omega{name}_seed{seed}")
+            what = f"{source}, omega = {w:g}, seed {seed}"
+            if A0 is None:  # the particle of this seed (the velocity does not change it)
+                A0, mass = particle_area_mass(parse_config({**run, "scenario": {**run["scenario"], "velocity": 1.0}},
+                                                           what))
+            v = velocity_for_omega(float(w), A0, mass, G_c)
+            run["scenario"]["velocity"] = float(f"{v:.12g}")
+            runs.append(({"model": model, "G_c": G_c, "omega_target": float(w), "velocity": run["scenario"]["velocity"],
+                          "seed": seed}, parse_config(run, what)))
     return runs
 
 

@@ -5,7 +5,9 @@
                                           # a path relative to this file
     test: impact                          # the only test for now (the shear test will join here)
     grid:
-      velocity: [1.0, 2.0, 4.0, 8.0]      # v_0, m/s (or {logspace: [a, b, n]})
+      omega: [0.05, 0.2, 0.8, 3.0]        # damage potentials (or {logspace: [a, b, n]}): both models
+                                          # at equal omega, v_0 = sqrt(4 omega A_0 G_c / M) per particle;
+                                          # or velocity: [...] (m/s), both at equal v_0
       G_c: [3.3]                          # J/m^2, the material's fracture energy (default: the material's)
       seeds: 2                            # seeds 1..2, or a list
     bcm: {n_cells: 300}                   # resolution: replaces the material file's (or cell_size)
@@ -38,21 +40,26 @@ class Grid(_Strict):
     """The parameter points: velocities x G_c values x seeds."""
 
     velocity: Any = Field(None, description="impact velocities v_0, m/s: a list or {linspace|logspace: [a, b, n]}")
-    omega: Any = Field(None, description="damage potentials omega instead of velocities: not available yet")
+    omega: Any = Field(None, description="damage potentials omega = W_k^- / (2 A_0 G_c) instead of velocities "
+                                         "(G_c the material's): a list or a range; each run's v_0 is set from its "
+                                         "own particle's A_0 and mass")
     G_c: list[float] | None = Field(None, description="the material's fracture energy, J/m^2 (default: the "
                                                       "material's own)")
     seeds: Any = Field(2, description="seeds 1..n, or a list of seeds (tessellations / packings per point)")
 
     @model_validator(mode="after")
     def _velocities(self) -> "Grid":
-        if self.omega is not None:
-            raise ValueError("grid.omega: not available yet (omega = W_k^- / (2 A_0 G_c) needs each model's A_0, "
-                             "known only once its particle is built); give grid.velocity")
-        if self.velocity is None:
-            raise ValueError("grid.velocity: the impact velocities are required")
+        if (self.velocity is None) == (self.omega is None):
+            raise ValueError("give grid.velocity (impact velocities, m/s: both models at equal v_0) or grid.omega "
+                             "(damage potentials: both models at equal omega), exactly one")
         if self.G_c is not None and (not self.G_c or any(g <= 0 for g in self.G_c)):
             raise ValueError("grid.G_c: a non-empty list of positive fracture energies (J/m^2)")
         return self
+
+    @property
+    def axis(self) -> str:
+        """The column that pairs the two models' runs: `velocity` or `omega_target`."""
+        return "velocity" if self.omega is None else "omega_target"
 
 
 class BpmCompare(_Strict):

@@ -1,7 +1,8 @@
 """The comparison's statistics, as pure functions on tables (issue 13, point 3).
 
 The tidy table has one row per run of either model: `model`, `G_c` (the material's fracture
-energy of the grid point), `velocity`, `seed`, `state`, and the run's summary. The measures that
+energy of the grid point), `velocity`, `seed` (and `omega_target` on an omega grid), `state`,
+and the run's summary. The measures that
 hold G_c (SPEC 1.5: W_f = 2 A G_c, W_s = 2 A_0 G_c, omega, eta, chi, W_c) are taken with the
 material's G_c in both models (`common_measures`), so that one omega axis and one W_f mean the
 same in both: the BCM's own figures use its interface G_c (a calibrated model parameter,
@@ -121,14 +122,15 @@ def side_by_side(table: pd.DataFrame, measures: list[str] | None = None, z_agree
     return pd.DataFrame(rows, columns=cols)
 
 
-def wide(points: pd.DataFrame, models: tuple[str, str] = ("bcm", "bpm")) -> pd.DataFrame:
-    """The side-by-side table with one row per parameter point: <measure>_<mean|std>_<model>,
-    <measure>_z and <measure>_verdict columns, in the measures' order."""
+def wide(points: pd.DataFrame, models: tuple[str, str] = ("bcm", "bpm"), axis: str = "velocity") -> pd.DataFrame:
+    """The side-by-side table with one row per parameter point (G_c, `axis`):
+    <measure>_<mean|std>_<model>, <measure>_z and <measure>_verdict columns, in the measures' order."""
     if points.empty:
-        return pd.DataFrame(columns=["G_c", "velocity"])
+        return pd.DataFrame(columns=["G_c", axis])
     rows = {}
     for r in points.itertuples():
-        row = rows.setdefault((r.G_c, r.velocity), {"G_c": r.G_c, "velocity": r.velocity})
+        key = (r.G_c, getattr(r, axis))
+        row = rows.setdefault(key, {"G_c": key[0], axis: key[1]})
         for m in models:
             row[f"{r.measure}_mean_{m}"] = getattr(r, f"mean_{m}")
             row[f"{r.measure}_std_{m}"] = getattr(r, f"std_{m}")
@@ -137,17 +139,18 @@ def wide(points: pd.DataFrame, models: tuple[str, str] = ("bcm", "bpm")) -> pd.D
     return pd.DataFrame(list(rows.values()))
 
 
-def crossovers(table: pd.DataFrame, breakup_fraction: float = 0.9) -> pd.DataFrame:
+def crossovers(table: pd.DataFrame, breakup_fraction: float = 0.9, axis: str = "velocity") -> pd.DataFrame:
     """omega_0 (first cracks, D_w > 0) and omega_1 (SPEC 1.5's break-up: largest fragment below
-    breakup_fraction of the mass) of each model per G_c, located between velocities on the
-    common omega: columns model, G_c, threshold, value, lo, hi (value NaN: only a bound)."""
+    breakup_fraction of the mass) of each model per G_c, located between the grid's points
+    (`axis`: velocity or omega_target) on the common omega: columns model, G_c, threshold,
+    value, lo, hi (value NaN: only a bound)."""
     done = table[table["state"] == "finished"] if "state" in table else table
     rows = []
     for (model, g), grp in done.groupby(["model", "G_c"], sort=True):
-        found: dict[str, Threshold] = {"omega_0": omega_0(grp.omega, grp.D_w, groups=grp.velocity)}
+        found: dict[str, Threshold] = {"omega_0": omega_0(grp.omega, grp.D_w, groups=grp[axis])}
         if "largest_fragment_mass_fraction" in grp and grp.largest_fragment_mass_fraction.notna().all():
             found["omega_1"] = omega_1_largest(grp.omega, grp.largest_fragment_mass_fraction, breakup_fraction,
-                                               groups=grp.velocity)
+                                               groups=grp[axis])
         for name, th in found.items():
             rows.append({"model": model, "G_c": g, "threshold": name, "value": th.value, "lo": th.lo, "hi": th.hi})
     return pd.DataFrame(rows, columns=["model", "G_c", "threshold", "value", "lo", "hi"])
@@ -171,9 +174,9 @@ def crossover_pairs(cross: pd.DataFrame, models: tuple[str, str] = ("bcm", "bpm"
                                        "verdict"])
 
 
-def agreement_summary(points: pd.DataFrame) -> pd.DataFrame:
+def agreement_summary(points: pd.DataFrame, axis: str = "velocity") -> pd.DataFrame:
     """Per measure: how many points agree, differ, are undetermined or missing; the largest |z|
-    and where it is."""
+    and where it is (at_G_c, at_<axis>)."""
     rows = []
     for m, grp in points.groupby("measure", sort=False):
         counts = grp.verdict.value_counts()
@@ -182,5 +185,5 @@ def agreement_summary(points: pd.DataFrame) -> pd.DataFrame:
         rows.append({"measure": m, "points": len(grp), **{v: int(counts.get(v, 0)) for v in VERDICTS},
                      "max_abs_z": float(abs(worst.z)) if worst is not None else math.nan,
                      "at_G_c": worst.G_c if worst is not None else math.nan,
-                     "at_velocity": worst.velocity if worst is not None else math.nan})
-    return pd.DataFrame(rows, columns=["measure", "points", *VERDICTS, "max_abs_z", "at_G_c", "at_velocity"])
+                     f"at_{axis}": worst[axis] if worst is not None else math.nan})
+    return pd.DataFrame(rows, columns=["measure", "points", *VERDICTS, "max_abs_z", "at_G_c", f"at_{axis}"])
