@@ -277,7 +277,7 @@ def test_tiny_grid_writes_tables_plots_report_and_resumes(tmp_path, monkeypatch,
     assert table.omega_target.tolist() == [0.3, 0.3] and table.velocity.nunique() == 2
     assert all(Path(d).name == "omega0.3_seed1" for d in table.run_dir)
     points = pd.read_csv(tmp_path / "cmpw" / "points.csv")
-    assert "omega_target" in points and len(points) == points.measure.nunique()
+    assert "omega_target" in points and len(points) == points.measure.nunique() and "omega" not in set(points.measure)
     assert "same damage potential omega" in (tmp_path / "cmpw" / "report.md").read_text()
 
 

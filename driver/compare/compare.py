@@ -178,7 +178,9 @@ def analyse_compare(cmp: CompareFile, cal: dict[str, Any], runs: list[tuple[dict
     save_table(table.drop(columns=[c for c in table.columns if table[c].map(
         lambda v: isinstance(v, (list, dict))).any()]), out / "runs")
     axis = cmp.grid.axis
-    points = stats.side_by_side(table, z_agree=cmp.z_agree, keys=("G_c", axis))
+    # on an omega grid omega is the grid point itself (equal in both models by construction)
+    measures = [m for m in stats.MEASURES if not (axis == "omega_target" and m == "omega")]
+    points = stats.side_by_side(table, measures, z_agree=cmp.z_agree, keys=("G_c", axis))
     summary = stats.agreement_summary(points, axis)
     cross = stats.crossovers(table, cmp.breakup_fraction, axis) if (table.state == "finished").any() else pd.DataFrame(
         columns=["model", "G_c", "threshold", "value", "lo", "hi"])
