@@ -48,6 +48,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <mpi.h>
 
 using namespace LAMMPS_NS;
@@ -64,88 +66,7 @@ using BreakableUtil::vabs;
 using BreakableUtil::vmax;
 using BreakableUtil::vsqrt;
 
-// asin(x) for |x| < ASIN_XMAX = 0.3 (|dth| < 17.46 degrees): x + x z P(z), z = x^2, P of
-// degree 7 interpolating (asin(x) - x) / (x z) at the Chebyshev nodes of [0, 0.09]; relative
-// error below 4e-16 (rounding included). Estrin's scheme keeps the dependency chain short.
-constexpr double ASIN_XMAX = 0.3;
-
-template <class T> inline T asin_small(T x)
-{
-  const T z = x * x;
-  const T z2 = z * z;
-  const T z4 = z2 * z2;
-  const T p01 = 0.1666666666666649 + 0.07500000000250932 * z;
-  const T p23 = 0.04464285655916009 + 0.03038199601727747 * z;
-  const T p45 = 0.02236993042003646 + 0.01740472381582807 * z;
-  const T p67 = 0.01330212710356684 + 0.015818111679304542 * z;
-  const T p = (p01 + p23 * z2) + (p45 + p67 * z2) * z4;
-  return x + x * z * p;
-}
-
-// The arithmetic of one angle, on one value or on two lanes. Every path that decides on an
-// angle (fast and exact passes, single()) goes through it, so all take the same decisions.
-template <class T> struct Angle3 {
-  // in: arm vectors d1 = x1 - x2, d2 = x3 - x2, references
-  T d1x, d1y, d1z, d2x, d2y, d2z;
-  T cos0, sin0, inv_r1_0, inv_r2_0;
-  // geometry
-  T r1, r2, inv_r12, c, s, l1, l2, sd, cd;
-
-  void geometry()
-  {
-    // r as bond_style breakable/cr computes it: the stretch tests must agree bit for bit
-    r1 = vsqrt(d1x * d1x + d1y * d1y + d1z * d1z);
-    r2 = vsqrt(d2x * d2x + d2y * d2y + d2z * d2z);
-    const T dot = d1x * d2x + d1y * d2y + d1z * d2z;
-    const T cx = d1y * d2z - d1z * d2y;
-    const T cy = d1z * d2x - d1x * d2z;
-    const T cz = d1x * d2y - d1y * d2x;
-    const T b = vsqrt(cx * cx + cy * cy + cz * cz);    // r1 r2 sin(theta)
-    inv_r12 = 1.0 / (r1 * r2);
-    c = dot * inv_r12;
-    s = b * inv_r12;
-    l1 = r1 * inv_r1_0;
-    l2 = r2 * inv_r2_0;
-    sd = s * cos0 - c * sin0;    // sin(theta - theta0)
-    cd = c * cos0 + s * sin0;    // cos(theta - theta0)
-  }
-
-  // energy and force coefficients at bend dth (SPEC Eq. 3-4): f1 = a11 d1 + a12 d2,
-  // f3 = a22 d2 + a12 d1, f2 = -f1 - f3
-  T a11, a12, a22, energy;
-
-  void forces(T dth, T k, T inv_thc2, T inv_ec2)
-  {
-    const T inv_s = 1.0 / vmax(s, T{} + SMALL);
-    const T inv_r1 = r2 * inv_r12;
-    const T inv_r2 = r1 * inv_r12;
-
-    // S of the more stretched arm, and dS/dl. eps is clamped at 0 (S = 1, dS = 0), q at 0:
-    // an arm past lambda_c r0 (its bond breaks in this step) gives S = dS = 0, no force.
-    const T eps = vmax(vmax(l1, l2) - 1.0, T{});
-    const T q = vmax(1.0 - eps * eps * inv_ec2, T{});
-    const T s_fac = q * q;
-
-    // dE/dtheta = k_A S (dth - dth^3 / theta_c^2); E = k_A S g, g = dth^2/2 - dth^4/(4 thc^2)
-    const T dth2 = dth * dth;
-    const T ks = k * s_fac;
-    const T tau = ks * dth * (1.0 - dth2 * inv_thc2);
-    const T g = dth2 * (0.5 - 0.25 * dth2 * inv_thc2);
-    energy = ks * g;
-
-    // radial term -dE/dr = -k_A g (dS/dl) / r0 along the more stretched arm (arm 1 on a
-    // tie), folded into the coefficient of that arm's vector (divided by its length)
-    const T fr = 4.0 * k * g * eps * q * inv_ec2;
-    const T fr1 = select_lt(l1, l2, T{}, fr * inv_r1_0 * inv_r1);
-    const T fr2 = select_lt(l1, l2, fr * inv_r2_0 * inv_r2, T{});
-
-    // angular part as in angle_style harmonic
-    const T aa = -tau * inv_s;
-    a11 = aa * c * inv_r1 * inv_r1 + fr1;
-    a12 = -aa * inv_r12;
-    a22 = aa * c * inv_r2 * inv_r2 + fr2;
-  }
-};
+#include "angle_breakable_cr_math.h"    // the baseline copy
 
 // sin and cos of theta0 (one range reduction for both where the C library offers it)
 inline void sin_cos(double theta, double &s, double &c)
@@ -182,6 +103,58 @@ inline void arms(const double *x1, const double *x2, const double *x3, Angle3<do
 
 }    // namespace
 
+/* ----------------------------------------------------------------------
+   The same arithmetic compiled for AVX, for the 4-lane force loop (loop4),
+   which compute() takes when the processor has AVX (checked at run time: the
+   library itself is built for baseline x86-64). AVX adds, multiplies,
+   divides and square roots round each lane as the SSE2 and scalar
+   instructions do, and AVX has no fused multiply-add, so a lane of loop4
+   gives the bits of loop() and exact() and takes the same decisions.
+------------------------------------------------------------------------- */
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define BRITTLE_ANGLE_AVX 1
+#pragma GCC push_options
+#pragma GCC target("avx")
+namespace {
+namespace avx {
+
+  using Lanes4 = double __attribute__((vector_size(32)));
+  using Mask4 = long long __attribute__((vector_size(32)));
+
+  inline Lanes4 select_lt(Lanes4 x, Lanes4 y, Lanes4 a, Lanes4 b)
+  {
+    const Mask4 m = x < y;
+    return (Lanes4) (((Mask4) a & m) | ((Mask4) b & ~m));
+  }
+  inline Lanes4 vmax(Lanes4 a, Lanes4 b) { return select_lt(a, b, b, a); }
+  inline Lanes4 vsqrt(Lanes4 a) { return __builtin_ia32_sqrtpd256(a); }
+  inline Lanes4 vabs(Lanes4 a)
+  {
+    const long long mag = 0x7fffffffffffffffLL;
+    return (Lanes4) ((Mask4) a & Mask4{mag, mag, mag, mag});
+  }
+
+#include "angle_breakable_cr_math.h"    // the AVX copy
+
+}    // namespace avx
+}    // namespace
+#pragma GCC pop_options
+#endif
+
+// whether compute() takes the 4-lane AVX loop: the processor has AVX and the environment
+// does not ask for the baseline loop (BRITTLE_NO_AVX=1, for tests of both paths)
+static bool use_avx_loop()
+{
+#if defined(BRITTLE_ANGLE_AVX)
+  __builtin_cpu_init();
+  const char *off = getenv("BRITTLE_NO_AVX");
+  return __builtin_cpu_supports("avx") && !(off && *off && strcmp(off, "0") != 0);
+#else
+  return false;
+#endif
+}
+
 /* ---------------------------------------------------------------------- */
 
 AngleBreakableCR::AngleBreakableCR(LAMMPS *_lmp) :
@@ -190,6 +163,7 @@ AngleBreakableCR::AngleBreakableCR(LAMMPS *_lmp) :
 {
   writedata = 1;
   born_matrix_enable = 0;
+  avx_loop = use_avx_loop();
   if (domain->box_exist) FixBreakableSpecial::get_or_create(lmp);
 }
 
@@ -414,6 +388,87 @@ template <bool EVFLAG> void AngleBreakableCR::loop()
   for (int j = 0; j < nleft; j++) exact<EVFLAG>(ref[left[j]], x, f, nlocal);
 }
 
+/* ----------------------------------------------------------------------
+   loop() on four cache entries at a time, in the four lanes of AVX
+------------------------------------------------------------------------- */
+
+#if defined(BRITTLE_ANGLE_AVX)
+#pragma GCC push_options
+#pragma GCC target("avx")
+template <bool EVFLAG> void AngleBreakableCR::loop4()
+{
+  using avx::Lanes4;
+  using avx::Mask4;
+  const double *const *x = atom->x;
+  double *const *f = atom->f;
+  const int nlocal = atom->nlocal;
+  Ref *ref = cache.data();
+  const int nref = (int) cache.size();
+  const TypeParams *tp = params.data();
+  int *left = deferred.data();
+  int nleft = 0;
+  const Lanes4 xmax = {avx::ASIN_XMAX, avx::ASIN_XMAX, avx::ASIN_XMAX, avx::ASIN_XMAX};
+  const Lanes4 zero = {0.0, 0.0, 0.0, 0.0};
+
+  for (int m = 0; m < nref; m += 4) {
+    // past the end, a lane repeats the last entry and is skipped below
+    const int last = nref - 1;
+    const int e[4] = {m, m + 1 < nref ? m + 1 : last, m + 2 < nref ? m + 2 : last,
+                      m + 3 < nref ? m + 3 : last};
+    const Ref *R[4] = {&ref[e[0]], &ref[e[1]], &ref[e[2]], &ref[e[3]]};
+    const TypeParams *P[4] = {&tp[R[0]->type], &tp[R[1]->type], &tp[R[2]->type],
+                              &tp[R[3]->type]};    // type 0: broken, skipped below
+    const double *x1[4], *x2[4], *x3[4];
+    for (int k = 0; k < 4; k++) {
+      x1[k] = x[R[k]->i1];
+      x2[k] = x[R[k]->i2];
+      x3[k] = x[R[k]->i3];
+    }
+    avx::Angle3<Lanes4> A;
+    const Lanes4 x2x = {x2[0][0], x2[1][0], x2[2][0], x2[3][0]};
+    const Lanes4 x2y = {x2[0][1], x2[1][1], x2[2][1], x2[3][1]};
+    const Lanes4 x2z = {x2[0][2], x2[1][2], x2[2][2], x2[3][2]};
+    A.d1x = Lanes4{x1[0][0], x1[1][0], x1[2][0], x1[3][0]} - x2x;
+    A.d1y = Lanes4{x1[0][1], x1[1][1], x1[2][1], x1[3][1]} - x2y;
+    A.d1z = Lanes4{x1[0][2], x1[1][2], x1[2][2], x1[3][2]} - x2z;
+    A.d2x = Lanes4{x3[0][0], x3[1][0], x3[2][0], x3[3][0]} - x2x;
+    A.d2y = Lanes4{x3[0][1], x3[1][1], x3[2][1], x3[3][1]} - x2y;
+    A.d2z = Lanes4{x3[0][2], x3[1][2], x3[2][2], x3[3][2]} - x2z;
+    A.cos0 = Lanes4{R[0]->cos0, R[1]->cos0, R[2]->cos0, R[3]->cos0};
+    A.sin0 = Lanes4{R[0]->sin0, R[1]->sin0, R[2]->sin0, R[3]->sin0};
+    A.inv_r1_0 = Lanes4{R[0]->inv_r1_0, R[1]->inv_r1_0, R[2]->inv_r1_0, R[3]->inv_r1_0};
+    A.inv_r2_0 = Lanes4{R[0]->inv_r2_0, R[1]->inv_r2_0, R[2]->inv_r2_0, R[3]->inv_r2_0};
+    A.geometry();
+
+    // the decisions of exact(), for the common case only
+    const Lanes4 theta_c = {P[0]->theta_c, P[1]->theta_c, P[2]->theta_c, P[3]->theta_c};
+    const Lanes4 dth = avx::asin_small(A.sd);
+    const Mask4 ok =
+        (avx::vabs(A.sd) < xmax) & (A.cd > zero) & ~(avx::vabs(dth) >= theta_c);
+
+    A.forces(dth, Lanes4{P[0]->k, P[1]->k, P[2]->k, P[3]->k},
+             Lanes4{P[0]->inv_thc2, P[1]->inv_thc2, P[2]->inv_thc2, P[3]->inv_thc2},
+             Lanes4{P[0]->inv_ec2, P[1]->inv_ec2, P[2]->inv_ec2, P[3]->inv_ec2});
+
+    for (int k = 0; k < 4; k++) {
+      if ((k > 0 && m + k >= nref) || R[k]->type <= 0) continue;
+      if (ok[k]) {
+        const double d[6] = {A.d1x[k], A.d1y[k], A.d1z[k], A.d2x[k], A.d2y[k], A.d2z[k]};
+        apply<EVFLAG>(*R[k], A.a11[k], A.a12[k], A.a22[k], d, A.energy[k], f, nlocal);
+      } else
+        left[nleft++] = e[k];
+    }
+  }
+  for (int j = 0; j < nleft; j++) exact<EVFLAG>(ref[left[j]], x, f, nlocal);
+}
+#pragma GCC pop_options
+#else
+template <bool EVFLAG> void AngleBreakableCR::loop4()
+{
+  loop<EVFLAG>();
+}
+#endif
+
 /* ---------------------------------------------------------------------- */
 
 void AngleBreakableCR::compute(int eflag, int vflag)
@@ -423,7 +478,12 @@ void AngleBreakableCR::compute(int eflag, int vflag)
   if (cached_nanglelist < 0 || neighbor->ago == 0 || cached_nanglelist != neighbor->nanglelist)
     rebuild_cache();
 
-  if (evflag)
+  if (avx_loop) {
+    if (evflag)
+      loop4<true>();
+    else
+      loop4<false>();
+  } else if (evflag)
     loop<true>();
   else
     loop<false>();

@@ -74,6 +74,8 @@ class AngleBreakableCR : public Angle {
              double *const *f, int nlocal);
   template <bool EVFLAG> void exact(Ref &R, const double *const *x, double *const *f, int nlocal);
   template <bool EVFLAG> void loop();
+  template <bool EVFLAG> void loop4();    // AVX: four entries at a time
+  bool avx_loop;                          // compute() takes loop4()
 };
 
 }    // namespace LAMMPS_NS
