@@ -48,8 +48,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
-#include <cstring>
 #include <mpi.h>
 
 using namespace LAMMPS_NS;
@@ -112,28 +110,13 @@ inline void arms(const double *x1, const double *x2, const double *x3, Angle3<do
    gives the bits of loop() and exact() and takes the same decisions.
 ------------------------------------------------------------------------- */
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define BRITTLE_ANGLE_AVX 1
+#if defined(BRITTLE_AVX_LOOPS)
 #pragma GCC push_options
 #pragma GCC target("avx")
 namespace {
 namespace avx {
 
-  using Lanes4 = double __attribute__((vector_size(32)));
-  using Mask4 = long long __attribute__((vector_size(32)));
-
-  inline Lanes4 select_lt(Lanes4 x, Lanes4 y, Lanes4 a, Lanes4 b)
-  {
-    const Mask4 m = x < y;
-    return (Lanes4) (((Mask4) a & m) | ((Mask4) b & ~m));
-  }
-  inline Lanes4 vmax(Lanes4 a, Lanes4 b) { return select_lt(a, b, b, a); }
-  inline Lanes4 vsqrt(Lanes4 a) { return __builtin_ia32_sqrtpd256(a); }
-  inline Lanes4 vabs(Lanes4 a)
-  {
-    const long long mag = 0x7fffffffffffffffLL;
-    return (Lanes4) ((Mask4) a & Mask4{mag, mag, mag, mag});
-  }
+#include "lanes4_avx.h"
 
 #include "angle_breakable_cr_math.h"    // the AVX copy
 
@@ -141,19 +124,6 @@ namespace avx {
 }    // namespace
 #pragma GCC pop_options
 #endif
-
-// whether compute() takes the 4-lane AVX loop: the processor has AVX and the environment
-// does not ask for the baseline loop (BRITTLE_NO_AVX=1, for tests of both paths)
-static bool use_avx_loop()
-{
-#if defined(BRITTLE_ANGLE_AVX)
-  __builtin_cpu_init();
-  const char *off = getenv("BRITTLE_NO_AVX");
-  return __builtin_cpu_supports("avx") && !(off && *off && strcmp(off, "0") != 0);
-#else
-  return false;
-#endif
-}
 
 /* ---------------------------------------------------------------------- */
 
@@ -163,7 +133,7 @@ AngleBreakableCR::AngleBreakableCR(LAMMPS *_lmp) :
 {
   writedata = 1;
   born_matrix_enable = 0;
-  avx_loop = use_avx_loop();
+  avx_loop = BreakableUtil::avx_loops();
   if (domain->box_exist) FixBreakableSpecial::get_or_create(lmp);
 }
 
@@ -271,7 +241,20 @@ inline void AngleBreakableCR::apply(const Ref &R, double a11, double a12, double
   f3[0] = a22 * d[3] + a12 * d[0];
   f3[1] = a22 * d[4] + a12 * d[1];
   f3[2] = a22 * d[5] + a12 * d[2];
+  const double f13[3] = {f1[0] + f3[0], f1[1] + f3[1], f1[2] + f3[2]};
+  scatter<EVFLAG>(R, f1, f3, f13, d, eangle, f, nlocal);
+}
 
+/* ----------------------------------------------------------------------
+   add f1 to atom1, f3 to atom3 and -f13 = -(f1 + f3) to the vertex, owned
+   atoms only; energy and virial
+------------------------------------------------------------------------- */
+
+template <bool EVFLAG>
+inline void AngleBreakableCR::scatter(const Ref &R, const double *f1, const double *f3,
+                                      const double *f13, const double *d, double eangle,
+                                      double *const *f, int nlocal)
+{
   // newton_bond is off: each rank adds forces to its owned atoms only
   const int i1 = R.i1, i2 = R.i2, i3 = R.i3;
   if (i1 < nlocal) {
@@ -280,9 +263,9 @@ inline void AngleBreakableCR::apply(const Ref &R, double a11, double a12, double
     f[i1][2] += f1[2];
   }
   if (i2 < nlocal) {
-    f[i2][0] -= f1[0] + f3[0];
-    f[i2][1] -= f1[1] + f3[1];
-    f[i2][2] -= f1[2] + f3[2];
+    f[i2][0] -= f13[0];
+    f[i2][1] -= f13[1];
+    f[i2][2] -= f13[2];
   }
   if (i3 < nlocal) {
     f[i3][0] += f3[0];
@@ -290,7 +273,10 @@ inline void AngleBreakableCR::apply(const Ref &R, double a11, double a12, double
     f[i3][2] += f3[2];
   }
 
-  if (EVFLAG) ev_tally(i1, i2, i3, nlocal, 0, eangle, f1, f3, d[0], d[1], d[2], d[3], d[4], d[5]);
+  if (EVFLAG) {
+    double g1[3] = {f1[0], f1[1], f1[2]}, g3[3] = {f3[0], f3[1], f3[2]};
+    ev_tally(i1, i2, i3, nlocal, 0, eangle, g1, g3, d[0], d[1], d[2], d[3], d[4], d[5]);
+  }
 }
 
 /* ----------------------------------------------------------------------
@@ -392,7 +378,7 @@ template <bool EVFLAG> void AngleBreakableCR::loop()
    loop() on four cache entries at a time, in the four lanes of AVX
 ------------------------------------------------------------------------- */
 
-#if defined(BRITTLE_ANGLE_AVX)
+#if defined(BRITTLE_AVX_LOOPS)
 #pragma GCC push_options
 #pragma GCC target("avx")
 template <bool EVFLAG> void AngleBreakableCR::loop4()
@@ -418,6 +404,7 @@ template <bool EVFLAG> void AngleBreakableCR::loop4()
     const Ref *R[4] = {&ref[e[0]], &ref[e[1]], &ref[e[2]], &ref[e[3]]};
     const TypeParams *P[4] = {&tp[R[0]->type], &tp[R[1]->type], &tp[R[2]->type],
                               &tp[R[3]->type]};    // type 0: broken, skipped below
+    const bool one_type = P[1] == P[0] && P[2] == P[0] && P[3] == P[0];
     const double *x1[4], *x2[4], *x3[4];
     for (int k = 0; k < 4; k++) {
       x1[k] = x[R[k]->i1];
@@ -441,20 +428,49 @@ template <bool EVFLAG> void AngleBreakableCR::loop4()
     A.geometry();
 
     // the decisions of exact(), for the common case only
-    const Lanes4 theta_c = {P[0]->theta_c, P[1]->theta_c, P[2]->theta_c, P[3]->theta_c};
+    // per-type parameters: one broadcast when the four entries share a type (the usual case)
+    Lanes4 theta_c, kk, inv_thc2, inv_ec2;
+    if (one_type) {
+      const TypeParams &Q = *P[0];
+      theta_c = Lanes4{} + Q.theta_c;
+      kk = Lanes4{} + Q.k;
+      inv_thc2 = Lanes4{} + Q.inv_thc2;
+      inv_ec2 = Lanes4{} + Q.inv_ec2;
+    } else {
+      theta_c = Lanes4{P[0]->theta_c, P[1]->theta_c, P[2]->theta_c, P[3]->theta_c};
+      kk = Lanes4{P[0]->k, P[1]->k, P[2]->k, P[3]->k};
+      inv_thc2 = Lanes4{P[0]->inv_thc2, P[1]->inv_thc2, P[2]->inv_thc2, P[3]->inv_thc2};
+      inv_ec2 = Lanes4{P[0]->inv_ec2, P[1]->inv_ec2, P[2]->inv_ec2, P[3]->inv_ec2};
+    }
+
+    // the decisions of exact(), for the common case only
     const Lanes4 dth = avx::asin_small(A.sd);
     const Mask4 ok =
         (avx::vabs(A.sd) < xmax) & (A.cd > zero) & ~(avx::vabs(dth) >= theta_c);
 
-    A.forces(dth, Lanes4{P[0]->k, P[1]->k, P[2]->k, P[3]->k},
-             Lanes4{P[0]->inv_thc2, P[1]->inv_thc2, P[2]->inv_thc2, P[3]->inv_thc2},
-             Lanes4{P[0]->inv_ec2, P[1]->inv_ec2, P[2]->inv_ec2, P[3]->inv_ec2});
+    A.forces(dth, kk, inv_thc2, inv_ec2);
+
+    // the forces of apply(), in the four lanes
+    const Lanes4 f1x = A.a11 * A.d1x + A.a12 * A.d2x;
+    const Lanes4 f1y = A.a11 * A.d1y + A.a12 * A.d2y;
+    const Lanes4 f1z = A.a11 * A.d1z + A.a12 * A.d2z;
+    const Lanes4 f3x = A.a22 * A.d2x + A.a12 * A.d1x;
+    const Lanes4 f3y = A.a22 * A.d2y + A.a12 * A.d1y;
+    const Lanes4 f3z = A.a22 * A.d2z + A.a12 * A.d1z;
+    const Lanes4 f13x = f1x + f3x, f13y = f1y + f3y, f13z = f1z + f3z;
 
     for (int k = 0; k < 4; k++) {
       if ((k > 0 && m + k >= nref) || R[k]->type <= 0) continue;
       if (ok[k]) {
-        const double d[6] = {A.d1x[k], A.d1y[k], A.d1z[k], A.d2x[k], A.d2y[k], A.d2z[k]};
-        apply<EVFLAG>(*R[k], A.a11[k], A.a12[k], A.a22[k], d, A.energy[k], f, nlocal);
+        const double f1[3] = {f1x[k], f1y[k], f1z[k]};
+        const double f3[3] = {f3x[k], f3y[k], f3z[k]};
+        const double f13[3] = {f13x[k], f13y[k], f13z[k]};
+        double d[6];
+        if (EVFLAG) {
+          d[0] = A.d1x[k], d[1] = A.d1y[k], d[2] = A.d1z[k];
+          d[3] = A.d2x[k], d[4] = A.d2y[k], d[5] = A.d2z[k];
+        }
+        scatter<EVFLAG>(*R[k], f1, f3, f13, d, A.energy[k], f, nlocal);
       } else
         left[nleft++] = e[k];
     }

@@ -11,6 +11,8 @@
 #include "modify.h"
 
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <string>
 
 #if defined(__SSE2__)
@@ -92,6 +94,23 @@ namespace BreakableUtil {
   inline Lanes2 vabs(Lanes2 a)
   {
     return (Lanes2) ((Mask2) a & Mask2{0x7fffffffffffffffLL, 0x7fffffffffffffffLL});
+  }
+
+  // Whether the force loops take their 4-lane AVX versions (compiled alongside the baseline
+  // x86-64 ones with `#pragma GCC target("avx")`, lanes4_avx.h): the processor has AVX and the
+  // environment does not ask for the baseline loops (BRITTLE_NO_AVX=1, to test both paths).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define BRITTLE_AVX_LOOPS 1
+#endif
+  inline bool avx_loops()
+  {
+#if defined(BRITTLE_AVX_LOOPS)
+    __builtin_cpu_init();
+    const char *off = getenv("BRITTLE_NO_AVX");
+    return __builtin_cpu_supports("avx") && !(off && *off && strcmp(off, "0") != 0);
+#else
+    return false;
+#endif
   }
 
   // Slot m of the bond of owned atom i with atom tag partner, or -1.
