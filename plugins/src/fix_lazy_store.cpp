@@ -4,6 +4,7 @@
 
 #include "atom.h"
 #include "error.h"
+#include "memory.h"
 
 #include <algorithm>
 #include <cstring>
@@ -27,6 +28,10 @@ FixLazyStore::FixLazyStore(LAMMPS *lmp, int narg, char **arg) :
   if (atom->find_custom(name.c_str(), flag, cols) >= 0)
     error->all(FLERR, "fix lazy/store: per-atom array {} exists already", name);
   index = atom->add_custom(name.c_str(), 1, ncols, ghost ? 1 : 0);
+  // add_custom allocated nmax rows of its own (untouched, yet a mapping): this fix's rows
+  // replace them
+  memory->destroy(atom->darray[index]);
+  atom->darray[index] = nullptr;
 
   restart_peratom = 1;
   maxexchange = ncols;            // the exchange buffer must hold a whole row
@@ -73,7 +78,8 @@ void FixLazyStore::grow_arrays(int nmax)
   const size_t page = 4096;
   const size_t bytes = ((size_t) nmax * row_bytes + page - 1) / page * page;
   void *p = block ? mremap(block, block_bytes, bytes, MREMAP_MAYMOVE)
-                  : mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+                  : mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1,
+                         0);
   if (p == MAP_FAILED)
     error->one(FLERR, "fix lazy/store: cannot map {} bytes for per-atom array {}", bytes, name);
   block = p;
@@ -88,14 +94,15 @@ void FixLazyStore::grow_arrays(int nmax)
 
 void FixLazyStore::copy_arrays(int i, int j, int /*delflag*/)
 {
-  std::memcpy(rows[j], rows[i], sizeof(double) * ncols);
+  if (i != j) std::memcpy(rows[j], rows[i], sizeof(double) * ncols);
 }
 
 /* ---------------------------------------------------------------------- */
 
 int FixLazyStore::pack_border(int n, int *list, double *buf)
 {
-  for (int k = 0; k < n; k++) std::memcpy(buf + (size_t) k * ncols, rows[list[k]], sizeof(double) * ncols);
+  for (int k = 0; k < n; k++)
+    std::memcpy(buf + (size_t) k * ncols, rows[list[k]], sizeof(double) * ncols);
   return n * ncols;
 }
 
@@ -103,7 +110,8 @@ int FixLazyStore::pack_border(int n, int *list, double *buf)
 
 int FixLazyStore::unpack_border(int n, int first, double *buf)
 {
-  for (int k = 0; k < n; k++) std::memcpy(rows[first + k], buf + (size_t) k * ncols, sizeof(double) * ncols);
+  for (int k = 0; k < n; k++)
+    std::memcpy(rows[first + k], buf + (size_t) k * ncols, sizeof(double) * ncols);
   return n * ncols;
 }
 
