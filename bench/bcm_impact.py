@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import re
 import resource
 import statistics
@@ -174,7 +175,8 @@ def print_phases(run: Path, system: dict, repeats: int, cap: int, ranks: list[in
     bounds = phase_bounds(run)
     restarts = prepare_restarts(run, bounds, work)
     n, dt = system["n_cells"], system["timestep"]
-    print(f"\nphases ({repeats} repeats each, at most {cap:,} steps of a phase timed; min / median):")
+    print(f"\nphases ({repeats} repeats each, at most {cap:,} steps of a phase timed; best (the minimum loop "
+          f"time) / median; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores):")
     print(f"  {'phase':22s} {'steps':>15s} {'timed':>6s} {'ranks':>5s} {'sim us per wall s':>22s} "
           f"{'cell-steps/s':>24s}")
     for phase, (first, last) in bounds.items():
@@ -187,7 +189,7 @@ def print_phases(run: Path, system: dict, repeats: int, cap: int, ranks: list[in
             rate = sorted(steps / t for t in loops)[::-1]  # steps per second, best first
             best, med = rate[0], statistics.median(rate)
             print(f"  {phase:22s} {f'{first}-{last}':>15s} {steps:6d} {r:5d} "
-                  f"{best * dt * 1e6:10.2f} / {med * dt * 1e6:9.2f} {best * n:12,.0f} / {med * n:10,.0f}")
+                  f"{best * dt * 1e6:10.4f} / {med * dt * 1e6:9.4f} {best * n:12,.0f} / {med * n:10,.0f}")
 
 
 # ----------------------------------------------------------------------------- main
@@ -210,7 +212,7 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--config", default="examples/bcm_impact.yaml")
     ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--phase-steps", type=int, default=2000, help="at most this many steps of a phase timed")
+    ap.add_argument("--phase-steps", type=int, default=1000, help="at most this many steps of a phase timed")
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--memory-steps", type=int, default=300)
     ap.add_argument("--skip-memory", action="store_true")
@@ -241,7 +243,7 @@ def main() -> None:
               f"(shortest contact period {system['shortest_period']:.6g} s)")
         lw = whole["lammps_wall_s"]
         print(f"whole run (driver run, 1 rank): {steps:,} steps, {sim * 1e6:.2f} us simulated; LAMMPS session "
-              f"{lw:.1f} s wall: {sim * 1e6 / lw:.2f} sim us per wall s, {n * steps / lw:,.0f} cell-steps/s; "
+              f"{lw:.1f} s wall: {sim * 1e6 / lw:.4f} sim us per wall s, {n * steps / lw:,.0f} cell-steps/s; "
               f"driver run in all {whole['wall_s']:.1f} s (build, session, analysis)")
         analysis = _probe("--probe-analysis", str(run))
         print(f"memory at {n} cells: LAMMPS process peak {whole['lammps_process_mib']:.1f} MiB (target <= 150 MB; "
