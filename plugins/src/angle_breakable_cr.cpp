@@ -26,7 +26,7 @@
    bond's step. This style does not test the stretch itself: past lambda_c an arm has S = 0,
    so the angle exerts no force in the step its bond breaks.
 
-   Storage: theta0, r1_0, r2_0 per atom and angle slot in a hidden fix property/atom (every
+   Storage: theta0, r1_0, r2_0 per atom and angle slot in a hidden fix lazy/store (every
    atom of an angle holds a copy of it, newton_bond being off), filled from the input by fix
    breakable/references (r1_0, r2_0 are the r0 of the two arm bonds); compute() reads a copy
    of the intact entries of neighbor->anglelist. A stored r1_0 of 0 is the value of a slot no

@@ -10,7 +10,7 @@
 
    Reference lengths: r0 of every bond comes from the input (fix breakable/references, from the
    builder's table), the same value on every rank; this style never measures it. It is kept
-   per atom and bond slot in a hidden fix property/atom, so it migrates with atoms and goes to
+   per atom and bond slot in a hidden fix lazy/store, so it migrates with atoms and goes to
    restart files; compute() reads a copy of the intact entries of neighbor->bondlist with their
    r0, two bonds at a time. A stored r0 of 0 is the value of a slot no reference was given for.
 

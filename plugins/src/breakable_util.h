@@ -1,5 +1,5 @@
 /* Small helpers shared by the breakable Clemmer-Robbins styles: per-atom storage of
-   reference geometry in a hidden fix property/atom, and slot look-ups in atom topology. */
+   reference geometry in a hidden fix lazy/store, and slot look-ups in atom topology. */
 
 #ifndef BRITTLE_BREAKABLE_UTIL_H
 #define BRITTLE_BREAKABLE_UTIL_H
@@ -30,8 +30,9 @@ namespace BreakableUtil {
   constexpr const char *ANGLE_REF_NAME = "breakable_cr_angle_ref";
 
   // Index into atom->darray of a per-atom array "name" with ncols columns, created as a
-  // hidden fix property/atom (id fix_id) so that it migrates with its atoms, follows atom
-  // sorting and is written to restart files. A fix of the same id re-created after
+  // hidden fix lazy/store (id fix_id) so that it migrates with its atoms, follows atom
+  // sorting and is written to restart files; unlike fix property/atom, its rows cost memory
+  // only once an atom uses them (fix_lazy_store.h). A fix of the same id re-created after
   // read_restart gets its stored values back.
   inline int peratom_array(LAMMPS *lmp, const std::string &fix_id, const std::string &name,
                            int ncols)
@@ -39,7 +40,7 @@ namespace BreakableUtil {
     if (ncols < 1)
       lmp->error->all(FLERR, "Per-atom store {} needs at least one column", name);
     if (!lmp->modify->get_fix_by_id(fix_id))
-      lmp->modify->add_fix(fmt::format("{} all property/atom d2_{} {}", fix_id, name, ncols));
+      lmp->modify->add_fix(fmt::format("{} all lazy/store {} {} ghost no", fix_id, name, ncols));
     int flag = -1, cols = -1;
     const int index = lmp->atom->find_custom(name.c_str(), flag, cols);
     if (index < 0 || flag != 1 || cols != ncols)
