@@ -17,20 +17,27 @@
                     (the secular change; velocity Verlet has no other);
       fluctuation = max |E(t) - E(0)| / E_scale (the bounded O((omega dt)^2) offset of the
                     shadow energy, not a drift).
-    Series in runs/timestep_study/drift/<case>_spp<N>.csv; a finished one is not rerun.
-(b) Outcome: the full impact of examples/bcm_impact.yaml (1728 cells, 4.5 m/s, G_c = 1 J/m^2),
-    three tessellations per steps_per_period, through the sweep machinery
-    (bench/timestep_study_sweep.yaml -> runs/timestep_study_sweep; finished runs are kept and a
-    re-run resumes). D_w, e_k^2, eta and the fragment count, mean +- std over seeds, against
-    the 100-steps reference: a value passes when every measure's mean lies within the
-    reference's seed-to-seed std of the reference mean.
-(c) Stability: `--stability 2 3 4 5 6 8` runs the vibrating particle a short while at those
-    steps_per_period and reports which blow up (energy grows past 10x).
+    Series in runs/timestep_study/drift/<case>_cells<N>_spp<S>.csv; a finished one is not rerun.
+(b) Outcome: the impact of examples/bcm_impact.yaml (4.5 m/s, G_c = 1 J/m^2) against
+    steps_per_period (100, 50, 30, 20, 15, 12), three tessellations each, through the sweep
+    machinery (bench/timestep_study_sweep.yaml; finished runs are kept and a re-run resumes), at
+    the scales `--scales` names: `full` (1728 cells to the settled outcome: 20+ min a run at 100
+    steps per period on this machine), `small` (300 cells, to the settled outcome) and `t15us`
+    (1728 cells, stopped at 15 us, after the breaking, before the slow settling). D_w, e_k^2,
+    eta and the fragment count, mean +- std over seeds; a value passes when every measure's mean
+    lies within the 100-steps reference's seed-to-seed std of the reference mean.
+(c) Stability (`--stability 3 4 5 6 8 10 12 15`): the vibrating particle and a cube pressed
+    face-on on the plane (`--stability-cells`, 300), 50 shortest periods at each value; unstable
+    when the total energy changes by more than its starting scale.
+(d) Which elements set the step (`--modes`): the fastest modes of the intact particle's
+    interfaces (linearised, sparse eigenvalues) and of a cell touching the plane with one vertex
+    or one face, against the rule's frequency sqrt(k_max / (m_min / 2)).
 
-Prints the tables and writes bench/timestep_study.csv, bench/timestep_study_impact.csv and
-bench/timestep_study.png.
+Prints the tables; writes bench/timestep_study.csv (drift), timestep_study_stability.csv,
+timestep_study_modes.json, timestep_study_impact_<scale>.csv (and _runs_<scale>.csv) and
+timestep_study.png. Baseline: drift < 1e-4; the outcome within the reference's spread.
 
-    python bench/timestep_study.py [--cells 1728] [--no-impact] [--impact-only-read]
+    python bench/timestep_study.py --modes --stability 3 4 5 6 8 10 12 15 --scales small t15us
 """
 
 from __future__ import annotations
@@ -122,9 +129,11 @@ def impulse(lmp, seed: int, v_rms: float) -> None:
 
 
 def energy_series(files: dict, work: Path, case: str, spp: float, periods: float, seed: int, v_rms: float,
-                  press: float, plugin: str, every: int = 1) -> pd.DataFrame:
+                  press: float, plugin: str, every: int = 1, halt_kinetic: float | None = None) -> pd.DataFrame:
     """Run one drift case; columns step, time, kinetic, elastic, E (total, incl. the body force's
-    potential for `pressed`), broken."""
+    potential for `pressed`), broken. halt_kinetic: stop once the kinetic energy passes this (J):
+    a run that blows up then ends before its cells fly apart (the neighbour bins of a growing
+    box exhaust the memory)."""
     m = files["model"]
     dt = files["period"] / spp
     steps = int(math.ceil(periods * spp))
@@ -150,6 +159,8 @@ thermo          0
         impulse(lmp, seed, v_rms)
         lmp.command(f'fix rec all print {every} "$(step) $(time:%.10e) $(v_kin:%.14e) $(v_ela:%.14e) '
                     f'$(v_etot:%.14e) $(v_nb)" file {out} screen no title "step time kinetic elastic E broken"')
+        if halt_kinetic is not None:
+            lmp.command(f"fix halt all halt 1 v_kin > {halt_kinetic!r} error soft")
         lmp.command(f"run {steps}")
     finally:
         lmp.close()
@@ -170,21 +181,24 @@ def drift_figures(t: pd.DataFrame) -> dict:
 
 
 def drift_study(cells: int, seed: int, spps: list[float], periods: float, v_rms: float, press: float,
-                cases: list[str], base: Path) -> pd.DataFrame:
+                cases: list[str], base: Path, run: bool = True) -> pd.DataFrame:
+    """The drift table; run=False tabulates the series already measured and runs nothing."""
     work = base / f"particle_{cells}_seed{seed}"
-    files = particle_files(cells, seed, work)
+    files = particle_files(cells, seed, work) if run else None
     plugin = str(plugin_library())
     rows = []
     for case in cases:
         for spp in spps:
             path = base / f"{case}_cells{cells}_spp{spp:g}.csv"
+            if not path.exists() and not run:
+                continue
             if not path.exists():
                 t0 = time.perf_counter()
                 t = energy_series(files, work, case, spp, periods, seed, v_rms, press, plugin)
                 t.to_csv(path, index=False)
                 print(f"  {case} spp {spp:g}: {len(t) - 1} steps in {time.perf_counter() - t0:.0f} s", flush=True)
             t = pd.read_csv(path)
-            rows.append({"case": case, "cells": cells, "steps_per_period": spp, "dt": files["period"] / spp,
+            rows.append({"case": case, "cells": cells, "steps_per_period": spp, "dt": float(t.time.iloc[1]),
                          "steps": int(t.step.iloc[-1]), **drift_figures(t)})
     return pd.DataFrame(rows)
 
@@ -194,7 +208,7 @@ def stability_study(cells: int, seed: int, spps: list[float], periods: float, v_
     """Blow-up check over `periods` shortest periods at each steps_per_period: the vibrating
     particle (interfaces only), and a cube of `cells` cells pressed face-on on the plane (every
     cell of its bottom face touches the plane with a whole face: the stiffest contact). Unstable
-    when the total energy passes 10x its scale or is no longer finite, or LAMMPS stops."""
+    when the total energy changes by more than its starting scale or is no longer finite, or LAMMPS stops."""
     plugin = str(plugin_library())
     rows = []
     for case, shape, orient in [("vibrating", "truncated_pentakis_dodecahedron", True), ("pressed", "cube", False)]:
@@ -204,7 +218,8 @@ def stability_study(cells: int, seed: int, spps: list[float], periods: float, v_
             path = base / f"stability_{case}_{shape}_cells{cells}_spp{spp:g}.csv"
             if not path.exists():
                 try:
-                    t = energy_series(files, work, case, spp, periods, seed, v_rms, press, plugin)
+                    t = energy_series(files, work, case, spp, periods, seed, v_rms, press, plugin,
+                                      halt_kinetic=1e-4)
                 except Exception as exc:  # a blown-up run may stop LAMMPS (lost atoms): that is the answer
                     t = pd.DataFrame({"step": [0], "time": [0.0], "kinetic": [math.inf], "elastic": [math.inf],
                                       "E": [math.inf], "broken": [-1], "error": [str(exc)[:200]]})
@@ -214,7 +229,7 @@ def stability_study(cells: int, seed: int, spps: list[float], periods: float, v_
             e = t.E.to_numpy()
             grown = float(np.abs(e - e[0]).max() / scale) if np.isfinite(e).all() and scale > 0 else math.inf
             rows.append({"case": case, "shape": shape, "cells": cells, "steps_per_period": spp,
-                         "max_dE_over_E_start": grown, "stable": bool(np.isfinite(grown) and grown < 10.0)})
+                         "max_dE_over_E_start": grown, "stable": bool(np.isfinite(grown) and grown < 1.0)})
     return pd.DataFrame(rows)
 
 def _cross_matrix(r: np.ndarray) -> np.ndarray:
@@ -371,14 +386,17 @@ def outcome_table(runs: pd.DataFrame) -> pd.DataFrame:
     return table.sort_index(ascending=False)
 
 
-def plot(drift: pd.DataFrame, outcome: pd.DataFrame, png: Path) -> None:
+def plot(drift: pd.DataFrame, stab: pd.DataFrame, outcomes: dict[str, pd.DataFrame], png: Path) -> None:
+    """Row 1: drift and fluctuation against steps_per_period, and the stability check; then one
+    row per impact sweep scale: the four measures, mean +- std, the reference's band shaded."""
     import matplotlib  # noqa: PLC0415
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt  # noqa: PLC0415
 
-    n = 1 + (0 if outcome.empty else len(MEASURES))
-    fig, axes = plt.subplots(1, n, figsize=(4 * n, 3.4), squeeze=False)
+    outcomes = {k: v for k, v in outcomes.items() if not v.empty}
+    n_rows = 1 + len(outcomes)
+    fig, axes = plt.subplots(n_rows, len(MEASURES), figsize=(4 * len(MEASURES), 3.3 * n_rows), squeeze=False)
     ax = axes[0, 0]
     for case, d in drift.groupby("case"):
         ax.loglog(d.steps_per_period, d.drift, "o-", label=f"{case}: drift")
@@ -387,19 +405,34 @@ def plot(drift: pd.DataFrame, outcome: pd.DataFrame, png: Path) -> None:
     ax.set_xlabel("steps_per_period")
     ax.set_ylabel("relative energy change")
     ax.legend(fontsize=7)
-    ax.set_title(f"energy ({int(drift.cells.iloc[0])} cells, no damping)", fontsize=9)
-    if not outcome.empty:
-        for ax, k in zip(axes[0, 1:], MEASURES):
+    ax.set_title(f"energy, {int(drift.cells.iloc[0])} cells, no damping/friction/breaks", fontsize=9)
+    ax = axes[0, 1]
+    if not stab.empty:
+        for (case, shape), d in stab.groupby(["case", "shape"]):
+            ax.semilogy(d.steps_per_period, d.max_dE_over_E_start, "o-", label=f"{case} ({shape[:5]})")
+        ax.axhline(1.0, color="k", lw=0.8, ls=":")
+        ax.set_xlabel("steps_per_period")
+        ax.set_ylabel("max |E - E0| / E_scale")
+        ax.set_title("stability (300 cells, 50 periods)", fontsize=9)
+        ax.legend(fontsize=7)
+    for ax in axes[0, 2:]:
+        ax.axis("off")
+    for row, (name, outcome) in enumerate(outcomes.items(), start=1):
+        for ax, k in zip(axes[row], MEASURES):
             ax.errorbar(outcome.index, outcome[f"{k}_mean"], yerr=outcome[f"{k}_std"], fmt="o-", capsize=3)
             if 100.0 in outcome.index:
                 r = outcome.loc[100.0]
                 ax.axhspan(r[f"{k}_mean"] - r[f"{k}_std"], r[f"{k}_mean"] + r[f"{k}_std"], color="C1", alpha=0.2)
             ax.set_xscale("log")
             ax.set_xlabel("steps_per_period")
-            ax.set_title(k, fontsize=9)
+            ax.set_title(f"{k} ({name})", fontsize=9)
     fig.tight_layout()
-    fig.savefig(png, dpi=120)
+    fig.savefig(png, dpi=110)
     plt.close(fig)
+
+
+SCALES = {"full": (None, "1728 cells, to the settled outcome"), "small": ("small", "300 cells, to the settled outcome"),
+          "t15us": ("t15us", "1728 cells, stopped at 15 us")}
 
 
 def main() -> None:
@@ -416,8 +449,11 @@ def main() -> None:
     ap.add_argument("--stability-cells", type=int, default=300)
     ap.add_argument("--modes", action="store_true", help="print which elements set the step (linear analysis)")
     ap.add_argument("--no-impact", action="store_true", help="skip the impact sweep (no table of outcomes)")
-    ap.add_argument("--scale", default=None, help="the sweep's scale: small = 300 cells (default: 1728)")
-    ap.add_argument("--impact-only-read", action="store_true", help="tabulate the finished impact runs only")
+    ap.add_argument("--scales", nargs="*", default=["small", "t15us"], choices=list(SCALES),
+                    help="impact sweeps: full (1728 cells to the settled outcome), small (300 cells), t15us "
+                         "(1728 cells, stopped at 15 us)")
+    ap.add_argument("--tabulate-only", action="store_true",
+                    help="run nothing: tabulate the drift series and impact runs already finished")
     ap.add_argument("--out", type=Path, default=ROOT / "bench")
     a = ap.parse_args()
     base = ROOT / "runs" / "timestep_study" / "drift"
@@ -425,36 +461,38 @@ def main() -> None:
     pd.set_option("display.width", 200)
     pd.set_option("display.max_columns", 30)
 
-    if a.stability:
+    if a.stability and not a.tabulate_only:
         stab = stability_study(a.stability_cells, a.seed, a.stability, 50.0, a.v_rms, a.press, base)
-        print("\nstability (50 shortest periods; unstable: energy change > 10x the starting energy scale):")
+        print("\nstability (50 shortest periods; unstable: energy change > the starting energy scale):")
         print(stab.to_string(index=False))
         stab.to_csv(a.out / "timestep_study_stability.csv", index=False)
 
-    if a.modes:
+    if a.modes and not a.tabulate_only:
         modes = fastest_modes(a.cells, a.seed)
         print("\nfastest modes (frequencies over the rule's sqrt(k_max / (m_min / 2))):")
         for k, v in modes.items():
             print(f"  {k}: {v}")
         (a.out / "timestep_study_modes.json").write_text(json.dumps(modes, indent=1))
 
-    drift = drift_study(a.cells, a.seed, a.spp, a.periods, a.v_rms, a.press, a.cases, base)
+    drift = drift_study(a.cells, a.seed, a.spp, a.periods, a.v_rms, a.press, a.cases, base, run=not a.tabulate_only)
     print(f"\nenergy drift ({a.cells} cells, seed {a.seed}, {a.periods:g} shortest periods, v_rms {a.v_rms:g} m/s, "
           f"press {a.press:g} m/s^2; baseline: drift < {DRIFT_LIMIT:g}):")
     print(drift.to_string(index=False, float_format=lambda x: f"{x:.3g}"))
     drift.to_csv(a.out / "timestep_study.csv", index=False)
 
-    outcome = pd.DataFrame()
-    if not a.no_impact:
-        tag = f"_{a.scale}" if a.scale else ""
-        runs = impact_runs(run=not a.impact_only_read, scale=a.scale)
-        runs.to_csv(a.out / f"timestep_study_impact_runs{tag}.csv", index=False)
-        outcome = outcome_table(runs)
-        print(f"\nimpact outcome (bench/timestep_study_sweep.yaml{' --scale ' + a.scale if a.scale else ''}, "
+    stab = pd.read_csv(a.out / "timestep_study_stability.csv") if (a.out / "timestep_study_stability.csv").exists() \
+        else pd.DataFrame()
+    outcomes = {}
+    for name in [] if a.no_impact else a.scales:
+        scale, what = SCALES[name]
+        runs = impact_runs(run=not a.tabulate_only, scale=scale)
+        runs.to_csv(a.out / f"timestep_study_impact_runs_{name}.csv", index=False)
+        outcomes[name] = outcome = outcome_table(runs)
+        print(f"\nimpact outcome, {what} (bench/timestep_study_sweep.yaml{' --scale ' + scale if scale else ''}; "
               f"mean and std over seeds; reference 100):")
         print(outcome.to_string(float_format=lambda x: f"{x:.4g}"))
-        outcome.to_csv(a.out / f"timestep_study_impact{tag}.csv")
-    plot(drift, outcome, a.out / "timestep_study.png")
+        outcome.to_csv(a.out / f"timestep_study_impact_{name}.csv")
+    plot(drift, stab, outcomes, a.out / "timestep_study.png")
     print(f"\nwrote {a.out / 'timestep_study.csv'}, {a.out / 'timestep_study.png'}")
 
 
