@@ -364,7 +364,11 @@ def impact_runs(run: bool, scale: str | None) -> pd.DataFrame:
         prov = summary.parent.parent / "provenance.json"
         wall = json.loads(prov.read_text()).get("wall_seconds") if prov.exists() else None
         rows.append({"steps_per_period": float(spp), "seed": int(seed), "dt": cfg["timestep"],
-                     "wall_s": wall, **{k: s.get(k) for k in MEASURES}})
+                     "wall_s": wall, "end_step": s.get("end_step"), "settled": s.get("settled"),
+                     # the energy balance's closure, W_k^- - W_k^+ - W_f - W_c measured - E_el(end),
+                     # over W_k^- (analysis/impact.py): the integration error of the whole run
+                     "residual": s.get("balance_residual", math.nan),
+                     **{k: s.get(k) for k in MEASURES}})
     return pd.DataFrame(rows)
 
 
@@ -375,6 +379,8 @@ def outcome_table(runs: pd.DataFrame) -> pd.DataFrame:
         return pd.DataFrame()
     g = runs.groupby("steps_per_period")[MEASURES]
     table = g.mean().add_suffix("_mean").join(g.std().add_suffix("_std")).join(g.size().rename("n"))
+    table["abs_residual_max"] = runs.assign(r=runs.residual.abs()).groupby("steps_per_period").r.max()
+    table["wall_s_mean"] = runs.groupby("steps_per_period").wall_s.mean()
     if 100.0 in table.index:
         ref = table.loc[100.0]
         ok = np.ones(len(table), bool)
@@ -383,6 +389,14 @@ def outcome_table(runs: pd.DataFrame) -> pd.DataFrame:
             table[f"{k}_dev_over_refstd"] = dev / ref[f"{k}_std"]
             ok &= (dev <= ref[f"{k}_std"]).to_numpy()
         table["within_ref_spread"] = ok
+        # paired by seed (same tessellation and orientation): the mean change from the reference,
+        # over the reference's std, the largest over the measures
+        ref_runs = runs[runs.steps_per_period == 100.0].set_index("seed")[MEASURES]
+        paired = {}
+        for spp, grp in runs.groupby("steps_per_period"):
+            d = (grp.set_index("seed")[MEASURES] - ref_runs).dropna()
+            paired[spp] = max(abs(d[k].mean()) / ref[f"{k}_std"] for k in MEASURES) if len(d) else math.nan
+        table["paired_dev_over_refstd"] = pd.Series(paired)
     return table.sort_index(ascending=False)
 
 
@@ -429,6 +443,31 @@ def plot(drift: pd.DataFrame, stab: pd.DataFrame, outcomes: dict[str, pd.DataFra
     fig.tight_layout()
     fig.savefig(png, dpi=110)
     plt.close(fig)
+
+
+def markdown(drift: pd.DataFrame, outcomes: dict[str, pd.DataFrame]) -> str:
+    """The README's tables: drift per case, and per scale the measures as mean +- std."""
+    lines = ["| steps_per_period | " + " | ".join(f"{c}: drift | {c}: fluctuation" for c in drift.case.unique()) + " |",
+             "|---|" + "---|---|" * drift.case.nunique()]
+    for spp, d in drift.groupby("steps_per_period"):
+        cells = []
+        for c in drift.case.unique():
+            r = d[d.case == c]
+            cells += [f"{r.drift.iloc[0]:.2g}", f"{r.fluctuation.iloc[0]:.2g}"] if len(r) else ["—", "—"]
+        lines.append(f"| {spp:g} | " + " | ".join(cells) + " |")
+    for name, t in outcomes.items():
+        if t.empty:
+            continue
+        lines += ["", f"{name}:", "",
+                  "| steps_per_period | runs | D_w | e_k² | η | fragments | max \\|residual\\| / W_k⁻ "
+                  "| within the reference's spread | paired change / reference std |",
+                  "|---|---|---|---|---|---|---|---|---|"]
+        for spp, r in t.iterrows():
+            ms = " | ".join(f"{r[f'{k}_mean']:.3g} ± {r[f'{k}_std']:.2g}" for k in MEASURES)
+            ok = {True: "yes", False: "no"}.get(r.get("within_ref_spread"), "—")
+            paired = r.get("paired_dev_over_refstd", math.nan)
+            lines.append(f"| {spp:g} | {int(r.n)} | {ms} | {r.abs_residual_max:.1e} | {ok} | {paired:.2f} |")
+    return "\n".join(lines)
 
 
 SCALES = {"full": (None, "1728 cells, to the settled outcome"), "small": ("small", "300 cells, to the settled outcome"),
@@ -493,6 +532,7 @@ def main() -> None:
         print(outcome.to_string(float_format=lambda x: f"{x:.4g}"))
         outcome.to_csv(a.out / f"timestep_study_impact_{name}.csv")
     plot(drift, stab, outcomes, a.out / "timestep_study.png")
+    print("\n" + markdown(drift, outcomes))
     print(f"\nwrote {a.out / 'timestep_study.csv'}, {a.out / 'timestep_study.png'}")
 
 
