@@ -381,6 +381,7 @@ def outcome_table(runs: pd.DataFrame) -> pd.DataFrame:
     table = g.mean().add_suffix("_mean").join(g.std().add_suffix("_std")).join(g.size().rename("n"))
     table["abs_residual_max"] = runs.assign(r=runs.residual.abs()).groupby("steps_per_period").r.max()
     table["wall_s_mean"] = runs.groupby("steps_per_period").wall_s.mean()
+    table["energy_ok"] = table.abs_residual_max < DRIFT_LIMIT  # the whole run's balance within 1e-4
     if 100.0 in table.index:
         ref = table.loc[100.0]
         ok = np.ones(len(table), bool)
@@ -397,6 +398,12 @@ def outcome_table(runs: pd.DataFrame) -> pd.DataFrame:
             d = (grp.set_index("seed")[MEASURES] - ref_runs).dropna()
             paired[spp] = max(abs(d[k].mean()) / ref[f"{k}_std"] for k in MEASURES) if len(d) else math.nan
         table["paired_dev_over_refstd"] = pd.Series(paired)
+        # the same as a fraction of the reference value (defined with one seed too)
+        rel = {}
+        for spp, grp in runs.groupby("steps_per_period"):
+            d = ((grp.set_index("seed")[MEASURES] - ref_runs) / ref_runs).dropna()
+            rel[spp] = max(abs(d[k].mean()) for k in MEASURES) if len(d) else math.nan
+        table["paired_rel_change"] = pd.Series(rel)
     return table.sort_index(ascending=False)
 
 
@@ -460,13 +467,14 @@ def markdown(drift: pd.DataFrame, outcomes: dict[str, pd.DataFrame]) -> str:
             continue
         lines += ["", f"{name}:", "",
                   "| steps_per_period | runs | D_w | e_k² | η | fragments | max \\|residual\\| / W_k⁻ "
-                  "| within the reference's spread | paired change / reference std |",
-                  "|---|---|---|---|---|---|---|---|---|"]
+                  "| within the reference's spread | paired change / reference std | paired relative change |",
+                  "|---|---|---|---|---|---|---|---|---|---|"]
         for spp, r in t.iterrows():
-            ms = " | ".join(f"{r[f'{k}_mean']:.3g} ± {r[f'{k}_std']:.2g}" for k in MEASURES)
+            ms = " | ".join(f"{r[f'{k}_mean']:.3g}" + (f" ± {r[f'{k}_std']:.2g}" if r.n > 1 else "") for k in MEASURES)
             ok = {True: "yes", False: "no"}.get(r.get("within_ref_spread"), "—")
             paired = r.get("paired_dev_over_refstd", math.nan)
-            lines.append(f"| {spp:g} | {int(r.n)} | {ms} | {r.abs_residual_max:.1e} | {ok} | {paired:.2f} |")
+            rel = r.get("paired_rel_change", math.nan)
+            lines.append(f"| {spp:g} | {int(r.n)} | {ms} | {r.abs_residual_max:.1e} | {ok} | {paired:.2f} | {rel:.1%} |")
     return "\n".join(lines)
 
 
