@@ -389,7 +389,8 @@ def outcome_table(runs: pd.DataFrame) -> pd.DataFrame:
             dev = (table[f"{k}_mean"] - ref[f"{k}_mean"]).abs()
             table[f"{k}_dev_over_refstd"] = dev / ref[f"{k}_std"]
             ok &= (dev <= ref[f"{k}_std"]).to_numpy()
-        table["within_ref_spread"] = ok
+        # a spread needs two reference seeds at least
+        table["within_ref_spread"] = pd.Series(ok, index=table.index, dtype=object) if ref.n > 1 else None
         # paired by seed (same tessellation and orientation): the mean change from the reference,
         # over the reference's std, the largest over the measures
         ref_runs = runs[runs.steps_per_period == 100.0].set_index("seed")[MEASURES]
@@ -474,7 +475,8 @@ def markdown(drift: pd.DataFrame, outcomes: dict[str, pd.DataFrame]) -> str:
             ok = {True: "yes", False: "no"}.get(r.get("within_ref_spread"), "—")
             paired = r.get("paired_dev_over_refstd", math.nan)
             rel = r.get("paired_rel_change", math.nan)
-            lines.append(f"| {spp:g} | {int(r.n)} | {ms} | {r.abs_residual_max:.1e} | {ok} | {paired:.2f} | {rel:.1%} |")
+            pc = "—" if pd.isna(paired) else f"{paired:.2f}"
+            lines.append(f"| {spp:g} | {int(r.n)} | {ms} | {r.abs_residual_max:.1e} | {ok} | {pc} | {rel:.1%} |")
     return "\n".join(lines)
 
 
