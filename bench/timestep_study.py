@@ -437,7 +437,16 @@ def plot(drift: pd.DataFrame, stab: pd.DataFrame, outcomes: dict[str, pd.DataFra
         ax.set_ylabel("max |E - E0| / E_scale")
         ax.set_title("stability (300 cells, 50 periods)", fontsize=9)
         ax.legend(fontsize=7)
-    for ax in axes[0, 2:]:
+    ax = axes[0, 2]
+    for name, outcome in outcomes.items():
+        ax.loglog(outcome.index, outcome.abs_residual_max, "o-", label=name)
+    ax.axhline(DRIFT_LIMIT, color="k", lw=0.8, ls=":")
+    ax.set_xlabel("steps_per_period")
+    ax.set_ylabel("max |balance residual| / W_k-")
+    ax.set_title("impact energy balance (damping, friction, breaks on)", fontsize=9)
+    if outcomes:
+        ax.legend(fontsize=7)
+    for ax in axes[0, 3:]:
         ax.axis("off")
     for row, (name, outcome) in enumerate(outcomes.items(), start=1):
         for ax, k in zip(axes[row], MEASURES):
@@ -446,6 +455,8 @@ def plot(drift: pd.DataFrame, stab: pd.DataFrame, outcomes: dict[str, pd.DataFra
                 r = outcome.loc[100.0]
                 ax.axhspan(r[f"{k}_mean"] - r[f"{k}_std"], r[f"{k}_mean"] + r[f"{k}_std"], color="C1", alpha=0.2)
             ax.set_xscale("log")
+            ax.set_xticks(list(outcome.index), [f"{v:g}" for v in outcome.index])
+            ax.minorticks_off()
             ax.set_xlabel("steps_per_period")
             ax.set_title(f"{k} ({name})", fontsize=9)
     fig.tight_layout()
