@@ -75,12 +75,9 @@ def check_balance(run_dir: Path) -> dict:
     # the record holds every store and every sink: interfaces, plane and cell-cell contacts
     last = thermo.iloc[-1]
     assert last.elastic == pytest.approx(last.E_interfaces + last.E_wall + last.E_contacts, rel=1e-12)
-    # each contact law's own account closes far below the 1e-3: an O(dt^2) integration
-    # error of the stiff plane contact; at the default 30 steps per period it is 1.3e-4 on the
-    # hard seed-3 case below (it was below 1e-4 at 50; the time-step study's 300- and 1728-cell
-    # impacts close to 2.3e-5 at 30: README, Time step)
+    # each contact law's own account closes far below the 1e-3
     wall, pair = contact_balances(thermo)
-    assert abs(wall) < 2e-4 * wk and abs(pair) < 1e-4 * wk, (wall / wk, pair / wk)
+    assert abs(wall) < 1e-4 * wk and abs(pair) < 1e-4 * wk, (wall / wk, pair / wk)
     return summary
 
 
