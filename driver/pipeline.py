@@ -58,6 +58,8 @@ def _execute_locked(cfg: RunConfig, rd: RunDir, action: str, source: Path | None
         previous = read_status(rd.root) or {}
         check_resumable(cfg, rd.root)
         prov = json.loads((rd.root / "provenance.json").read_text())
+        if not previous.get("lammps_done"):
+            check_same_plugins(prov, plugin, rd.root)
         system = json.loads((rd.root / "system.json").read_text())
         lammps_done = bool(previous.get("lammps_done"))
         if not lammps_done:
@@ -156,6 +158,20 @@ def check_resumable(cfg: RunConfig, run_dir: Path) -> None:
         detail = ", ".join(f"{k}: {old.get(k)!r} -> {new.get(k)!r}" for k in changed[:8])
         raise ConfigError(f"{run_dir}: cannot resume, the config changed since the run started ({detail}); "
                           "run it under another output directory, or use --force to start it again")
+
+
+def check_same_plugins(prov: dict, plugin: Path, run_dir: Path) -> None:
+    """Refuse to resume LAMMPS from a checkpoint written by another build of the plugins: a
+    checkpoint holds the styles' own state (interface tables, per-atom stores, counters) in
+    the layout of the build that wrote it, and another build may read it back wrong or not
+    at all. ConfigError naming both builds and the ways out."""
+    from driver.config import ConfigError  # noqa: PLC0415
+
+    made = prov.get("plugin_build_hash")
+    if made is not None and made != plugin.parent.name:
+        raise ConfigError(f"{run_dir}: cannot resume, its checkpoints were written by plugin build {made} and the "
+                          f"plugins are now build {plugin.parent.name} (their sources changed since the run started); "
+                          "finish it with the version that started it, or use --force to start it again")
 
 
 # the dumps a run writes: periodic and snapshot dumps by step, the impact's start and end state

@@ -1,9 +1,11 @@
-"""Running LAMMPS for a run directory: the session in-process (1 rank) or under mpiexec (N
-ranks), with progress, heartbeat, periodic checkpoints and clean stops on SIGINT/SIGTERM.
+"""Running LAMMPS for a run directory: the session in its own lean process (1 rank) or under
+mpiexec (N ranks), with progress, heartbeat, periodic checkpoints and clean stops on SIGINT/SIGTERM.
 
-One rank runs the session (driver/session.py) inside this process, through the `lammps`
-Python module; N ranks run `python -m driver.session` under the wheel's `mpiexec`, in their
-own process group so that a terminal's Ctrl-C reaches only the driver. Either way:
+The session (driver/session.py) runs as `python -m driver.session`, alone on 1 rank, under the
+wheel's `mpiexec` on N, in its own process group so that a terminal's Ctrl-C reaches only the
+driver. It imports LAMMPS and little else: the driver's own memory (the tessellation it built,
+numpy, pandas, matplotlib for the analysis) never adds to the peak of the process that holds
+LAMMPS, and the analysis that follows starts from a process without LAMMPS's arrays. Either way:
   - a thread tails the run's progress record (an absolute path: the 1-rank session changes
     directory) for the progress bar, refreshes the heartbeat in status.json, and asks for a
     checkpoint every `checkpoint_every` of wall time (control.lmp, read at chunk boundaries);
@@ -33,7 +35,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from driver.engine import Lammps, LammpsError, venv_bin
-from driver.session import ERROR_FILE, EXIT_STOPPED, SessionError, StopRequested, run_plan, write_control
+from driver.session import ERROR_FILE, EXIT_STOPPED, SessionError, write_control
 
 HEARTBEAT_S = 10.0
 STOP_GRACE_S = 60.0
@@ -280,10 +282,7 @@ def run_session(run_dir: Path, np: int = 1, checkpoint: dict[str, Any] | None = 
     with _registry_lock:
         _active[run_dir] = control
     try:
-        if np == 1:
-            _session_in_process(run_dir, checkpoint, control)
-        else:
-            _session_mpi(run_dir, np, checkpoint, control)
+        _session_process(run_dir, np, checkpoint, control)
     finally:
         with _registry_lock:
             _active.pop(run_dir, None)
@@ -293,26 +292,20 @@ def run_session(run_dir: Path, np: int = 1, checkpoint: dict[str, Any] | None = 
         raise RunInterrupted(control.signum or signal.SIGINT, phase="the end of the LAMMPS run", lammps_done=True)
 
 
-def _session_in_process(run_dir: Path, checkpoint: dict[str, Any] | None, control: Control) -> None:
-    with _signals_request_stop(control), _chdir(run_dir):
-        lmp = Lammps(log=None)
-        try:
-            lmp.command("log log.lammps append" if checkpoint else "log log.lammps")
-            run_plan(lmp, run_dir, checkpoint)
-        except StopRequested as stop:
-            raise RunInterrupted(control.signum or signal.SIGINT, stop.step) from None
-        finally:
-            lmp.close()
-
-
 def _set_pdeathsig() -> None:  # pragma: no cover - runs in the child between fork and exec
     """The MPI launcher ends with the driver (SIGTERM: mpiexec then ends its ranks)."""
     with contextlib.suppress(OSError, AttributeError):
         ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
 
 
-def _session_mpi(run_dir: Path, np: int, checkpoint: dict[str, Any] | None, control: Control) -> None:
-    cmd = [venv_bin("mpiexec"), "-n", str(np), sys.executable, "-m", "driver.session", str(run_dir)]
+def _session_command(run_dir: Path, np: int) -> list[str]:
+    """The session's command line: 1 rank needs no launcher (LAMMPS runs as an MPI singleton)."""
+    launcher = [venv_bin("mpiexec"), "-n", str(np)] if np > 1 else []
+    return [*launcher, sys.executable, "-m", "driver.session", str(run_dir)]
+
+
+def _session_process(run_dir: Path, np: int, checkpoint: dict[str, Any] | None, control: Control) -> None:
+    cmd = _session_command(run_dir, np)
     if checkpoint is not None:
         ckpt_file = run_dir / "checkpoints" / ".resume_from.json"
         ckpt_file.write_text(json.dumps(checkpoint))
@@ -352,17 +345,18 @@ _ERROR_RE = re.compile(r"^(ERROR.*)$", re.MULTILINE)
 
 
 def _mpi_error(run_dir: Path, np: int, code: int) -> str:
+    where = f"mpiexec -n {np}" if np > 1 else "session process"
     err = run_dir / ERROR_FILE
     if err.exists():
         with contextlib.suppress(OSError, ValueError):
-            return f"{json.loads(err.read_text())['message']} (mpiexec -n {np}, exit code {code})"
+            return f"{json.loads(err.read_text())['message']} ({where}, exit code {code})"
     text = ""
     for name in ("log.lammps", "log.session.txt"):
         if (run_dir / name).exists():
             text += (run_dir / name).read_text(errors="replace") + "\n"
     found = _ERROR_RE.findall(text)
     msg = found[-1] if found else (text.strip().splitlines() or ["LAMMPS failed"])[-1]
-    return f"{msg} (mpiexec -n {np}, exit code {code})"
+    return f"{msg} ({where}, exit code {code})"
 
 
 # ------------------------------------------------------------------ plain input files

@@ -1,7 +1,7 @@
 """The LAMMPS side of a run: set up, then run the schedule in chunks, checkpointing and stoppable.
 
-This code runs on every MPI rank (in the driver's own process on 1 rank; under `mpiexec
-python -m driver.session RUN_DIR` on N ranks) and issues the same commands on each. Every
+This code runs on every MPI rank (`python -m driver.session RUN_DIR` in a process of its own
+on 1 rank, under `mpiexec` on N ranks) and issues the same commands on each. Every
 chunk is a `run` command with its own setup (neighbour lists and atom order rebuilt); a
 checkpoint is only ever taken between chunks, and chunk boundaries depend on the config alone,
 so a run resumed from a checkpoint performs exactly the operations of an uninterrupted one.
@@ -146,11 +146,14 @@ class Session:
                       max_windows=int(sched["max_windows"]))
 
     def _outcome(self, **facts: Any) -> None:
-        """What the schedule ended with (outcome.json), for the analysis."""
+        """What the schedule ended with (outcome.json), for the analysis; with rank 0's peak
+        resident memory so far (this process holds LAMMPS and little else: the figure the
+        benchmark reports)."""
         if self.rank == 0:
             from runfiles.atomic import atomic_write_json  # noqa: PLC0415
 
-            atomic_write_json(self.run_dir / OUTCOME, {"end_step": self.step, **facts})
+            atomic_write_json(self.run_dir / OUTCOME, {"end_step": self.step, **facts,
+                                                       "session_peak_rss_mib": peak_rss_mib()})
 
     # ------------------------------------------------------------ boundaries
     def _boundary(self) -> None:
@@ -190,6 +193,19 @@ class Session:
             old.with_suffix(".restart").unlink(missing_ok=True)
 
 
+def peak_rss_mib() -> float | None:
+    """Peak resident memory of this process (VmHWM) in MiB; None where /proc is missing. Not
+    ru_maxrss: a child forked from the driver inherits the driver's pages until it execs, and
+    ru_maxrss keeps that figure."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return None
+
+
 def load_plan(run_dir: Path) -> dict[str, Any]:
     return json.loads((Path(run_dir) / SESSION).read_text())
 
@@ -207,7 +223,7 @@ def run_plan(lmp: Lammps, run_dir: Path, checkpoint: dict[str, Any] | None) -> N
 
 
 def main(argv: list[str] | None = None) -> int:
-    """`python -m driver.session RUN_DIR [CHECKPOINT_JSON]`: one rank of an MPI run."""
+    """`python -m driver.session RUN_DIR [CHECKPOINT_JSON]`: the session, or one rank of it."""
     args = sys.argv[1:] if argv is None else argv
     run_dir = Path(args[0]).resolve()
     checkpoint = json.loads(Path(args[1]).read_text()) if len(args) > 1 else None

@@ -205,6 +205,12 @@ def test_resume_refused_when_the_config_changed(tmp_path, plugin_path):
     old["model"]["packing_fraction"], old["execution"]["chunk_steps"] = None, None
     (out / "config.resolved.yaml").write_text(yaml.safe_dump(old, sort_keys=False))
     check_resumable(load_config(cfg), out)
+    # checkpoints written by another build of the plugins are not read back
+    prov = json.loads((out / "provenance.json").read_text())
+    (out / "provenance.json").write_text(json.dumps({**prov, "plugin_build_hash": "an-older-build"}))
+    with pytest.raises(ConfigError, match="written by plugin build an-older-build"):
+        execute(parse_config({**SHEAR, "output": {"dir": str(out)}}), resume=True, show_progress=False)
+    assert read_status(out)["state"] == "interrupted"
 
 
 # ------------------------------------------------------------------ progress, post

@@ -8,6 +8,23 @@ from pydantic import Field
 
 from driver.schema import _Strict
 
+# The time step is dt = 2 pi sqrt((m_min / 2) / k_max) / steps_per_period (driver/bcm/particle.py
+# contact_timestep). The fastest motions are faster than that period says: a whole cell face
+# on the plane (k_n and k_t at each of its N points, rocking the cell about its centroid) is up
+# to 3.6x faster, and velocity Verlet blows up past omega dt = 2. Measured and derived in
+# bench/timestep_study.py (README "Time step").
+MIN_STEPS_PER_PERIOD = 12.0
+
+
+def check_steps_per_period(value: float) -> float:
+    """Refuse a time step above the stability limit (a field validator of the BCM scenarios)."""
+    if value < MIN_STEPS_PER_PERIOD:
+        raise ValueError(f"steps_per_period = {value:g} is below the stability limit {MIN_STEPS_PER_PERIOD:g}: "
+                         f"the time step would exceed 2 / omega of the stiffest contacts (a cell face on the plane "
+                         f"or on another cell) and the run would blow up; use {MIN_STEPS_PER_PERIOD:g} or more "
+                         f"(README, Time step)")
+    return value
+
 
 class CohesiveInterface(_Strict):
     """Glued face between two cells (SPEC 1.2-1.3), whole-interface values, SI units."""

@@ -14,8 +14,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Literal
 
-from pydantic import Field
+from pydantic import Field, field_validator
 
+from driver.bcm.section import check_steps_per_period
 from driver.registry import Scenario
 from driver.schema import _Strict
 from driver.scenarios.bpm_calibrate import CalibrateScenario
@@ -34,7 +35,7 @@ class BlockSection(_Strict):
                                                               "none: the particle's, (V_particle / N_c)^(1/3) "
                                                               "from the model section (filled in when the "
                                                               "config is read)")
-    steps_per_period: float = Field(50.0, ge=10.0, description="time step = shortest contact period (stiffest "
+    steps_per_period: float = Field(50.0, gt=0.0, description="time step = shortest contact period (stiffest "
                                                                "spring, lightest cells) / this")
     crossings: float = Field(4.0, gt=0.0, description="moduli: the fast compression phase lasts this many "
                                                        "sound-crossing times T = L / c_0, c_0 = sqrt(k_n / "
@@ -47,6 +48,8 @@ class BlockSection(_Strict):
                                                                 "sound-crossing time T")
     pull_strain: float = Field(2e-3, gt=0.0, le=0.05, description="fracture: engineering strain (z) at which "
                                                                   "the pull ends")
+
+    _stable = field_validator("steps_per_period")(check_steps_per_period)
 
 
 class BlockCalibrateScenario(CalibrateScenario):

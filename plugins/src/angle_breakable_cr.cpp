@@ -26,7 +26,7 @@
    bond's step. This style does not test the stretch itself: past lambda_c an arm has S = 0,
    so the angle exerts no force in the step its bond breaks.
 
-   Storage: theta0, r1_0, r2_0 per atom and angle slot in a hidden fix property/atom (every
+   Storage: theta0, r1_0, r2_0 per atom and angle slot in a hidden fix lazy/store (every
    atom of an angle holds a copy of it, newton_bond being off), filled from the input by fix
    breakable/references (r1_0, r2_0 are the r0 of the two arm bonds); compute() reads a copy
    of the intact entries of neighbor->anglelist. A stored r1_0 of 0 is the value of a slot no
@@ -64,88 +64,7 @@ using BreakableUtil::vabs;
 using BreakableUtil::vmax;
 using BreakableUtil::vsqrt;
 
-// asin(x) for |x| < ASIN_XMAX = 0.3 (|dth| < 17.46 degrees): x + x z P(z), z = x^2, P of
-// degree 7 interpolating (asin(x) - x) / (x z) at the Chebyshev nodes of [0, 0.09]; relative
-// error below 4e-16 (rounding included). Estrin's scheme keeps the dependency chain short.
-constexpr double ASIN_XMAX = 0.3;
-
-template <class T> inline T asin_small(T x)
-{
-  const T z = x * x;
-  const T z2 = z * z;
-  const T z4 = z2 * z2;
-  const T p01 = 0.1666666666666649 + 0.07500000000250932 * z;
-  const T p23 = 0.04464285655916009 + 0.03038199601727747 * z;
-  const T p45 = 0.02236993042003646 + 0.01740472381582807 * z;
-  const T p67 = 0.01330212710356684 + 0.015818111679304542 * z;
-  const T p = (p01 + p23 * z2) + (p45 + p67 * z2) * z4;
-  return x + x * z * p;
-}
-
-// The arithmetic of one angle, on one value or on two lanes. Every path that decides on an
-// angle (fast and exact passes, single()) goes through it, so all take the same decisions.
-template <class T> struct Angle3 {
-  // in: arm vectors d1 = x1 - x2, d2 = x3 - x2, references
-  T d1x, d1y, d1z, d2x, d2y, d2z;
-  T cos0, sin0, inv_r1_0, inv_r2_0;
-  // geometry
-  T r1, r2, inv_r12, c, s, l1, l2, sd, cd;
-
-  void geometry()
-  {
-    // r as bond_style breakable/cr computes it: the stretch tests must agree bit for bit
-    r1 = vsqrt(d1x * d1x + d1y * d1y + d1z * d1z);
-    r2 = vsqrt(d2x * d2x + d2y * d2y + d2z * d2z);
-    const T dot = d1x * d2x + d1y * d2y + d1z * d2z;
-    const T cx = d1y * d2z - d1z * d2y;
-    const T cy = d1z * d2x - d1x * d2z;
-    const T cz = d1x * d2y - d1y * d2x;
-    const T b = vsqrt(cx * cx + cy * cy + cz * cz);    // r1 r2 sin(theta)
-    inv_r12 = 1.0 / (r1 * r2);
-    c = dot * inv_r12;
-    s = b * inv_r12;
-    l1 = r1 * inv_r1_0;
-    l2 = r2 * inv_r2_0;
-    sd = s * cos0 - c * sin0;    // sin(theta - theta0)
-    cd = c * cos0 + s * sin0;    // cos(theta - theta0)
-  }
-
-  // energy and force coefficients at bend dth (SPEC Eq. 3-4): f1 = a11 d1 + a12 d2,
-  // f3 = a22 d2 + a12 d1, f2 = -f1 - f3
-  T a11, a12, a22, energy;
-
-  void forces(T dth, T k, T inv_thc2, T inv_ec2)
-  {
-    const T inv_s = 1.0 / vmax(s, T{} + SMALL);
-    const T inv_r1 = r2 * inv_r12;
-    const T inv_r2 = r1 * inv_r12;
-
-    // S of the more stretched arm, and dS/dl. eps is clamped at 0 (S = 1, dS = 0), q at 0:
-    // an arm past lambda_c r0 (its bond breaks in this step) gives S = dS = 0, no force.
-    const T eps = vmax(vmax(l1, l2) - 1.0, T{});
-    const T q = vmax(1.0 - eps * eps * inv_ec2, T{});
-    const T s_fac = q * q;
-
-    // dE/dtheta = k_A S (dth - dth^3 / theta_c^2); E = k_A S g, g = dth^2/2 - dth^4/(4 thc^2)
-    const T dth2 = dth * dth;
-    const T ks = k * s_fac;
-    const T tau = ks * dth * (1.0 - dth2 * inv_thc2);
-    const T g = dth2 * (0.5 - 0.25 * dth2 * inv_thc2);
-    energy = ks * g;
-
-    // radial term -dE/dr = -k_A g (dS/dl) / r0 along the more stretched arm (arm 1 on a
-    // tie), folded into the coefficient of that arm's vector (divided by its length)
-    const T fr = 4.0 * k * g * eps * q * inv_ec2;
-    const T fr1 = select_lt(l1, l2, T{}, fr * inv_r1_0 * inv_r1);
-    const T fr2 = select_lt(l1, l2, fr * inv_r2_0 * inv_r2, T{});
-
-    // angular part as in angle_style harmonic
-    const T aa = -tau * inv_s;
-    a11 = aa * c * inv_r1 * inv_r1 + fr1;
-    a12 = -aa * inv_r12;
-    a22 = aa * c * inv_r2 * inv_r2 + fr2;
-  }
-};
+#include "angle_breakable_cr_math.h"    // the baseline copy
 
 // sin and cos of theta0 (one range reduction for both where the C library offers it)
 inline void sin_cos(double theta, double &s, double &c)
@@ -182,6 +101,30 @@ inline void arms(const double *x1, const double *x2, const double *x3, Angle3<do
 
 }    // namespace
 
+/* ----------------------------------------------------------------------
+   The same arithmetic compiled for AVX, for the 4-lane force loop (loop4),
+   which compute() takes when the processor has AVX (checked at run time: the
+   library itself is built for baseline x86-64). AVX adds, multiplies,
+   divides and square roots round each lane as the SSE2 and scalar
+   instructions do, and AVX has no fused multiply-add, so a lane of loop4
+   gives the bits of loop() and exact() and takes the same decisions.
+------------------------------------------------------------------------- */
+
+#if defined(BRITTLE_AVX_LOOPS)
+#pragma GCC push_options
+#pragma GCC target("avx")
+namespace {
+namespace avx {
+
+#include "lanes4_avx.h"
+
+#include "angle_breakable_cr_math.h"    // the AVX copy
+
+}    // namespace avx
+}    // namespace
+#pragma GCC pop_options
+#endif
+
 /* ---------------------------------------------------------------------- */
 
 AngleBreakableCR::AngleBreakableCR(LAMMPS *_lmp) :
@@ -190,6 +133,7 @@ AngleBreakableCR::AngleBreakableCR(LAMMPS *_lmp) :
 {
   writedata = 1;
   born_matrix_enable = 0;
+  avx_loop = BreakableUtil::avx_loops();
   if (domain->box_exist) FixBreakableSpecial::get_or_create(lmp);
 }
 
@@ -297,7 +241,20 @@ inline void AngleBreakableCR::apply(const Ref &R, double a11, double a12, double
   f3[0] = a22 * d[3] + a12 * d[0];
   f3[1] = a22 * d[4] + a12 * d[1];
   f3[2] = a22 * d[5] + a12 * d[2];
+  const double f13[3] = {f1[0] + f3[0], f1[1] + f3[1], f1[2] + f3[2]};
+  scatter<EVFLAG>(R, f1, f3, f13, d, eangle, f, nlocal);
+}
 
+/* ----------------------------------------------------------------------
+   add f1 to atom1, f3 to atom3 and -f13 = -(f1 + f3) to the vertex, owned
+   atoms only; energy and virial
+------------------------------------------------------------------------- */
+
+template <bool EVFLAG>
+inline void AngleBreakableCR::scatter(const Ref &R, const double *f1, const double *f3,
+                                      const double *f13, const double *d, double eangle,
+                                      double *const *f, int nlocal)
+{
   // newton_bond is off: each rank adds forces to its owned atoms only
   const int i1 = R.i1, i2 = R.i2, i3 = R.i3;
   if (i1 < nlocal) {
@@ -306,9 +263,9 @@ inline void AngleBreakableCR::apply(const Ref &R, double a11, double a12, double
     f[i1][2] += f1[2];
   }
   if (i2 < nlocal) {
-    f[i2][0] -= f1[0] + f3[0];
-    f[i2][1] -= f1[1] + f3[1];
-    f[i2][2] -= f1[2] + f3[2];
+    f[i2][0] -= f13[0];
+    f[i2][1] -= f13[1];
+    f[i2][2] -= f13[2];
   }
   if (i3 < nlocal) {
     f[i3][0] += f3[0];
@@ -316,7 +273,10 @@ inline void AngleBreakableCR::apply(const Ref &R, double a11, double a12, double
     f[i3][2] += f3[2];
   }
 
-  if (EVFLAG) ev_tally(i1, i2, i3, nlocal, 0, eangle, f1, f3, d[0], d[1], d[2], d[3], d[4], d[5]);
+  if (EVFLAG) {
+    double g1[3] = {f1[0], f1[1], f1[2]}, g3[3] = {f3[0], f3[1], f3[2]};
+    ev_tally(i1, i2, i3, nlocal, 0, eangle, g1, g3, d[0], d[1], d[2], d[3], d[4], d[5]);
+  }
 }
 
 /* ----------------------------------------------------------------------
@@ -414,6 +374,117 @@ template <bool EVFLAG> void AngleBreakableCR::loop()
   for (int j = 0; j < nleft; j++) exact<EVFLAG>(ref[left[j]], x, f, nlocal);
 }
 
+/* ----------------------------------------------------------------------
+   loop() on four cache entries at a time, in the four lanes of AVX
+------------------------------------------------------------------------- */
+
+#if defined(BRITTLE_AVX_LOOPS)
+#pragma GCC push_options
+#pragma GCC target("avx")
+template <bool EVFLAG> void AngleBreakableCR::loop4()
+{
+  using avx::Lanes4;
+  using avx::Mask4;
+  const double *const *x = atom->x;
+  double *const *f = atom->f;
+  const int nlocal = atom->nlocal;
+  Ref *ref = cache.data();
+  const int nref = (int) cache.size();
+  const TypeParams *tp = params.data();
+  int *left = deferred.data();
+  int nleft = 0;
+  const Lanes4 xmax = {avx::ASIN_XMAX, avx::ASIN_XMAX, avx::ASIN_XMAX, avx::ASIN_XMAX};
+  const Lanes4 zero = {0.0, 0.0, 0.0, 0.0};
+
+  for (int m = 0; m < nref; m += 4) {
+    // past the end, a lane repeats the last entry and is skipped below
+    const int last = nref - 1;
+    const int e[4] = {m, m + 1 < nref ? m + 1 : last, m + 2 < nref ? m + 2 : last,
+                      m + 3 < nref ? m + 3 : last};
+    const Ref *R[4] = {&ref[e[0]], &ref[e[1]], &ref[e[2]], &ref[e[3]]};
+    const TypeParams *P[4] = {&tp[R[0]->type], &tp[R[1]->type], &tp[R[2]->type],
+                              &tp[R[3]->type]};    // type 0: broken, skipped below
+    const bool one_type = P[1] == P[0] && P[2] == P[0] && P[3] == P[0];
+    const double *x1[4], *x2[4], *x3[4];
+    for (int k = 0; k < 4; k++) {
+      x1[k] = x[R[k]->i1];
+      x2[k] = x[R[k]->i2];
+      x3[k] = x[R[k]->i3];
+    }
+    avx::Angle3<Lanes4> A;
+    const Lanes4 x2x = {x2[0][0], x2[1][0], x2[2][0], x2[3][0]};
+    const Lanes4 x2y = {x2[0][1], x2[1][1], x2[2][1], x2[3][1]};
+    const Lanes4 x2z = {x2[0][2], x2[1][2], x2[2][2], x2[3][2]};
+    A.d1x = Lanes4{x1[0][0], x1[1][0], x1[2][0], x1[3][0]} - x2x;
+    A.d1y = Lanes4{x1[0][1], x1[1][1], x1[2][1], x1[3][1]} - x2y;
+    A.d1z = Lanes4{x1[0][2], x1[1][2], x1[2][2], x1[3][2]} - x2z;
+    A.d2x = Lanes4{x3[0][0], x3[1][0], x3[2][0], x3[3][0]} - x2x;
+    A.d2y = Lanes4{x3[0][1], x3[1][1], x3[2][1], x3[3][1]} - x2y;
+    A.d2z = Lanes4{x3[0][2], x3[1][2], x3[2][2], x3[3][2]} - x2z;
+    A.cos0 = Lanes4{R[0]->cos0, R[1]->cos0, R[2]->cos0, R[3]->cos0};
+    A.sin0 = Lanes4{R[0]->sin0, R[1]->sin0, R[2]->sin0, R[3]->sin0};
+    A.inv_r1_0 = Lanes4{R[0]->inv_r1_0, R[1]->inv_r1_0, R[2]->inv_r1_0, R[3]->inv_r1_0};
+    A.inv_r2_0 = Lanes4{R[0]->inv_r2_0, R[1]->inv_r2_0, R[2]->inv_r2_0, R[3]->inv_r2_0};
+    A.geometry();
+
+    // the decisions of exact(), for the common case only
+    // per-type parameters: one broadcast when the four entries share a type (the usual case)
+    Lanes4 theta_c, kk, inv_thc2, inv_ec2;
+    if (one_type) {
+      const TypeParams &Q = *P[0];
+      theta_c = Lanes4{} + Q.theta_c;
+      kk = Lanes4{} + Q.k;
+      inv_thc2 = Lanes4{} + Q.inv_thc2;
+      inv_ec2 = Lanes4{} + Q.inv_ec2;
+    } else {
+      theta_c = Lanes4{P[0]->theta_c, P[1]->theta_c, P[2]->theta_c, P[3]->theta_c};
+      kk = Lanes4{P[0]->k, P[1]->k, P[2]->k, P[3]->k};
+      inv_thc2 = Lanes4{P[0]->inv_thc2, P[1]->inv_thc2, P[2]->inv_thc2, P[3]->inv_thc2};
+      inv_ec2 = Lanes4{P[0]->inv_ec2, P[1]->inv_ec2, P[2]->inv_ec2, P[3]->inv_ec2};
+    }
+
+    // the decisions of exact(), for the common case only
+    const Lanes4 dth = avx::asin_small(A.sd);
+    const Mask4 ok =
+        (avx::vabs(A.sd) < xmax) & (A.cd > zero) & ~(avx::vabs(dth) >= theta_c);
+
+    A.forces(dth, kk, inv_thc2, inv_ec2);
+
+    // the forces of apply(), in the four lanes
+    const Lanes4 f1x = A.a11 * A.d1x + A.a12 * A.d2x;
+    const Lanes4 f1y = A.a11 * A.d1y + A.a12 * A.d2y;
+    const Lanes4 f1z = A.a11 * A.d1z + A.a12 * A.d2z;
+    const Lanes4 f3x = A.a22 * A.d2x + A.a12 * A.d1x;
+    const Lanes4 f3y = A.a22 * A.d2y + A.a12 * A.d1y;
+    const Lanes4 f3z = A.a22 * A.d2z + A.a12 * A.d1z;
+    const Lanes4 f13x = f1x + f3x, f13y = f1y + f3y, f13z = f1z + f3z;
+
+    for (int k = 0; k < 4; k++) {
+      if ((k > 0 && m + k >= nref) || R[k]->type <= 0) continue;
+      if (ok[k]) {
+        const double f1[3] = {f1x[k], f1y[k], f1z[k]};
+        const double f3[3] = {f3x[k], f3y[k], f3z[k]};
+        const double f13[3] = {f13x[k], f13y[k], f13z[k]};
+        double d[6];
+        if (EVFLAG) {
+          d[0] = A.d1x[k], d[1] = A.d1y[k], d[2] = A.d1z[k];
+          d[3] = A.d2x[k], d[4] = A.d2y[k], d[5] = A.d2z[k];
+        }
+        scatter<EVFLAG>(*R[k], f1, f3, f13, d, A.energy[k], f, nlocal);
+      } else
+        left[nleft++] = e[k];
+    }
+  }
+  for (int j = 0; j < nleft; j++) exact<EVFLAG>(ref[left[j]], x, f, nlocal);
+}
+#pragma GCC pop_options
+#else
+template <bool EVFLAG> void AngleBreakableCR::loop4()
+{
+  loop<EVFLAG>();
+}
+#endif
+
 /* ---------------------------------------------------------------------- */
 
 void AngleBreakableCR::compute(int eflag, int vflag)
@@ -423,7 +494,12 @@ void AngleBreakableCR::compute(int eflag, int vflag)
   if (cached_nanglelist < 0 || neighbor->ago == 0 || cached_nanglelist != neighbor->nanglelist)
     rebuild_cache();
 
-  if (evflag)
+  if (avx_loop) {
+    if (evflag)
+      loop4<true>();
+    else
+      loop4<false>();
+  } else if (evflag)
     loop<true>();
   else
     loop<false>();

@@ -72,8 +72,13 @@ class AngleBreakableCR : public Angle {
   template <bool EVFLAG>
   void apply(const Ref &R, double a11, double a12, double a22, const double *d, double eangle,
              double *const *f, int nlocal);
+  template <bool EVFLAG>
+  void scatter(const Ref &R, const double *f1, const double *f3, const double *f13,
+               const double *d, double eangle, double *const *f, int nlocal);
   template <bool EVFLAG> void exact(Ref &R, const double *const *x, double *const *f, int nlocal);
   template <bool EVFLAG> void loop();
+  template <bool EVFLAG> void loop4();    // AVX: four entries at a time
+  bool avx_loop;                          // compute() takes loop4()
 };
 
 }    // namespace LAMMPS_NS

@@ -377,7 +377,7 @@ int LAMMPS_NS::bcm_peratom_array(LAMMPS *lmp, const std::string &fix_id, const s
                                  int ncols, bool ghost)
 {
   if (!lmp->modify->get_fix_by_id(fix_id))
-    lmp->modify->add_fix(fmt::format("{} all property/atom d2_{} {} ghost {}", fix_id, name, ncols,
+    lmp->modify->add_fix(fmt::format("{} all lazy/store {} {} ghost {}", fix_id, name, ncols,
                                      ghost ? "yes" : "no"));
   int flag = -1, cols = -1, ghostflag = -1;
   const int index = lmp->atom->find_custom_ghost(name.c_str(), flag, cols, ghostflag);

@@ -109,7 +109,7 @@ int bcm_find_contacts(const BcmSpaceCell &A, const BcmSpaceCell &B, double dcut,
                       BcmContactWork &work, std::vector<BcmContactPoint> &out);
 
 /* Index into atom->darray of a per-atom array `name` (ncols columns) kept by a hidden
-   fix property/atom of id fix_id (created if absent), so that it migrates with the atoms,
+   fix lazy/store of id fix_id (created if absent), so that it migrates with the atoms,
    follows sorting and goes to restart files; ghost = also communicated to ghost atoms at
    each reneighboring. */
 int bcm_peratom_array(LAMMPS *lmp, const std::string &fix_id, const std::string &name,

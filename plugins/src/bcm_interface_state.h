@@ -6,7 +6,7 @@
 
 namespace BcmInterfaceState {
 
-/* Per-slot state (per atom and bond slot, in a hidden fix property/atom): header, then the
+/* Per-slot state (per atom and bond slot, in a hidden fix lazy/store): header, then the
    damping force of each point at the last evaluation (damping-work quadrature), then per point
    the contact reference shift s, the slip offset sigma (cell 1's body frame), the in-contact
    flag and the last tangential contact force (friction work). The force loop works on a copy

@@ -10,7 +10,7 @@
 
    Reference lengths: r0 of every bond comes from the input (fix breakable/references, from the
    builder's table), the same value on every rank; this style never measures it. It is kept
-   per atom and bond slot in a hidden fix property/atom, so it migrates with atoms and goes to
+   per atom and bond slot in a hidden fix lazy/store, so it migrates with atoms and goes to
    restart files; compute() reads a copy of the intact entries of neighbor->bondlist with their
    r0, two bonds at a time. A stored r0 of 0 is the value of a slot no reference was given for.
 
@@ -47,36 +47,32 @@ using BreakableUtil::Lanes2;
 using BreakableUtil::Mask2;
 using BreakableUtil::select_lt;
 
-/* ----------------------------------------------------------------------
-   force / r of one intact bond (SPEC 2.2 Eq. 2 and the bonded damping of
-   Eq. 5), F > 0 repulsive, and its energy, on one value or on two lanes:
-   every path (the two-lane loop, the exact pass, single()) computes a bond
-   with this arithmetic. Both branches of Eq. 2 are evaluated and one is
-   selected: r < r0 holds for about half of the bonds of a solid, at random.
-   l = r / r0 (as r * (1/r0)), dot = (x_i - x_j) . (v_i - v_j).
-------------------------------------------------------------------------- */
-
-template <class T>
-inline T bond_force(T r, T inv_rsq, T l, T dot, T r0, T inv_r0, T c1, T c3r2, T krep,
-                    T gamma, T inv_lc, T &ebond)
-{
-  const T r0sq = r0 * r0;
-  const T k = krep * r0sq;
-  const T x2 = r0sq * inv_rsq;    // (r0/r)^2
-  const T x6 = x2 * x2 * x2;
-  const T x12 = x6 * x6;
-  const T d = r - r0;
-  const T d2 = d * d;
-  const T c3 = c3r2 * inv_r0 * inv_r0;
-  ebond = select_lt(r, r0, (k / 12.0) * (x12 - 2.0 * x6 + 1.0), d2 * (0.5 * c1 + 0.25 * c3 * d2));
-  const T fr_rep = k * (x12 - x6) * inv_rsq;
-  const T fr_att = -d * (c1 + c3 * d2) * r * inv_rsq;
-  // SPEC 2.2 Eq. 5, bonded: r_max = lambda_c r0; not part of the energy
-  const T w = 1.0 - l * inv_lc;
-  return select_lt(r, r0, fr_rep, fr_att) - gamma * w * w * dot * inv_rsq;
-}
+#include "bond_breakable_cr_math.h"    // the baseline copy
 
 }    // namespace
+
+/* ----------------------------------------------------------------------
+   The same force law compiled for AVX, for the 4-lane force loop (loop4),
+   which compute() takes when the processor has AVX (BreakableUtil::avx_loops;
+   the library itself is built for baseline x86-64). AVX rounds each lane as
+   the SSE2 and scalar instructions do and has no fused multiply-add, so a
+   lane of loop4 gives the bits of loop() and exact().
+------------------------------------------------------------------------- */
+
+#if defined(BRITTLE_AVX_LOOPS)
+#pragma GCC push_options
+#pragma GCC target("avx")
+namespace {
+namespace avx {
+
+#include "lanes4_avx.h"
+
+#include "bond_breakable_cr_math.h"    // the AVX copy
+
+}    // namespace avx
+}    // namespace
+#pragma GCC pop_options
+#endif
 
 /* ---------------------------------------------------------------------- */
 
@@ -90,6 +86,7 @@ BondBreakableCR::BondBreakableCR(LAMMPS *_lmp) :
   // single(): svector[0] = power dissipated by the bond's damping (compute bond/local b1)
   single_extra = 1;
   svector = new double[single_extra];
+  avx_loop = BreakableUtil::avx_loops();
   // created now when possible so that thermo_style can name f_BREAKABLE_SPECIAL
   if (domain->box_exist) FixBreakableSpecial::get_or_create(lmp);
 }
@@ -326,6 +323,100 @@ template <bool EVFLAG> void BondBreakableCR::loop()
   for (int j = 0; j < nleft; j++) exact<EVFLAG>(ref[left[j]], x, v, f, nlocal);
 }
 
+/* ----------------------------------------------------------------------
+   loop() on four cache entries at a time, in the four lanes of AVX
+------------------------------------------------------------------------- */
+
+#if defined(BRITTLE_AVX_LOOPS)
+#pragma GCC push_options
+#pragma GCC target("avx")
+template <bool EVFLAG> void BondBreakableCR::loop4()
+{
+  using avx::Lanes4;
+  using avx::Mask4;
+  const double *const *x = atom->x;
+  const double *const *v = atom->v;
+  double *const *f = atom->f;
+  const int nlocal = atom->nlocal;
+  Ref *ref = cache.data();
+  const int nref = (int) cache.size();
+  const TypeParams *tp = params.data();
+  int *left = deferred.data();
+  int nleft = 0;
+
+  for (int m = 0; m < nref; m += 4) {
+    // past the end, a lane repeats the last entry and is skipped below
+    const int last = nref - 1;
+    const int e[4] = {m, m + 1 < nref ? m + 1 : last, m + 2 < nref ? m + 2 : last,
+                      m + 3 < nref ? m + 3 : last};
+    const Ref *R[4] = {&ref[e[0]], &ref[e[1]], &ref[e[2]], &ref[e[3]]};
+    const TypeParams *P[4] = {&tp[R[0]->type], &tp[R[1]->type], &tp[R[2]->type],
+                              &tp[R[3]->type]};    // type 0: broken, skipped below
+    const double *x1[4], *x2[4], *v1[4], *v2[4];
+    for (int k = 0; k < 4; k++) {
+      x1[k] = x[R[k]->i1];
+      x2[k] = x[R[k]->i2];
+      v1[k] = v[R[k]->i1];
+      v2[k] = v[R[k]->i2];
+    }
+    const Lanes4 delx = Lanes4{x1[0][0], x1[1][0], x1[2][0], x1[3][0]} -
+        Lanes4{x2[0][0], x2[1][0], x2[2][0], x2[3][0]};
+    const Lanes4 dely = Lanes4{x1[0][1], x1[1][1], x1[2][1], x1[3][1]} -
+        Lanes4{x2[0][1], x2[1][1], x2[2][1], x2[3][1]};
+    const Lanes4 delz = Lanes4{x1[0][2], x1[1][2], x1[2][2], x1[3][2]} -
+        Lanes4{x2[0][2], x2[1][2], x2[2][2], x2[3][2]};
+    const Lanes4 rsq = delx * delx + dely * dely + delz * delz;
+    const Lanes4 r = avx::vsqrt(rsq);
+    const Lanes4 inv_r0 = {R[0]->inv_r0, R[1]->inv_r0, R[2]->inv_r0, R[3]->inv_r0};
+    const Lanes4 l = r * inv_r0;
+    // per-type parameters: one broadcast when the four entries share a type (the usual case)
+    Lanes4 lc, c1, c3r2, krep, gam, inv_lc;
+    if (P[1] == P[0] && P[2] == P[0] && P[3] == P[0]) {
+      const TypeParams &Q = *P[0];
+      lc = Lanes4{} + Q.lambda_c;
+      c1 = Lanes4{} + Q.c1;
+      c3r2 = Lanes4{} + Q.c3r2;
+      krep = Lanes4{} + Q.krep;
+      gam = Lanes4{} + Q.gamma;
+      inv_lc = Lanes4{} + Q.inv_lc;
+    } else {
+      lc = Lanes4{P[0]->lambda_c, P[1]->lambda_c, P[2]->lambda_c, P[3]->lambda_c};
+      c1 = Lanes4{P[0]->c1, P[1]->c1, P[2]->c1, P[3]->c1};
+      c3r2 = Lanes4{P[0]->c3r2, P[1]->c3r2, P[2]->c3r2, P[3]->c3r2};
+      krep = Lanes4{P[0]->krep, P[1]->krep, P[2]->krep, P[3]->krep};
+      gam = Lanes4{P[0]->gamma, P[1]->gamma, P[2]->gamma, P[3]->gamma};
+      inv_lc = Lanes4{P[0]->inv_lc, P[1]->inv_lc, P[2]->inv_lc, P[3]->inv_lc};
+    }
+    const Mask4 intact = ~(l > lc);
+    const Lanes4 dot = delx * (Lanes4{v1[0][0], v1[1][0], v1[2][0], v1[3][0]} -
+                               Lanes4{v2[0][0], v2[1][0], v2[2][0], v2[3][0]}) +
+        dely * (Lanes4{v1[0][1], v1[1][1], v1[2][1], v1[3][1]} -
+                Lanes4{v2[0][1], v2[1][1], v2[2][1], v2[3][1]}) +
+        delz * (Lanes4{v1[0][2], v1[1][2], v1[2][2], v1[3][2]} -
+                Lanes4{v2[0][2], v2[1][2], v2[2][2], v2[3][2]});
+    Lanes4 ebond;
+    const Lanes4 fbond = avx::bond_force(
+        r, 1.0 / rsq, l, dot, Lanes4{R[0]->r0, R[1]->r0, R[2]->r0, R[3]->r0}, inv_r0, c1,
+        c3r2, krep, gam, inv_lc, ebond);
+
+    for (int k = 0; k < 4; k++) {
+      if ((k > 0 && m + k >= nref) || R[k]->type <= 0) continue;
+      if (intact[k])
+        apply<EVFLAG>(*R[k], fbond[k], ebond[k], delx[k], dely[k], delz[k], f, nlocal);
+      else
+        left[nleft++] = e[k];
+    }
+  }
+  for (int j = 0; j < nleft; j++) exact<EVFLAG>(ref[left[j]], x, v, f, nlocal);
+}
+#pragma GCC pop_options
+#else
+template <bool EVFLAG> void BondBreakableCR::loop4()
+{
+  loop<EVFLAG>();
+}
+#endif
+
 /* ---------------------------------------------------------------------- */
 
 void BondBreakableCR::compute(int eflag, int vflag)
@@ -335,7 +426,12 @@ void BondBreakableCR::compute(int eflag, int vflag)
   if (cached_nbondlist < 0 || neighbor->ago == 0 || cached_nbondlist != neighbor->nbondlist)
     rebuild_cache();
 
-  if (evflag)
+  if (avx_loop) {
+    if (evflag)
+      loop4<true>();
+    else
+      loop4<false>();
+  } else if (evflag)
     loop<true>();
   else
     loop<false>();

@@ -71,6 +71,8 @@ class BondBreakableCR : public Bond {
   template <bool EVFLAG> void exact(Ref &R, const double *const *x, const double *const *v,
                                     double *const *f, int nlocal);
   template <bool EVFLAG> void loop();
+  template <bool EVFLAG> void loop4();    // AVX: four entries at a time
+  bool avx_loop;                          // compute() takes loop4()
 };
 
 }    // namespace LAMMPS_NS

@@ -1,5 +1,5 @@
 /* Small helpers shared by the breakable Clemmer-Robbins styles: per-atom storage of
-   reference geometry in a hidden fix property/atom, and slot look-ups in atom topology. */
+   reference geometry in a hidden fix lazy/store, and slot look-ups in atom topology. */
 
 #ifndef BRITTLE_BREAKABLE_UTIL_H
 #define BRITTLE_BREAKABLE_UTIL_H
@@ -11,6 +11,8 @@
 #include "modify.h"
 
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <string>
 
 #if defined(__SSE2__)
@@ -28,8 +30,9 @@ namespace BreakableUtil {
   constexpr const char *ANGLE_REF_NAME = "breakable_cr_angle_ref";
 
   // Index into atom->darray of a per-atom array "name" with ncols columns, created as a
-  // hidden fix property/atom (id fix_id) so that it migrates with its atoms, follows atom
-  // sorting and is written to restart files. A fix of the same id re-created after
+  // hidden fix lazy/store (id fix_id) so that it migrates with its atoms, follows atom
+  // sorting and is written to restart files; unlike fix property/atom, its rows cost memory
+  // only once an atom uses them (fix_lazy_store.h). A fix of the same id re-created after
   // read_restart gets its stored values back.
   inline int peratom_array(LAMMPS *lmp, const std::string &fix_id, const std::string &name,
                            int ncols)
@@ -37,7 +40,7 @@ namespace BreakableUtil {
     if (ncols < 1)
       lmp->error->all(FLERR, "Per-atom store {} needs at least one column", name);
     if (!lmp->modify->get_fix_by_id(fix_id))
-      lmp->modify->add_fix(fmt::format("{} all property/atom d2_{} {}", fix_id, name, ncols));
+      lmp->modify->add_fix(fmt::format("{} all lazy/store {} {} ghost no", fix_id, name, ncols));
     int flag = -1, cols = -1;
     const int index = lmp->atom->find_custom(name.c_str(), flag, cols);
     if (index < 0 || flag != 1 || cols != ncols)
@@ -92,6 +95,23 @@ namespace BreakableUtil {
   inline Lanes2 vabs(Lanes2 a)
   {
     return (Lanes2) ((Mask2) a & Mask2{0x7fffffffffffffffLL, 0x7fffffffffffffffLL});
+  }
+
+  // Whether the force loops take their 4-lane AVX versions (compiled alongside the baseline
+  // x86-64 ones with `#pragma GCC target("avx")`, lanes4_avx.h): the processor has AVX and the
+  // environment does not ask for the baseline loops (BRITTLE_NO_AVX=1, to test both paths).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define BRITTLE_AVX_LOOPS 1
+#endif
+  inline bool avx_loops()
+  {
+#if defined(BRITTLE_AVX_LOOPS)
+    __builtin_cpu_init();
+    const char *off = getenv("BRITTLE_NO_AVX");
+    return __builtin_cpu_supports("avx") && !(off && *off && strcmp(off, "0") != 0);
+#else
+    return false;
+#endif
   }
 
   // Slot m of the bond of owned atom i with atom tag partner, or -1.

@@ -7,6 +7,7 @@
 #include "fix_breakable_log.h"
 #include "fix_breakable_references.h"
 #include "fix_breakable_special.h"
+#include "fix_lazy_store.h"
 #include "pair_cr_repulsion.h"
 #include "bond_bcm_griffith.h"
 #include "fix_bcm_griffith.h"
@@ -39,6 +40,11 @@ static Fix *fix_breakable_references_creator(LAMMPS *lmp, int argc, char **argv)
 static Fix *fix_breakable_log_creator(LAMMPS *lmp, int argc, char **argv)
 {
   return new FixBreakableLog(lmp, argc, argv);
+}
+
+static Fix *fix_lazy_store_creator(LAMMPS *lmp, int argc, char **argv)
+{
+  return new FixLazyStore(lmp, argc, argv);
 }
 
 static Pair *pair_cr_repulsion_creator(LAMMPS *lmp)
@@ -107,6 +113,12 @@ extern "C" void lammpsplugin_init(void *lmp, void *handle, void *vregfunc)
   plugin.name = "breakable/log";
   plugin.info = "break-event log of the breakable styles (one line per break)";
   plugin.creator.v2 = (lammpsplugin_factory2 *) &fix_breakable_log_creator;
+  (*regfunc)(&plugin, lmp);
+
+  plugin.style = "fix";
+  plugin.name = "lazy/store";
+  plugin.info = "hidden per-atom store whose rows cost memory only once used";
+  plugin.creator.v2 = (lammpsplugin_factory2 *) &fix_lazy_store_creator;
   (*regfunc)(&plugin, lmp);
 
   plugin.style = "fix";

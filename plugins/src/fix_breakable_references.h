@@ -10,7 +10,7 @@
      angle tag1 tag2 tag3 theta0 r1_0 r2_0    (tag2 = vertex, theta0 in radians,
                                                r1_0 = |x1 - x2|, r2_0 = |x3 - x2|)
    Rank 0 reads it in chunks and broadcasts them; each rank writes the values into the
-   per-atom stores of its owned atoms (the hidden fix property/atom of each style, which
+   per-atom stores of its owned atoms (the hidden fix lazy/store of each style, which
    migrates with the atoms and goes to restart files). Read once, when the fix is defined;
    an intact bond or angle of the topology without a line is an error then. See
    plugins/doc/fix_breakable_references.md. */

@@ -19,7 +19,7 @@
    former shared stiffness, is identically zero (kept for the positions of [7]).
 
    History: u_t is kept per (pair, contact feature) in slots of a hidden per-atom array
-   (fix property/atom, ghost yes): slot = (partner tag, feature key, step, u_t[3], |f_t|),
+   (fix lazy/store, ghost yes): slot = (partner tag, feature key, step, u_t[3], |f_t|),
    written into one cell of the pair owned by the computing rank (one of them is: the list's
    i; when both are, A if tag_A + tag_B is even, else B), always with the orientation
    A -> B. A slot is current when its step is this step or the previous one; a lookup

@@ -1,0 +1,165 @@
+/* fix lazy/store: see fix_lazy_store.h and plugins/doc/fix_lazy_store.md. */
+
+#include "fix_lazy_store.h"
+
+#include "atom.h"
+#include "error.h"
+#include "memory.h"
+
+#include <algorithm>
+#include <cstring>
+#include <sys/mman.h>
+
+using namespace LAMMPS_NS;
+
+/* ---------------------------------------------------------------------- */
+
+FixLazyStore::FixLazyStore(LAMMPS *lmp, int narg, char **arg) :
+    Fix(lmp, narg, arg), ncols(0), index(-1), ghost(false), block(nullptr), block_bytes(0)
+{
+  if (narg != 7 || strcmp(arg[5], "ghost") != 0)
+    error->all(FLERR, "Illegal fix lazy/store command: fix ID group lazy/store NAME NCOLS ghost "
+               "yes|no");
+  name = arg[3];
+  ncols = utils::inumeric(FLERR, arg[4], false, lmp);
+  if (ncols < 1) error->all(FLERR, "fix lazy/store: NCOLS must be >= 1");
+  ghost = utils::logical(FLERR, arg[6], false, lmp) != 0;
+  int flag = -1, cols = -1;
+  if (atom->find_custom(name.c_str(), flag, cols) >= 0)
+    error->all(FLERR, "fix lazy/store: per-atom array {} exists already", name);
+  index = atom->add_custom(name.c_str(), 1, ncols, ghost ? 1 : 0);
+  // add_custom allocated nmax rows of its own (untouched, yet a mapping): this fix's rows
+  // replace them
+  memory->destroy(atom->darray[index]);
+  atom->darray[index] = nullptr;
+
+  restart_peratom = 1;
+  maxexchange = ncols;            // the exchange buffer must hold a whole row
+  if (ghost) comm_border = ncols;
+
+  grow_arrays(atom->nmax);
+  atom->add_callback(Atom::GROW);
+  atom->add_callback(Atom::RESTART);
+  if (ghost) atom->add_callback(Atom::BORDER);
+}
+
+/* ---------------------------------------------------------------------- */
+
+FixLazyStore::~FixLazyStore()
+{
+  atom->delete_callback(id, Atom::GROW);
+  atom->delete_callback(id, Atom::RESTART);
+  if (ghost) atom->delete_callback(id, Atom::BORDER);
+  // the rows are this fix's, not LAMMPS's memory: Atom must not free them
+  atom->darray[index] = nullptr;
+  atom->remove_custom(index, 1, ncols);
+  if (block) munmap(block, block_bytes);
+}
+
+/* ----------------------------------------------------------------------
+   rows in use (owned + ghost), not the mapping's size: rows never touched cost nothing
+------------------------------------------------------------------------- */
+
+double FixLazyStore::memory_usage()
+{
+  return (double) (atom->nlocal + atom->nghost) * ncols * sizeof(double) +
+      (double) rows.capacity() * sizeof(double *);
+}
+
+/* ----------------------------------------------------------------------
+   nmax rows: the mapping grows in place or moves without copying (mremap); the new rows
+   read as zero until written, as fix property/atom's memset rows do
+------------------------------------------------------------------------- */
+
+void FixLazyStore::grow_arrays(int nmax)
+{
+  if (nmax <= (int) rows.size()) return;
+  const size_t row_bytes = sizeof(double) * (size_t) ncols;
+  const size_t page = 4096;
+  const size_t bytes = ((size_t) nmax * row_bytes + page - 1) / page * page;
+  void *p = block ? mremap(block, block_bytes, bytes, MREMAP_MAYMOVE)
+                  : mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1,
+                         0);
+  if (p == MAP_FAILED)
+    error->one(FLERR, "fix lazy/store: cannot map {} bytes for per-atom array {}", bytes, name);
+  block = p;
+  block_bytes = bytes;
+  rows.resize(nmax);
+  auto *base = static_cast<double *>(block);
+  for (int i = 0; i < nmax; i++) rows[i] = base + (size_t) i * ncols;
+  atom->darray[index] = rows.data();
+}
+
+/* ---------------------------------------------------------------------- */
+
+void FixLazyStore::copy_arrays(int i, int j, int /*delflag*/)
+{
+  if (i != j) std::memcpy(rows[j], rows[i], sizeof(double) * ncols);
+}
+
+/* ---------------------------------------------------------------------- */
+
+int FixLazyStore::pack_border(int n, int *list, double *buf)
+{
+  for (int k = 0; k < n; k++)
+    std::memcpy(buf + (size_t) k * ncols, rows[list[k]], sizeof(double) * ncols);
+  return n * ncols;
+}
+
+/* ---------------------------------------------------------------------- */
+
+int FixLazyStore::unpack_border(int n, int first, double *buf)
+{
+  for (int k = 0; k < n; k++)
+    std::memcpy(rows[first + k], buf + (size_t) k * ncols, sizeof(double) * ncols);
+  return n * ncols;
+}
+
+/* ---------------------------------------------------------------------- */
+
+int FixLazyStore::pack_exchange(int i, double *buf)
+{
+  std::memcpy(buf, rows[i], sizeof(double) * ncols);
+  return ncols;
+}
+
+/* ---------------------------------------------------------------------- */
+
+int FixLazyStore::unpack_exchange(int nlocal, double *buf)
+{
+  std::memcpy(rows[nlocal], buf, sizeof(double) * ncols);
+  return ncols;
+}
+
+/* ----------------------------------------------------------------------
+   restart: the row after its length, as fix property/atom writes a per-atom array
+------------------------------------------------------------------------- */
+
+int FixLazyStore::pack_restart(int i, double *buf)
+{
+  buf[0] = ncols + 1;
+  std::memcpy(buf + 1, rows[i], sizeof(double) * ncols);
+  return ncols + 1;
+}
+
+/* ---------------------------------------------------------------------- */
+
+void FixLazyStore::unpack_restart(int nlocal, int nth)
+{
+  double **extra = atom->extra;
+  int m = 0;    // skip the values of the fixes before this one
+  for (int k = 0; k < nth; k++) m += static_cast<int>(extra[nlocal][m]);
+  std::memcpy(rows[nlocal], &extra[nlocal][m + 1], sizeof(double) * ncols);
+}
+
+/* ---------------------------------------------------------------------- */
+
+int FixLazyStore::size_restart(int /*nlocal*/)
+{
+  return ncols + 1;
+}
+
+int FixLazyStore::maxsize_restart()
+{
+  return ncols + 1;
+}

@@ -1,0 +1,117 @@
+"""The BCM time step (issue 15, point 1; README "Time step"): steps_per_period below the
+stability limit is refused with a message naming the field, the value and the limit; at the
+default, an undamped, frictionless, unbreakable vibrating particle keeps its energy without a
+drift, measured as bench/timestep_study.py measures it (the default is chosen on that figure).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from driver.bcm.lammps_files import write_cell_data, write_interfaces
+from driver.bcm.particle import build_particle, contact_timestep, particle_tessellation
+from driver.bcm.section import MIN_STEPS_PER_PERIOD
+from driver.config import BCMModel, ConfigError, parse_config
+from driver.plugin_build import cache_base
+from driver.scenarios.bcm_impact import ImpactScenario
+from runfiles.cells import write_cells
+
+
+def _impact(spp: float) -> dict:
+    return {"name": "t", "model": {"kind": "bcm", "n_cells": 100},
+            "scenario": {"kind": "impact", "steps_per_period": spp}}
+
+
+def _block(spp: float) -> dict:
+    return {"name": "t", "model": {"kind": "bcm"},
+            "scenario": {"kind": "calibrate", "test": "moduli", "block": {"steps_per_period": spp}}}
+
+
+@pytest.mark.parametrize("make,field", [(_impact, "scenario.steps_per_period"),
+                                        (_block, "scenario.block.steps_per_period")])
+@pytest.mark.parametrize("spp", [3.0, 8.0, MIN_STEPS_PER_PERIOD - 0.5])
+def test_steps_per_period_below_the_stability_limit_is_refused(make, field, spp):
+    with pytest.raises(ConfigError) as info:
+        parse_config(make(spp))
+    text = str(info.value)
+    assert field in text and f"steps_per_period = {spp:g}" in text
+    assert f"stability limit {MIN_STEPS_PER_PERIOD:g}" in text
+
+
+@pytest.mark.parametrize("make", [_impact, _block])
+def test_steps_per_period_at_the_limit_and_the_default_are_accepted(make):
+    parse_config(make(MIN_STEPS_PER_PERIOD))
+    assert ImpactScenario().steps_per_period >= MIN_STEPS_PER_PERIOD
+
+
+INPUT = """
+units           si
+dimension       3
+boundary        m m m
+atom_style      hybrid bond sphere
+atom_modify     map array
+newton          on off
+special_bonds   lj 0 1 1 coul 1 1 1
+fix             cellprops all property/atom d2_bcm_quat 4 d2_bcm_inertia 3 d2_bcm_angmom 3 ghost yes
+read_data       {dir}/system.data fix cellprops NULL BcmProps
+comm_modify     vel yes cutoff {cutoff!r}
+pair_style      bcm/contact cells {dir}/cells.txt rm {rm!r}
+pair_coeff      * * {kn_c!r} {kt_c!r} 1.0 0.0
+bond_style      bcm/griffith geometry {dir}/interfaces.txt
+bond_coeff      1 {kn!r} {kt!r} 1.0 1e12 {kn_c!r} {kt_c!r} 1.0 0.0
+neighbor        {skin!r} bin
+neigh_modify    delay 0 every 1 check yes
+timestep        {dt!r}
+fix             integrate all bcm/rigid
+compute         ket all ke
+compute         cpair all pair bcm/contact
+variable        kin equal c_ket+f_integrate
+variable        etot equal c_ket+f_integrate+f_BCM_GRIFFITH[5]+c_cpair
+variable        nb equal f_BCM_GRIFFITH[2]
+thermo          0
+"""
+
+
+@pytest.mark.slow
+def test_vibrating_particle_has_no_drift_at_the_default_step(lmp, tmp_path):
+    """300 cells, SPEC 1.3 stiffnesses, e_n = 1, mu = 0, G_c = 1e12 J/m^2, no plane; random cell
+    velocities (rms 0.05 m/s, no net momentum or angular momentum) over 100 shortest periods at
+    the default steps_per_period. drift = |mean E, second half - mean E, first half| / E_scale
+    (E_scale the largest kinetic + elastic energy) < 1e-4: the figure bench/timestep_study.py
+    reports (2e-5 at 10 steps per period on 1728 cells)."""
+    spp = ImpactScenario().steps_per_period
+    n_cells, seed = 300, 1
+    model = BCMModel(n_cells=n_cells)
+    tess = particle_tessellation(model, seed, cache_base() / "tessellations")
+    part = build_particle(tess, model.density, model.rounding, np.random.default_rng([seed, 1]), plane_z=0.0,
+                          gap=model.diameter)
+    write_cell_data(tmp_path / "system.data", part.centroids, part.quats, part.masses, part.moments,
+                    2 * part.bound_radius, tess.iface_cells, margin=model.diameter)
+    write_interfaces(tmp_path / "interfaces.txt", tess.iface_cells, tess.iface_area,
+                     tess.iface_normal @ part.placement.rotation.T, part.interface_polygons)
+    write_cells(tmp_path / "cells.txt", part.core_vertices, part.core_faces)
+    dt, _ = contact_timestep(part.masses, max(model.contact.kn, model.interface.kn), spp)
+    skin = 0.1 * tess.mean_cell_size
+    lmp.commands(INPUT.format(dir=tmp_path, cutoff=float(2.0 * part.bound_radius.max() * 1.05 + skin),
+                              rm=float(part.r_m), skin=float(skin), dt=float(dt), kn=model.interface.kn,
+                              kt=model.interface.kt, kn_c=model.contact.kn, kt_c=model.contact.kt))
+    x = np.asarray(lmp.numpy.extract_atom("x"))[:, :3]
+    m = np.asarray(lmp.numpy.extract_atom("rmass"))
+    v = np.random.default_rng([seed, 7]).normal(0.0, 0.05, size=(len(m), 3))
+    v -= (m[:, None] * v).sum(0) / m.sum()
+    r = x - (m[:, None] * x).sum(0) / m.sum()
+    inertia = (m[:, None, None] * ((r * r).sum(1)[:, None, None] * np.eye(3) - r[:, :, None] * r[:, None, :])).sum(0)
+    lmp.numpy.extract_atom("v")[:] = v - np.cross(np.linalg.solve(inertia, (m[:, None] * np.cross(r, v)).sum(0)), r)
+    out = tmp_path / "energy.txt"
+    lmp.command(f'fix rec all print 1 "$(v_kin:%.14e) $(v_etot:%.14e) $(v_nb)" file {out} screen no')
+    lmp.command(f"run {math.ceil(100 * spp)}")
+    kin, etot, broken = np.loadtxt(out, comments="#", unpack=True)
+    assert broken.max() == 0
+    assert kin.min() < 0.8 * etot[0]  # it vibrates: energy moves into the interfaces
+    scale = etot.max()  # the largest kinetic + elastic energy
+    half = len(etot) // 2
+    drift = abs(etot[half:].mean() - etot[:half].mean()) / scale
+    assert drift < 1e-4, drift
