@@ -59,6 +59,7 @@ from driver.config import BCMModel
 from driver.engine import Lammps
 from driver.plugin_build import cache_base, plugin_library
 from runfiles.cells import write_cells
+from driver.bcm.conservative import CONSERVATIVE_SETUP
 
 ROOT = Path(__file__).resolve().parent.parent
 SPP = [10, 15, 20, 30, 50, 100]
@@ -67,28 +68,7 @@ SWEEP_DIR = ROOT / "runs" / "timestep_study_sweep"
 MEASURES = ["D_w", "e_k2", "eta", "n_fragments"]
 DRIFT_LIMIT = 1e-4
 
-INPUT = """
-units           si
-dimension       3
-boundary        m m m
-atom_style      hybrid bond sphere
-atom_modify     map array
-newton          on off
-special_bonds   lj 0 1 1 coul 1 1 1
-fix             cellprops all property/atom d2_bcm_quat 4 d2_bcm_inertia 3 d2_bcm_angmom 3 ghost yes
-read_data       {dir}/system.data fix cellprops NULL BcmProps
-comm_modify     vel yes cutoff {cutoff!r}
-pair_style      bcm/contact cells {dir}/cells.txt rm {rm!r}
-pair_coeff      * * {kn_c!r} {kt_c!r} 1.0 0.0
-bond_style      bcm/griffith geometry {dir}/interfaces.txt
-bond_coeff      1 {kn!r} {kt!r} 1.0 1e12 {kn_c!r} {kt_c!r} 1.0 0.0
-neighbor        {skin!r} bin
-neigh_modify    delay 0 every 1 check yes
-timestep        {dt!r}
-fix             integrate all bcm/rigid
-compute         ket all ke
-compute         cpair all pair bcm/contact
-"""
+INPUT = CONSERVATIVE_SETUP
 PRESS = """
 fix             plane all bcm/wall cells {dir}/cells.txt rm {rm!r} plane zlo 0.0 {kn_c!r} {kt_c!r} 1.0 0.0
 fix             press all gravity {g!r} vector 0 0 -1

@@ -25,6 +25,7 @@ from driver.bcm.particle import build_particle, contact_timestep, parent_shape, 
 from driver.config import BCMModel, parse_config
 from driver.pipeline import execute
 from driver.plugin_build import cache_base
+from driver.bcm.conservative import CONSERVATIVE_SETUP
 
 
 def impact_config(out: Path, n_cells: int, velocity: float, max_time: float, seed: int, **scenario) -> dict:
@@ -156,28 +157,7 @@ def test_one_vs_two_ranks_differ_by_round_off_only(small_impact, tmp_path):
 
 # ------------------------------------------------------------------ conservative particle
 
-CONSERVATIVE_INPUT = """
-units           si
-dimension       3
-boundary        m m m
-atom_style      hybrid bond sphere
-atom_modify     map array
-newton          on off
-special_bonds   lj 0 1 1 coul 1 1 1
-fix             cellprops all property/atom d2_bcm_quat 4 d2_bcm_inertia 3 d2_bcm_angmom 3 ghost yes
-read_data       {dir}/system.data fix cellprops NULL BcmProps
-comm_modify     vel yes cutoff {cutoff!r}
-pair_style      bcm/contact cells {dir}/cells.txt rm {rm!r}
-pair_coeff      * * {kn_c!r} {kt_c!r} 1.0 0.0
-bond_style      bcm/griffith geometry {dir}/interfaces.txt
-bond_coeff      1 {kn!r} {kt!r} 1.0 1e12 {kn_c!r} {kt_c!r} 1.0 0.0
-neighbor        {skin!r} bin
-neigh_modify    delay 0 every 1 check yes
-timestep        {dt!r}
-fix             integrate all bcm/rigid
-compute         ket all ke
-compute         cpair all pair bcm/contact
-variable        etot equal c_ket+f_integrate+f_BCM_GRIFFITH[5]+c_cpair
+CONSERVATIVE_INPUT = CONSERVATIVE_SETUP + """variable        etot equal c_ket+f_integrate+f_BCM_GRIFFITH[5]+c_cpair
 variable        kin equal c_ket+f_integrate
 thermo_style    custom step v_etot v_kin f_BCM_GRIFFITH[2]
 """

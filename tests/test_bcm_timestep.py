@@ -18,6 +18,7 @@ from driver.config import BCMModel, ConfigError, parse_config
 from driver.plugin_build import cache_base
 from driver.scenarios.bcm_impact import ImpactScenario
 from runfiles.cells import write_cells
+from driver.bcm.conservative import CONSERVATIVE_SETUP
 
 
 def _impact(spp: float) -> dict:
@@ -47,28 +48,7 @@ def test_steps_per_period_at_the_limit_and_the_default_are_accepted(make):
     assert ImpactScenario().steps_per_period >= MIN_STEPS_PER_PERIOD
 
 
-INPUT = """
-units           si
-dimension       3
-boundary        m m m
-atom_style      hybrid bond sphere
-atom_modify     map array
-newton          on off
-special_bonds   lj 0 1 1 coul 1 1 1
-fix             cellprops all property/atom d2_bcm_quat 4 d2_bcm_inertia 3 d2_bcm_angmom 3 ghost yes
-read_data       {dir}/system.data fix cellprops NULL BcmProps
-comm_modify     vel yes cutoff {cutoff!r}
-pair_style      bcm/contact cells {dir}/cells.txt rm {rm!r}
-pair_coeff      * * {kn_c!r} {kt_c!r} 1.0 0.0
-bond_style      bcm/griffith geometry {dir}/interfaces.txt
-bond_coeff      1 {kn!r} {kt!r} 1.0 1e12 {kn_c!r} {kt_c!r} 1.0 0.0
-neighbor        {skin!r} bin
-neigh_modify    delay 0 every 1 check yes
-timestep        {dt!r}
-fix             integrate all bcm/rigid
-compute         ket all ke
-compute         cpair all pair bcm/contact
-variable        kin equal c_ket+f_integrate
+INPUT = CONSERVATIVE_SETUP + """variable        kin equal c_ket+f_integrate
 variable        etot equal c_ket+f_integrate+f_BCM_GRIFFITH[5]+c_cpair
 variable        nb equal f_BCM_GRIFFITH[2]
 thermo          0
