@@ -9,15 +9,15 @@ write one directory:
     points.csv/.parquet the side-by-side table: per (G_c, grid point, measure) both models' n,
                         mean, std, the difference, the combined standard error, z, verdict
     points_wide.csv     the same, one row per (G_c, grid point)
-
-A grid point is a velocity (both models hit the plane at the same v_0) or, with grid.omega, a
-damage potential (each model's particle at the v_0 that gives that omega with the material's
-G_c: driver/compare/omega.py); the runs of a point are paired over its seeds.
     agreement.csv       per measure: points that agree, differ, are undetermined
     crossovers.csv      omega_0 and omega_1 of each model per G_c, side by side
     fragment_masses.csv, shape_factor.csv   p(m/m_max) and p(S_f) of each model (all runs)
     plots/              both models on the same axes
     report.md/.html     where the models agree within error bars and where not, in words
+
+A grid point is a velocity (both models hit the plane at the same v_0) or, with grid.omega, a
+damage potential (each model's particle at the v_0 that gives that omega with the material's
+G_c: driver/compare/omega.py); the runs of a point are paired over its seeds.
 """
 
 from __future__ import annotations
@@ -125,7 +125,8 @@ def agreement_words(points: pd.DataFrame, summary: pd.DataFrame, pairs: pd.DataF
         if s.agree + s.differ == 0:
             silent.append(s.measure)
             continue
-        where = "; ".join(f"G_c = {r.G_c:g}, {point_label(axis, getattr(r, axis))}: BCM {_fmt(r.mean_bcm)} ± {_fmt(r.std_bcm)}, "
+        where = "; ".join(f"G_c = {r.G_c:g}, {point_label(axis, getattr(r, axis))}: "
+                          f"BCM {_fmt(r.mean_bcm)} ± {_fmt(r.std_bcm)}, "
                           f"BPM {_fmt(r.mean_bpm)} ± {_fmt(r.std_bpm)}, z = {r.z:+.2g}"
                           for r in p[p.verdict == "differ"].itertuples())
         if s.differ == 0:
