@@ -47,6 +47,7 @@ import json
 import math
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -117,6 +118,7 @@ def energy_series(files: dict, work: Path, case: str, spp: float, periods: float
     m = files["model"]
     dt = files["period"] / spp
     steps = int(math.ceil(periods * spp))
+    tmp = tempfile.TemporaryDirectory(prefix="timestep-series-")  # the energy record, read back then dropped
     lmp = Lammps()
     try:
         lmp.command(f"plugin load {plugin}")
@@ -128,7 +130,7 @@ def energy_series(files: dict, work: Path, case: str, spp: float, periods: float
             extra_e, extra_k = "+f_press", "+f_plane[4]"
         elif case != "vibrating":
             raise ValueError(f"unknown case {case!r}")
-        out = work / f"{case}_spp{spp:g}.tmp"
+        out = Path(tmp.name) / f"{case}_spp{spp:g}.dat"
         lmp.commands(f"""
 variable        kin equal c_ket+f_integrate
 variable        ela equal f_BCM_GRIFFITH[5]+c_cpair{extra_k}
@@ -144,9 +146,8 @@ thermo          0
         lmp.command(f"run {steps}")
     finally:
         lmp.close()
-    table = pd.read_csv(out, sep=r"\s+")  # the title line names the columns
-    out.unlink()
-    return table
+    with tmp:
+        return pd.read_csv(out, sep=r"\s+")  # the title line names the columns
 
 
 def drift_figures(t: pd.DataFrame) -> dict:
@@ -494,8 +495,9 @@ def main() -> None:
                          "(1728 cells, stopped at 15 us)")
     ap.add_argument("--tabulate-only", action="store_true",
                     help="run nothing: tabulate the drift series and impact runs already finished")
-    ap.add_argument("--out", type=Path, default=ROOT / "bench")
+    ap.add_argument("--out", type=Path, default=ROOT / "bench", help="folder of the tables and the figure")
     a = ap.parse_args()
+    a.out.mkdir(parents=True, exist_ok=True)
     base = ROOT / "runs" / "timestep_study" / "drift"
     base.mkdir(parents=True, exist_ok=True)
     pd.set_option("display.width", 200)

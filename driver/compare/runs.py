@@ -67,6 +67,7 @@ def grid_runs(cmp: CompareFile, mat: MaterialFile, bcm: dict[str, Any], bpm: dic
     the v_0 of the target omega with the material's G_c (driver/compare/omega.py)."""
     G_ref = mat.material.toughness(3)[0]
     seeds = _seed_group(cmp.grid.seeds, source)
+    particles: dict[tuple[str, int], tuple[float, float]] = {}  # (model, seed) -> (A_0, M), whatever the G_c
     runs = []
     for g in g_values(cmp, mat):
         for model, data in base_configs(cmp, mat, bcm, bpm, g, G_ref).items():
@@ -80,14 +81,16 @@ def grid_runs(cmp: CompareFile, mat: MaterialFile, bcm: dict[str, Any], bpm: dic
                                   "seed": values["seed"]}, cfg))
             else:
                 runs += _omega_runs(data, value_list(cmp.grid.omega, f"{source}: grid.omega"),
-                                    [s for (s,) in seeds[1]], g, model, where, label)
+                                    [s for (s,) in seeds[1]], g, model, where, label, particles)
     return runs
 
 
 def _omega_runs(data: dict[str, Any], omegas: list[Any], seeds: list[int], G_c: float, model: str, where: Path,
-                source: str) -> list[tuple[dict[str, Any], RunConfig]]:
-    """The runs of one model at one G_c on an omega grid, in `where`/omega<w>_seed<s>: each
-    seed's particle built once (its A_0 and mass), v_0 from the target omega."""
+                source: str, particles: dict[tuple[str, int], tuple[float, float]]
+                ) -> list[tuple[dict[str, Any], RunConfig]]:
+    """The runs of one model at one G_c on an omega grid, in `where`/omega<w>_seed<s>: v_0 from
+    the target omega and the A_0 and mass of the seed's particle, built once per (model, seed)
+    into `particles` (its geometry does not depend on G_c)."""
     from driver.compare.omega import particle_area_mass, velocity_for_omega  # noqa: PLC0415
 
     if any(not isinstance(w, (int, float)) or isinstance(w, bool) or not w > 0 for w in omegas):
@@ -97,16 +100,16 @@ def _omega_runs(data: dict[str, Any], omegas: list[Any], seeds: list[int], G_c: 
         raise ConfigError(f"{source}: grid.omega: repeated values {omegas!r}")
     runs = []
     for seed in seeds:
-        A0 = mass = None
         for w, name in zip(omegas, names):
             run = copy.deepcopy(data)
             run["seed"] = seed
             run["name"] = f"{data['name']}_omega{name}_seed{seed}"
             run.setdefault("output", {})["dir"] = str(where / f"omega{name}_seed{seed}")
             what = f"{source}, omega = {w:g}, seed {seed}"
-            if A0 is None:  # the particle of this seed (the velocity does not change it)
-                A0, mass = particle_area_mass(parse_config({**run, "scenario": {**run["scenario"], "velocity": 1.0}},
-                                                           what))
+            if (model, seed) not in particles:  # the velocity does not change the particle either
+                particles[model, seed] = particle_area_mass(
+                    parse_config({**run, "scenario": {**run["scenario"], "velocity": 1.0}}, what))
+            A0, mass = particles[model, seed]
             v = velocity_for_omega(float(w), A0, mass, G_c)
             run["scenario"]["velocity"] = float(f"{v:.12g}")
             runs.append(({"model": model, "G_c": G_c, "omega_target": float(w), "velocity": run["scenario"]["velocity"],
