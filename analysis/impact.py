@@ -385,14 +385,16 @@ def fragment_mass_fit(masses: np.ndarray, n_bootstrap: int = 200) -> dict:
 def fragment_history(run_dir: Path, n_cells: int) -> tuple[pd.DataFrame | None, pd.DataFrame | None]:
     """With periodic dumps (scenario.dump_every > 0): one row per dumped frame (time, broken
     interfaces, fragments, largest fragment) and the parent-child table between consecutive
-    frames (analysis.tracking), frames in time order, the start and end snapshots included.
+    frames (analysis.tracking), frames in time order, the start and end snapshots included (a
+    run cut short: up to its last periodic snapshot).
     (None, None) without periodic dumps."""
     dumps = Path(run_dir) / "dumps"
     steps = sorted(int(p.name.split(".")[1]) for p in dumps.glob("interfaces.*.lammpstrj")
                    if p.name.split(".")[1].isdigit())
     if not steps:
         return None, None
-    names = ["start", *map(str, steps), "end"]
+    # a run cut short has no end snapshot: its history stops at its last periodic one
+    names = ["start", *map(str, steps), *(["end"] if (dumps / "cells.end.lammpstrj").exists() else [])]
     rows, labels, masses = [], [], None
     for name in names:
         cells = read_atom_dump(dumps / f"cells.{name}.lammpstrj")[-1]

@@ -23,7 +23,7 @@ from driver.bcm.lammps_files import write_cell_data, write_interfaces
 from runfiles.cells import write_cells
 from driver.bcm.particle import build_particle, contact_timestep, parent_shape, particle_tessellation
 from driver.config import BCMModel, parse_config
-from driver.pipeline import execute
+from driver.pipeline import analyse_run, execute, load_resolved
 from driver.plugin_build import cache_base
 from driver.bcm.conservative import CONSERVATIVE_SETUP
 
@@ -95,6 +95,23 @@ def test_energy_balance_with_cell_contacts(tmp_path, plugin_path):
     check_balance(out)
     last = read_impact_thermo(out / "thermo.dat").iloc[-1]
     assert last.W_contact_damp > 0 and last.W_contact_friction > 0
+
+
+def test_post_of_a_run_cut_short_with_periodic_dumps(tmp_path, plugin_path):
+    """A run cut short (here: its end snapshots removed) is analysed on its last periodic
+    snapshot, and its fragment history stops there instead of asking for the end one."""
+    out = tmp_path / "cut"
+    run_impact(out, n_cells=100, velocity=4.5, max_time=4e-6, seed=1, dump_every=400)
+    for f in (out / "dumps").glob("*.end.lammpstrj"):
+        f.unlink()
+    periodic = sorted(int(p.name.split(".")[1]) for p in (out / "dumps").glob("cells.*.lammpstrj")
+                      if p.name.split(".")[1].isdigit())
+    assert len(periodic) >= 2
+    summary = analyse_run(out, load_resolved(out), partial=True)
+    assert summary["settled"] is False
+    frames = pd.read_csv(out / "results" / "frames.csv")
+    assert frames.step.iloc[0] == 0 and frames.step.iloc[-1] == periodic[-1]
+    assert frames.broken_interfaces.iloc[-1] > 0  # 4 m/s: the contact has begun breaking
 
 
 def test_rebound_without_breakage(tmp_path, plugin_path):
