@@ -53,7 +53,12 @@ def _config(path: str, n_cells: int | None, out: Path):
 
 
 def _self_peak_mib() -> float:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    """This process's peak (VmHWM, reset by exec; ru_maxrss is not, so a probe started from a
+    large process would report its parent's peak)."""
+    from driver.session import peak_rss_mib  # noqa: PLC0415
+
+    peak = peak_rss_mib()
+    return peak if peak is not None else resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def _lammps_allocation(log: Path) -> float:
@@ -74,6 +79,7 @@ def probe_memory(config: str, n_cells: int, steps: int) -> dict:
     """Build the impact of n_cells and run its first `steps` steps in the driver's session
     process; peak memory of each side."""
     from driver.bcm.impact import build_system, render_inputs  # noqa: PLC0415
+    from driver.config import resolved_yaml  # noqa: PLC0415
     from driver.plugin_build import plugin_library  # noqa: PLC0415
     from driver.rundir import RunDir  # noqa: PLC0415
     from driver.schedule import segments, write_session  # noqa: PLC0415
@@ -81,10 +87,15 @@ def probe_memory(config: str, n_cells: int, steps: int) -> dict:
 
     with tempfile.TemporaryDirectory() as tmp:
         cfg = _config(config, n_cells, Path(tmp) / "run")
+        # a snapshot at the last step, for the analysis
+        cfg = cfg.model_copy(update={"scenario": cfg.scenario.model_copy(update={"dump_every": steps})})
         rd = RunDir(cfg.run_dir())
         rd.prepare(force=True)
         system = build_system(cfg, rd)
-        setup, resume, _ = render_inputs(cfg, plugin_library(), system)
+        (rd.root / "config.resolved.yaml").write_text(resolved_yaml(cfg))  # for the analysis
+        setup, resume, schedule = render_inputs(cfg, plugin_library(), system)
+        system.update(window_steps=schedule["window"], max_steps=schedule["window"] * schedule["max_windows"])
+        (rd.root / "system.json").write_text(json.dumps(system))
         write_session(rd.root, setup, resume, segments(steps, steps, {}), None)
         write_control(rd.root)
         build_peak = _self_peak_mib()
@@ -93,8 +104,13 @@ def probe_memory(config: str, n_cells: int, steps: int) -> dict:
         if proc.returncode != 0:
             raise RuntimeError(proc.stderr[-3000:])
         peak = float(re.findall(r"PEAK ([\d.]+)", proc.stdout)[-1])
+        # the analysis of what the session left (its last snapshot, as `driver post` of a run cut
+        # short), in a fresh process, with and without figures
+        analysis = {plots: _probe("--probe-analysis", str(rd.root), "partial", plots)["analysis_mib"]
+                    for plots in ("plots", "noplots")}
         return {"cells": n_cells, "interfaces": system["n_interfaces"], "lammps_process_mib": peak,
-                "lammps_allocation_mb": _lammps_allocation(rd.root / "log.lammps"), "build_mib": build_peak}
+                "lammps_allocation_mb": _lammps_allocation(rd.root / "log.lammps"), "build_mib": build_peak,
+                "analysis_mib": analysis["plots"], "analysis_noplots_mib": analysis["noplots"]}
 
 
 def probe_run(config: str, out: str) -> dict:
@@ -113,12 +129,24 @@ def probe_run(config: str, out: str) -> dict:
             "lammps_allocation_mb": _lammps_allocation(run / "log.lammps")}
 
 
-def probe_analysis(run_dir: str) -> dict:
-    """The analysis of a finished run alone, in a fresh process: its peak."""
+def probe_analysis(run_dir: str, partial: str = "finished", plots: str = "plots") -> dict:
+    """The analysis of a run alone, in a fresh process: its peak, and the peak of the same
+    imports with no analysis (the floor the libraries set)."""
     from driver.pipeline import analyse_run, load_resolved  # noqa: PLC0415
 
-    analyse_run(Path(run_dir), load_resolved(Path(run_dir)))
+    cfg = load_resolved(Path(run_dir))
+    cfg["output"]["plots"] = plots == "plots"
+    analyse_run(Path(run_dir), cfg, partial=partial == "partial")
     return {"analysis_mib": _self_peak_mib()}
+
+
+def probe_imports() -> dict:
+    """Peak of a process that imports what the impact analysis imports and does nothing."""
+    import analysis.breaks  # noqa: F401, PLC0415
+    import analysis.impact  # noqa: F401, PLC0415
+    import driver.pipeline  # noqa: F401, PLC0415
+
+    return {"imports_mib": _self_peak_mib()}
 
 
 # ----------------------------------------------------------------------------- phases
@@ -195,17 +223,23 @@ def print_phases(run: Path, system: dict, repeats: int, cap: int, ranks: list[in
 # ----------------------------------------------------------------------------- main
 def print_memory_table(config: str, steps: int) -> None:
     rows = [_probe("--probe-memory", config, str(n), str(steps)) for n in MEMORY_CELLS]
-    print(f"\nmemory by size (build, then {steps} steps in the driver's session process):")
+    floor = _probe("--probe-imports")["imports_mib"]
+    print(f"\nmemory by size (build, then {steps} steps in the driver's session process, then the analysis of "
+          f"its last snapshot in a fresh process, with figures / without):")
     print(f"  {'cells':>6s} {'interfaces':>10s} {'LAMMPS process MiB':>19s} {'LAMMPS alloc MB':>16s} "
-          f"{'driver build MiB':>17s} {'bytes/cell above ' + str(rows[0]['cells']):>22s}")
+          f"{'driver build MiB':>17s} {'analysis MiB':>16s} {'bytes/cell above ' + str(rows[0]['cells']):>22s}"
+          f"{'(analysis, no figures)':>23s}")
     for row in rows:
-        extra = ""
+        extra = extra_an = ""
         if row is not rows[0]:
-            grown = row["lammps_process_mib"] - rows[0]["lammps_process_mib"]
-            per = grown * 2**20 / (row["cells"] - rows[0]["cells"])
-            extra = f"{per:,.0f}"
+            cells = row["cells"] - rows[0]["cells"]
+            extra = f"{(row['lammps_process_mib'] - rows[0]['lammps_process_mib']) * 2**20 / cells:,.0f}"
+            extra_an = f"{(row['analysis_noplots_mib'] - rows[0]['analysis_noplots_mib']) * 2**20 / cells:,.0f}"
         print(f"  {row['cells']:6d} {row['interfaces']:10d} {row['lammps_process_mib']:19.1f} "
-              f"{row['lammps_allocation_mb']:16.1f} {row['build_mib']:17.1f} {extra:>22s}")
+              f"{row['lammps_allocation_mb']:16.1f} {row['build_mib']:17.1f} "
+              f"{row['analysis_mib']:7.1f} / {row['analysis_noplots_mib']:6.1f} {extra:>22s}{extra_an:>23s}")
+    print(f"  the analysis's imports alone (numpy, scipy, pandas with pyarrow, matplotlib, the tool's modules): "
+          f"{floor:.1f} MiB")
 
 
 def main() -> None:
@@ -219,7 +253,8 @@ def main() -> None:
     ap.add_argument("--skip-phases", action="store_true")
     ap.add_argument("--probe-memory", nargs=3, metavar=("CONFIG", "CELLS", "STEPS"), help=argparse.SUPPRESS)
     ap.add_argument("--probe-run", nargs=2, metavar=("CONFIG", "OUT"), help=argparse.SUPPRESS)
-    ap.add_argument("--probe-analysis", metavar="RUN_DIR", help=argparse.SUPPRESS)
+    ap.add_argument("--probe-analysis", nargs="+", metavar="RUN_DIR", help=argparse.SUPPRESS)
+    ap.add_argument("--probe-imports", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.probe_memory:
         print(json.dumps(probe_memory(args.probe_memory[0], int(args.probe_memory[1]), int(args.probe_memory[2]))))
@@ -228,7 +263,10 @@ def main() -> None:
         print(json.dumps(probe_run(*args.probe_run)))
         return
     if args.probe_analysis:
-        print(json.dumps(probe_analysis(args.probe_analysis)))
+        print(json.dumps(probe_analysis(*args.probe_analysis)))
+        return
+    if args.probe_imports:
+        print(json.dumps(probe_imports()))
         return
     with tempfile.TemporaryDirectory() as tmp:
         run = Path(tmp) / "whole"

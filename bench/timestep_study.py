@@ -328,9 +328,11 @@ def fastest_modes(cells: int, seed: int, n_modes: int = 6) -> dict:
     }
 
 
-def impact_runs(run: bool, scale: str | None) -> pd.DataFrame:
+def impact_runs(run: bool, scale: str | None, previous: Path | None = None) -> pd.DataFrame:
     """Each finished impact run of the sweep (at `scale`: None, the 1728 cells; small, 300):
-    steps_per_period, seed and the outcome measures."""
+    steps_per_period, seed and the outcome measures. Runs listed in `previous` (this table as an
+    earlier invocation wrote it) and no longer on disk are kept: the study's runs take hours and
+    their folders need not outlive the table."""
     extra = ["--scale", scale] if scale else []
     if run:
         subprocess.run([sys.executable, "-m", "driver.cli", "sweep", str(SWEEP_FILE), "--workers", "1", "--np", "1",
@@ -350,7 +352,15 @@ def impact_runs(run: bool, scale: str | None) -> pd.DataFrame:
                      # over W_k^- (analysis/impact.py): the integration error of the whole run
                      "residual": s.get("balance_residual", math.nan),
                      **{k: s.get(k) for k in MEASURES}})
-    return pd.DataFrame(rows)
+    runs = pd.DataFrame(rows)
+    if previous is not None and previous.exists():
+        old = pd.read_csv(previous)
+        if not runs.empty:
+            here = set(zip(runs.steps_per_period, runs.seed))
+            old = old[[(p, s) not in here for p, s in zip(old.steps_per_period, old.seed)]]
+        runs = pd.concat([old, runs], ignore_index=True) if not old.empty else runs
+    return runs.sort_values(["steps_per_period", "seed"], ascending=[False, True]).reset_index(drop=True) \
+        if not runs.empty else runs
 
 
 def outcome_table(runs: pd.DataFrame) -> pd.DataFrame:
@@ -517,6 +527,8 @@ def main() -> None:
         (a.out / "timestep_study_modes.json").write_text(json.dumps(modes, indent=1))
 
     drift = drift_study(a.cells, a.seed, a.spp, a.periods, a.v_rms, a.press, a.cases, base, run=not a.tabulate_only)
+    if drift.empty and (a.out / "timestep_study.csv").exists():  # series no longer on disk: the table stays
+        drift = pd.read_csv(a.out / "timestep_study.csv")
     print(f"\nenergy drift ({a.cells} cells, seed {a.seed}, {a.periods:g} shortest periods, v_rms {a.v_rms:g} m/s, "
           f"press {a.press:g} m/s^2; baseline: drift < {DRIFT_LIMIT:g}):")
     print(drift.to_string(index=False, float_format=lambda x: f"{x:.3g}"))
@@ -527,8 +539,9 @@ def main() -> None:
     outcomes = {}
     for name in [] if a.no_impact else a.scales:
         scale, what = SCALES[name]
-        runs = impact_runs(run=not a.tabulate_only, scale=scale)
-        runs.to_csv(a.out / f"timestep_study_impact_runs_{name}.csv", index=False)
+        table = a.out / f"timestep_study_impact_runs_{name}.csv"
+        runs = impact_runs(run=not a.tabulate_only, scale=scale, previous=table)
+        runs.to_csv(table, index=False)
         outcomes[name] = outcome = outcome_table(runs)
         print(f"\nimpact outcome, {what} (bench/timestep_study_sweep.yaml{' --scale ' + scale if scale else ''}; "
               f"mean and std over seeds; reference 100):")
