@@ -33,16 +33,67 @@ def grain_colours(labels: np.ndarray) -> np.ndarray:
     return cols[labels]
 
 
+def view_direction(elev: float, azim: float) -> np.ndarray:
+    """Unit vector from the scene towards the viewer of mplot3d's view_init(elev, azim), degrees."""
+    e, a = np.radians(elev), np.radians(azim)
+    return np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
+
+
+def visible_faces(cell_vertices: list[np.ndarray], cell_faces: list[list[np.ndarray]], labels: np.ndarray,
+                  towards_viewer: np.ndarray) -> list[np.ndarray]:
+    """Per cell, a mask of the faces an orthographic picture can show: its convex cell's faces
+    turned towards the viewer, less the faces pressed against a face of another cell of the
+    same grain (opposite normals, centroids within a tenth of the median cell size: the inside
+    of a fragment). The rest are hidden behind them, whatever their order, so the picture is
+    unchanged and holds a few times fewer polygons (a fragment shows its surface only)."""
+    centroids, normals, owner = [], [], []
+    for c, (verts, faces) in enumerate(zip(cell_vertices, cell_faces)):
+        v = np.asarray(verts, dtype=float)
+        middle = v.mean(0)
+        for f in faces:
+            p = v[np.asarray(f)]
+            centre = p.mean(0)
+            n = np.cross(p[1] - p[0], p[2] - p[0])
+            nn = np.linalg.norm(n)
+            n = n / nn if nn > 0 else np.zeros(3)
+            if np.dot(n, centre - middle) < 0:  # outward, whatever the loop's orientation
+                n = -n
+            centroids.append(centre)
+            normals.append(n)
+            owner.append(c)
+    if not centroids:
+        return [np.zeros(0, bool) for _ in cell_faces]
+    centroids, normals, owner = np.array(centroids), np.array(normals), np.array(owner)
+    keep = normals @ np.asarray(towards_viewer, dtype=float) >= 0.0
+    size = np.median([np.ptp(np.asarray(v, dtype=float), axis=0).max() for v in cell_vertices])
+    from scipy.spatial import cKDTree  # noqa: PLC0415
+
+    pairs = cKDTree(centroids).query_pairs(0.1 * size, output_type="ndarray")
+    if len(pairs):
+        a, b = pairs[:, 0], pairs[:, 1]
+        lab = np.asarray(labels)
+        inside = ((owner[a] != owner[b]) & (lab[owner[a]] == lab[owner[b]])
+                  & (np.einsum("ij,ij->i", normals[a], normals[b]) < -0.9))
+        keep[a[inside]] = False
+        keep[b[inside]] = False
+    bounds = np.cumsum([0] + [len(f) for f in cell_faces])
+    return [keep[bounds[c]:bounds[c + 1]] for c in range(len(cell_faces))]
+
+
 def render_cells(cell_vertices: list[np.ndarray], cell_faces: list[list[np.ndarray]], labels: np.ndarray,
                  path: Path, title: str = "", view=(20.0, -60.0), length_unit: float = 1e-3,
                  unit_name: str = "mm") -> None:
-    """Polyhedral cells (lab-frame vertices per cell, faces as vertex loops) coloured by label."""
+    """Polyhedral cells (lab-frame vertices per cell, faces as vertex loops) coloured by label,
+    in an orthographic view, drawing the faces that can be seen (visible_faces)."""
     cols = grain_colours(labels)
     polys, face_cols = [], []
     light = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
-    for verts, faces, col in zip(cell_vertices, cell_faces, cols):
+    shown = visible_faces(cell_vertices, cell_faces, labels, view_direction(*view))
+    for verts, faces, col, mask in zip(cell_vertices, cell_faces, cols, shown):
         v = np.asarray(verts) / length_unit
-        for f in faces:
+        for f, visible in zip(faces, mask):
+            if not visible:
+                continue
             p = v[np.asarray(f)]
             n = np.cross(p[1] - p[0], p[2] - p[0])
             nn = np.linalg.norm(n)
@@ -52,6 +103,7 @@ def render_cells(cell_vertices: list[np.ndarray], cell_faces: list[list[np.ndarr
     allv = np.concatenate([np.asarray(v) for v in cell_vertices]) / length_unit
     fig = plt.figure(figsize=(5.5, 5.0), dpi=150)
     ax = fig.add_subplot(projection="3d")
+    ax.set_proj_type("ortho")  # the faces turned away are then exactly the hidden ones
     # Faces padded to one length by repeating their last vertex (a zero-length edge). Given a
     # ragged list (pentagons beside hexagons), mplot3d >= 3.9 pads it into an np.empty array
     # and autoscales from the padding too, i.e. from whatever memory the process freed last

@@ -68,3 +68,24 @@ def test_finite_cube_limits():
     centre, half = finite_cube_limits(np.full((2, 3), np.nan))
     assert np.allclose(centre, 0) and half == 1.0
     assert finite_cube_limits(np.ones((3, 3)))[1] > 0
+
+
+def test_visible_faces_drop_back_faces_and_a_fragments_inside():
+    """Two unit cubes side by side along x, seen from +x (towards_viewer = +x): of each cube,
+    the faces turned away (-x) are hidden and, when both cubes are one fragment, so are the
+    two faces pressed together; as two fragments, the near cube's -x face is still hidden (it
+    faces away) and the far cube's +x face is kept (a gap may show it)."""
+    from analysis.pictures import visible_faces
+
+    cubes = [CUBE, CUBE + [1.0, 0, 0]]
+    faces = [FACES, FACES]
+    # each face's offset along x from its cube's centre: +0.5 for the +x face, -0.5 for -x, 0 else
+    offset_x = np.array([[c[f][:, 0].mean() - c[:, 0].mean() for f in FACES] for c in cubes])
+    plus_x, minus_x = offset_x > 0.4, offset_x < -0.4
+    one = visible_faces(cubes, faces, np.array([0, 0]), np.array([1.0, 0.0, 0.0]))
+    two = visible_faces(cubes, faces, np.array([0, 1]), np.array([1.0, 0.0, 0.0]))
+    # seen along +x only the +x faces (and the edge-on ones, normal . view = 0) are turned towards the viewer
+    assert not one[0][plus_x[0]].any() and one[1][plus_x[1]].all()  # cube 0's +x face touches cube 1
+    assert two[0][plus_x[0]].all() and two[1][plus_x[1]].all()
+    assert not one[0][minus_x[0]].any() and not two[1][minus_x[1]].any()
+    assert sum(m.sum() for m in one) == 1 + 2 * 4 and sum(m.sum() for m in two) == 2 + 2 * 4
