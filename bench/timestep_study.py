@@ -25,7 +25,11 @@
     steps per period on this machine), `small` (300 cells, to the settled outcome) and `t15us`
     (1728 cells, stopped at 15 us, after the breaking, before the slow settling). D_w, e_k^2,
     eta and the fragment count, mean +- std over seeds; a value passes when every measure's mean
-    lies within the 100-steps reference's seed-to-seed std of the reference mean.
+    lies within the 100-steps reference's seed-to-seed std of the reference mean. The scales
+    `fast100` and `fast300` check the run's own energy balance where the plane's account is
+    hardest, a coarse particle (100 or 300 cells) at 10 m/s through its contact (to 1e-5 s), at
+    50, 40 and 30 (no reference; the balance is the criterion). Runs listed in a scale's
+    runs table stay in it when their folders are gone.
 (c) Stability (`--stability 3 4 5 6 8 10 12 15`): the vibrating particle and a cube pressed
     face-on on the plane (`--stability-cells`, 300), 50 shortest periods at each value; unstable
     when the total energy changes by more than its starting scale.
@@ -37,7 +41,7 @@ Prints the tables; writes bench/timestep_study.csv (drift), timestep_study_stabi
 timestep_study_modes.json, timestep_study_impact_<scale>.csv (and _runs_<scale>.csv) and
 timestep_study.png. Baseline: drift < 1e-4; the outcome within the reference's spread.
 
-    python bench/timestep_study.py --modes --stability 3 4 5 6 8 10 12 15 --scales small t15us
+    python bench/timestep_study.py --modes --stability 3 4 5 6 8 10 12 15 --scales small t15us fast100 fast300
 """
 
 from __future__ import annotations
@@ -483,7 +487,9 @@ def markdown(drift: pd.DataFrame, outcomes: dict[str, pd.DataFrame]) -> str:
 
 
 SCALES = {"full": (None, "1728 cells, to the settled outcome"), "small": ("small", "300 cells, to the settled outcome"),
-          "t15us": ("t15us", "1728 cells, stopped at 15 us")}
+          "t15us": ("t15us", "1728 cells, stopped at 15 us"),
+          "fast100": ("fast100", "100 cells at 10 m/s, to 1e-5 s (the balance; no reference)"),
+          "fast300": ("fast300", "300 cells at 10 m/s, to 1e-5 s (the balance; no reference)")}
 
 
 def main() -> None:
