@@ -438,6 +438,9 @@ def plot(drift: pd.DataFrame, stab: pd.DataFrame, outcomes: dict[str, pd.DataFra
     ax.axhline(DRIFT_LIMIT, color="k", lw=0.8, ls=":")
     ax.set_xlabel("steps_per_period")
     ax.set_ylabel("max |balance residual| / W_k-")
+    ticks = sorted({v for outcome in outcomes.values() for v in outcome.index})
+    ax.set_xticks(ticks, [f"{v:g}" for v in ticks], fontsize=7)
+    ax.minorticks_off()
     ax.set_title("impact energy balance (damping, friction, breaks on)", fontsize=9)
     if outcomes:
         ax.legend(fontsize=7)
@@ -482,7 +485,8 @@ def markdown(drift: pd.DataFrame, outcomes: dict[str, pd.DataFrame]) -> str:
             paired = r.get("paired_dev_over_refstd", math.nan)
             rel = r.get("paired_rel_change", math.nan)
             pc = "—" if pd.isna(paired) else f"{paired:.2f}"
-            lines.append(f"| {spp:g} | {int(r.n)} | {ms} | {r.abs_residual_max:.1e} | {ok} | {pc} | {rel:.1%} |")
+            rc = "—" if pd.isna(rel) else f"{rel:.1%}"
+            lines.append(f"| {spp:g} | {int(r.n)} | {ms} | {r.abs_residual_max:.1e} | {ok} | {pc} | {rc} |")
     return "\n".join(lines)
 
 

@@ -1,7 +1,8 @@
 """The BCM time step (issue 15, point 1; README "Time step"): steps_per_period below the
 stability limit is refused with a message naming the field, the value and the limit; at the
 default, an undamped, frictionless, unbreakable vibrating particle keeps its energy without a
-drift, measured as bench/timestep_study.py measures it (the default is chosen on that figure).
+drift, measured as bench/timestep_study.py measures it (the default is chosen on the run energy
+balance, which that study measures beside it).
 """
 
 from __future__ import annotations
