@@ -58,13 +58,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from driver.bcm.lammps_files import write_cell_data, write_interfaces
-from driver.bcm.particle import build_particle, contact_timestep, particle_tessellation
+from driver.bcm.conservative import CONSERVATIVE_SETUP, impulse, intact_particle
 from driver.config import BCMModel
 from driver.engine import Lammps
-from driver.plugin_build import cache_base, plugin_library
-from runfiles.cells import write_cells
-from driver.bcm.conservative import CONSERVATIVE_SETUP
+from driver.plugin_build import plugin_library
 
 ROOT = Path(__file__).resolve().parent.parent
 SPP = [10, 15, 20, 30, 50, 100]
@@ -82,35 +79,11 @@ fix             press all gravity {g!r} vector 0 0 -1
 
 def particle_files(n_cells: int, seed: int, work: Path, shape: str = "truncated_pentakis_dodecahedron",
                    orient: bool = True) -> dict:
-    """system.data, interfaces.txt, cells.txt of the intact particle (SPEC 1.3 defaults), its
-    lowest rounded point on the plane z = 0, as the impact builds them (driver/bcm/impact.py).
-    shape cube, orient False: a cube face on the plane, every cell of it touching face-on."""
-    model = BCMModel(n_cells=n_cells, shape=shape)
-    tess = particle_tessellation(model, seed, cache_base() / "tessellations")
-    part = build_particle(tess, model.density, model.rounding, np.random.default_rng([seed, 1]), plane_z=0.0, gap=0.0,
-                          orient=orient)
-    work.mkdir(parents=True, exist_ok=True)
-    write_cell_data(work / "system.data", part.centroids, part.quats, part.masses, part.moments,
-                    2 * part.bound_radius, tess.iface_cells, margin=model.diameter)
-    write_interfaces(work / "interfaces.txt", tess.iface_cells, tess.iface_area,
-                     tess.iface_normal @ part.placement.rotation.T, part.interface_polygons)
-    write_cells(work / "cells.txt", part.core_vertices, part.core_faces)
-    _, period = contact_timestep(part.masses, max(model.contact.kn, model.interface.kn), 1.0)
-    skin = 0.1 * tess.mean_cell_size
-    return dict(model=model, masses=part.masses, period=period, rm=float(part.r_m), skin=float(skin),
-                cutoff=float(2.0 * part.bound_radius.max() * 1.05 + skin))
-
-
-def impulse(lmp, seed: int, v_rms: float) -> None:
-    """Random cell velocities of rms v_rms, without net momentum or angular momentum."""
-    x = np.asarray(lmp.numpy.extract_atom("x"))[:, :3]
-    m = np.asarray(lmp.numpy.extract_atom("rmass"))
-    v = np.random.default_rng([seed, 7]).normal(0.0, v_rms, size=(len(m), 3))
-    v -= (m[:, None] * v).sum(0) / m.sum()
-    r = x - (m[:, None] * x).sum(0) / m.sum()
-    inertia = (m[:, None, None] * ((r * r).sum(1)[:, None, None] * np.eye(3) - r[:, :, None] * r[:, None, :])).sum(0)
-    w = np.linalg.solve(inertia, (m[:, None] * np.cross(r, v)).sum(0))
-    lmp.numpy.extract_atom("v")[:] = v - np.cross(w, r)
+    """The intact particle's files (SPEC 1.3 defaults; driver/bcm/conservative.py) with its
+    lowest rounded point on the plane z = 0. shape cube, orient False: a cube face on the plane,
+    every cell of it touching face-on."""
+    return intact_particle(work, BCMModel(n_cells=n_cells, shape=shape), seed, np.random.default_rng([seed, 1]),
+                           gap=0.0, orient=orient)
 
 
 def energy_series(files: dict, work: Path, case: str, spp: float, periods: float, seed: int, v_rms: float,
@@ -119,18 +92,17 @@ def energy_series(files: dict, work: Path, case: str, spp: float, periods: float
     potential for `pressed`), broken. halt_kinetic: stop once the kinetic energy passes this (J):
     a run that blows up then ends before its cells fly apart (the neighbour bins of a growing
     box exhaust the memory)."""
-    m = files["model"]
     dt = files["period"] / spp
     steps = int(math.ceil(periods * spp))
     tmp = tempfile.TemporaryDirectory(prefix="timestep-series-")  # the energy record, read back then dropped
     lmp = Lammps()
     try:
         lmp.command(f"plugin load {plugin}")
-        lmp.commands(INPUT.format(dir=work, cutoff=files["cutoff"], rm=files["rm"], skin=files["skin"], dt=dt,
-                                  kn=m.interface.kn, kt=m.interface.kt, kn_c=m.contact.kn, kt_c=m.contact.kt))
+        setup = files["setup"]
+        lmp.commands(INPUT.format(**setup, dt=dt))
         extra_e, extra_k = "", ""
         if case == "pressed":
-            lmp.commands(PRESS.format(dir=work, rm=files["rm"], kn_c=m.contact.kn, kt_c=m.contact.kt, g=press))
+            lmp.commands(PRESS.format(dir=work, rm=setup["rm"], kn_c=setup["kn_c"], kt_c=setup["kt_c"], g=press))
             extra_e, extra_k = "+f_press", "+f_plane[4]"
         elif case != "vibrating":
             raise ValueError(f"unknown case {case!r}")
@@ -142,7 +114,7 @@ variable        etot equal v_kin+v_ela{extra_e}
 variable        nb equal f_BCM_GRIFFITH[2]
 thermo          0
 """)
-        impulse(lmp, seed, v_rms)
+        impulse(lmp, np.random.default_rng([seed, 7]), v_rms)
         lmp.command(f'fix rec all print {every} "$(step) $(time:%.10e) $(v_kin:%.14e) $(v_ela:%.14e) '
                     f'$(v_etot:%.14e) $(v_nb)" file {out} screen no title "step time kinetic elastic E broken"')
         if halt_kinetic is not None:
@@ -234,6 +206,9 @@ def fastest_modes(cells: int, seed: int, n_modes: int = 6) -> dict:
     vertex, maximised over n; the rule counts only 1/m (twice, for two cells). Velocity Verlet is
     stable for omega dt < 2, i.e. steps_per_period > pi omega / omega_rule."""
     import scipy.sparse as sp  # noqa: PLC0415
+
+    from driver.bcm.particle import particle_tessellation  # noqa: PLC0415
+    from driver.plugin_build import cache_base  # noqa: PLC0415
     from scipy.sparse.linalg import eigsh  # noqa: PLC0415
 
     model = BCMModel(n_cells=cells)

@@ -19,13 +19,10 @@ from scipy.spatial.distance import pdist
 
 from analysis.dumps import read_atom_dump
 from analysis.impact import read_impact_thermo
-from driver.bcm.lammps_files import write_cell_data, write_interfaces
-from runfiles.cells import write_cells
-from driver.bcm.particle import build_particle, contact_timestep, parent_shape, particle_tessellation
+from driver.bcm.particle import parent_shape
 from driver.config import BCMModel, parse_config
 from driver.pipeline import analyse_run, execute, load_resolved
-from driver.plugin_build import cache_base
-from driver.bcm.conservative import CONSERVATIVE_SETUP
+from driver.bcm.conservative import CONSERVATIVE_SETUP, impulse, intact_particle
 
 
 def impact_config(out: Path, n_cells: int, velocity: float, max_time: float, seed: int, **scenario) -> dict:
@@ -186,36 +183,10 @@ def conservative_particle(lmp, tmp_path: Path, n_cells: int, seed: int, v_rms: f
     breaks), no plane, and random cell velocities of rms v_rms without net momentum or
     angular momentum. Returns the cell masses in LAMMPS's atom order."""
     model = BCMModel(n_cells=n_cells)
-    tess = particle_tessellation(model, seed, cache_base() / "tessellations")
-    part = build_particle(tess, model.density, model.rounding, np.random.default_rng(seed), plane_z=0.0,
-                          gap=model.diameter)
-    write_cell_data(tmp_path / "system.data", part.centroids, part.quats, part.masses, part.moments,
-                    2 * part.bound_radius, tess.iface_cells, margin=model.diameter)
-    write_interfaces(tmp_path / "interfaces.txt", tess.iface_cells, tess.iface_area,
-                     tess.iface_normal @ part.placement.rotation.T, part.interface_polygons)
-    write_cells(tmp_path / "cells.txt", part.core_vertices, part.core_faces)
-    dt, _ = contact_timestep(part.masses, max(model.contact.kn, model.interface.kn), 50.0)
-    skin = 0.1 * tess.mean_cell_size
-    # the generated input's settings (driver/bcm/impact.py)
-    cutoff = float(2.0 * part.bound_radius.max() * 1.05 + skin)
-    lmp.commands(CONSERVATIVE_INPUT.format(
-        dir=tmp_path, cutoff=cutoff, rm=float(part.r_m), skin=float(skin), dt=float(dt),
-        kn=model.interface.kn, kt=model.interface.kt, kn_c=model.contact.kn, kt_c=model.contact.kt))
-
-    tags = np.asarray(lmp.numpy.extract_atom("id"))
-    order = tags - 1
-    x = np.asarray(lmp.numpy.extract_atom("x"))[:, :3]
-    m = part.masses[order]
-    rng = np.random.default_rng([seed, 7])
-    v = rng.normal(0.0, v_rms, size=(len(m), 3))
-    v -= (m[:, None] * v).sum(0) / m.sum()
-    r = x - (m[:, None] * x).sum(0) / m.sum()
-    outer = r[:, :, None] * r[:, None, :]
-    inertia = (m[:, None, None] * ((r * r).sum(1)[:, None, None] * np.eye(3) - outer)).sum(0)
-    w = np.linalg.solve(inertia, (m[:, None] * np.cross(r, v)).sum(0))
-    v -= np.cross(w, r)
-    lmp.numpy.extract_atom("v")[:] = v
-    return m
+    particle = intact_particle(tmp_path, model, seed, np.random.default_rng(seed), gap=model.diameter)
+    # the time step of the impact's default, 50 steps per shortest period
+    lmp.commands(CONSERVATIVE_INPUT.format(**particle["setup"], dt=particle["period"] / 50.0))
+    return impulse(lmp, np.random.default_rng([seed, 7]), v_rms)
 
 
 def momenta(lmp) -> tuple[np.ndarray, np.ndarray]:

@@ -12,14 +12,10 @@ import math
 import numpy as np
 import pytest
 
-from driver.bcm.lammps_files import write_cell_data, write_interfaces
-from driver.bcm.particle import build_particle, contact_timestep, particle_tessellation
+from driver.bcm.conservative import CONSERVATIVE_SETUP, impulse, intact_particle
 from driver.bcm.section import MIN_STEPS_PER_PERIOD
 from driver.config import BCMModel, ConfigError, parse_config
-from driver.plugin_build import cache_base
 from driver.scenarios.bcm_impact import ImpactScenario
-from runfiles.cells import write_cells
-from driver.bcm.conservative import CONSERVATIVE_SETUP
 
 
 def _impact(spp: float) -> dict:
@@ -64,28 +60,11 @@ def test_vibrating_particle_has_no_drift_at_the_default_step(lmp, tmp_path):
     (E_scale the largest kinetic + elastic energy) < 1e-4: the figure bench/timestep_study.py
     reports (2e-5 at 10 steps per period on 1728 cells)."""
     spp = ImpactScenario().steps_per_period
-    n_cells, seed = 300, 1
-    model = BCMModel(n_cells=n_cells)
-    tess = particle_tessellation(model, seed, cache_base() / "tessellations")
-    part = build_particle(tess, model.density, model.rounding, np.random.default_rng([seed, 1]), plane_z=0.0,
-                          gap=model.diameter)
-    write_cell_data(tmp_path / "system.data", part.centroids, part.quats, part.masses, part.moments,
-                    2 * part.bound_radius, tess.iface_cells, margin=model.diameter)
-    write_interfaces(tmp_path / "interfaces.txt", tess.iface_cells, tess.iface_area,
-                     tess.iface_normal @ part.placement.rotation.T, part.interface_polygons)
-    write_cells(tmp_path / "cells.txt", part.core_vertices, part.core_faces)
-    dt, _ = contact_timestep(part.masses, max(model.contact.kn, model.interface.kn), spp)
-    skin = 0.1 * tess.mean_cell_size
-    lmp.commands(INPUT.format(dir=tmp_path, cutoff=float(2.0 * part.bound_radius.max() * 1.05 + skin),
-                              rm=float(part.r_m), skin=float(skin), dt=float(dt), kn=model.interface.kn,
-                              kt=model.interface.kt, kn_c=model.contact.kn, kt_c=model.contact.kt))
-    x = np.asarray(lmp.numpy.extract_atom("x"))[:, :3]
-    m = np.asarray(lmp.numpy.extract_atom("rmass"))
-    v = np.random.default_rng([seed, 7]).normal(0.0, 0.05, size=(len(m), 3))
-    v -= (m[:, None] * v).sum(0) / m.sum()
-    r = x - (m[:, None] * x).sum(0) / m.sum()
-    inertia = (m[:, None, None] * ((r * r).sum(1)[:, None, None] * np.eye(3) - r[:, :, None] * r[:, None, :])).sum(0)
-    lmp.numpy.extract_atom("v")[:] = v - np.cross(np.linalg.solve(inertia, (m[:, None] * np.cross(r, v)).sum(0)), r)
+    seed = 1
+    particle = intact_particle(tmp_path, BCMModel(n_cells=300), seed, np.random.default_rng([seed, 1]),
+                               gap=BCMModel().diameter)
+    lmp.commands(INPUT.format(**particle["setup"], dt=particle["period"] / spp))
+    impulse(lmp, np.random.default_rng([seed, 7]), 0.05)
     out = tmp_path / "energy.txt"
     lmp.command(f'fix rec all print 1 "$(v_kin:%.14e) $(v_etot:%.14e) $(v_nb)" file {out} screen no')
     lmp.command(f"run {math.ceil(100 * spp)}")

@@ -12,7 +12,7 @@ import driver
 from analysis.plots import PlotGuard
 from analysis.tables import save_table
 from driver.bcm.cellstats import cell_statistics, plot_cell_stats
-from driver.bcm.lammps_files import write_cell_data, write_interfaces
+from driver.bcm.lammps_files import write_particle
 from runfiles.cells import write_cells
 from driver.bcm.particle import build_particle, contact_timestep, particle_tessellation
 from driver.config import RunConfig
@@ -56,12 +56,7 @@ def build_system(cfg: RunConfig, rd: RunDir) -> dict:
     particle = build_particle(tess, m.density, m.rounding, rng, plane_z=0.0, gap=sc.gap * m.diameter)
     root = rd.root
     bonded = bonded_interfaces(tess.iface_area, m.min_interface_area)
-    polygons = [p for p, keep in zip(particle.interface_polygons, bonded) if keep]
-    write_cell_data(root / "system.data", particle.centroids, particle.quats, particle.masses, particle.moments,
-                    2 * particle.bound_radius, tess.iface_cells[bonded], margin=m.diameter)
-    write_interfaces(root / "interfaces.txt", tess.iface_cells[bonded], tess.iface_area[bonded],
-                     tess.iface_normal[bonded] @ particle.placement.rotation.T, polygons)
-    write_cells(root / "cells.txt", particle.core_vertices, particle.core_faces)
+    write_particle(root, tess, particle, bonded, m.diameter)
     # the Voronoi cells themselves, for the analysis: fragment boxes from the cells' own vertices
     write_cells(root / "voronoi_cells.txt", particle.cell_vertices, particle.cell_faces)
     areas = tess.iface_area[bonded]

@@ -5,7 +5,8 @@
   section `BcmProps` (quaternion, principal moments, angular momentum) read by
   `fix property/atom d2_bcm_quat 4 d2_bcm_inertia 3 d2_bcm_angmom 3` (plugins/src/bcm_rigid.h);
 - interfaces file (read by `bond_style bcm/griffith geometry FILE`): per interface
-  `tag1 tag2 area nx ny nz npts` and the polygon's vertices in space, reference state.
+  `tag1 tag2 area nx ny nz npts` and the polygon's vertices in space, reference state;
+- cells file (runfiles/cells.py): each cell's rounded core; write_particle writes all three.
 All writes are atomic (temporary file, then rename).
 """
 
@@ -17,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from runfiles.atomic import atomic_write_text
+from runfiles.cells import write_cells
 
 
 def _rows(arr: np.ndarray, fmt: str) -> str:
@@ -68,3 +70,14 @@ def write_interfaces(path: Path, pairs: np.ndarray, areas: np.ndarray, normals: 
         pts = " ".join(f"{v:.17g}" for v in np.asarray(poly).ravel())
         lines.append(f"{i + 1} {j + 1} {s:.17g} {nrm[0]:.17g} {nrm[1]:.17g} {nrm[2]:.17g} {len(poly)} {pts}")
     return atomic_write_text(path, "\n".join(lines) + "\n")
+
+
+def write_particle(root: Path, tess, particle, bonded: np.ndarray, margin: float) -> None:
+    """system.data, interfaces.txt (the `bonded` faces glued) and cells.txt (the rounded cells'
+    cores) of a placed particle (driver/bcm/particle.py) in `root`."""
+    polygons = [p for p, keep in zip(particle.interface_polygons, bonded) if keep]
+    write_cell_data(root / "system.data", particle.centroids, particle.quats, particle.masses, particle.moments,
+                    2 * particle.bound_radius, tess.iface_cells[bonded], margin=margin)
+    write_interfaces(root / "interfaces.txt", tess.iface_cells[bonded], tess.iface_area[bonded],
+                     tess.iface_normal[bonded] @ particle.placement.rotation.T, polygons)
+    write_cells(root / "cells.txt", particle.core_vertices, particle.core_faces)
