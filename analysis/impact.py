@@ -31,7 +31,7 @@ from analysis.tables import save_table
 from analysis.tracking import lineage_table
 from runfiles.cells import read_cells
 from runfiles.layout import display_dir
-from runfiles.records import IMPACT_RECORD, INTERFACES_DUMP, read_record
+from runfiles.records import IMPACT_DIAGNOSTICS, IMPACT_RECORD, INTERFACES_DUMP, INTERFACES_REQUIRED, read_record
 
 
 W_F_TOLERANCE = 0.01  # |W_f_released - W_f| above this fraction of W_f is flagged
@@ -153,7 +153,8 @@ def read_impact_thermo(path: Path) -> pd.DataFrame:
     dissipated: dissipated_damping, dissipated_friction, dissipated_npoints (W_switch apart).
     work_wall and work_contacts, the work of those styles' forces on the cells, are a check:
     work + change of stored + dissipated = 0 for each."""
-    df = read_record(path, IMPACT_RECORD.names)  # columns by the file's title (runfiles/records.py)
+    # columns by the file's title (runfiles/records.py); the diagnostics when the run has them
+    df = read_record(path, [n for n in IMPACT_RECORD.names if n not in IMPACT_DIAGNOSTICS])
     df["kinetic"] = df.ke_trans + df.ke_rot
     df["elastic"] = df.E_interfaces + df.E_wall + df.E_contacts
     df["dissipated_damping"] = df.W_damp + df.W_wall_damp + df.W_contact_damp
@@ -206,11 +207,12 @@ def read_interfaces(path: Path) -> pd.DataFrame:
     break_time energy_at_break; DumpError naming the columns found when one is missing."""
     frame = read_local_dump(path)[-1]
     cols = {_UNNAMED_INTERFACE_COLUMNS.get(k, k): v for k, v in frame.columns.items()}
-    missing = [n for n in INTERFACES_DUMP.names if n not in cols]
+    missing = [n for n in INTERFACES_DUMP.names[:INTERFACES_REQUIRED] if n not in cols]
     if missing:
         raise DumpError(f"interface dump: no column {', '.join(missing)} (found: {' '.join(frame.columns)})",
                         path=path)
-    return pd.DataFrame({name: cols[name] for name in INTERFACES_DUMP.names}).rename(
+    # the loss columns (W_damp ... closed_force) when the dump has them
+    return pd.DataFrame({name: cols[name] for name in INTERFACES_DUMP.names if name in cols}).rename(
         columns={"batom1": "atom1", "batom2": "atom2"})
 
 

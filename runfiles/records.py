@@ -79,6 +79,15 @@ IMPACT_RECORD = Record("impact", (
     Field("W_damp", "J", "energy dissipated by the interfaces' damping", _g("f_BCM_GRIFFITH[6]")),
     Field("W_friction", "J", "energy dissipated by friction on broken interfaces", _g("f_BCM_GRIFFITH[7]")),
     Field("W_switch", "J", "energy lost when interfaces switch (break, retire)", _g("f_BCM_GRIFFITH[8]")),
+    # the broken interfaces now (diagnostics of their law; records of runs before them lack these)
+    Field("broken_closed", "", "broken interfaces with a closed point (touching, not retired)", "f_BCM_GRIFFITH[9]"),
+    Field("closed_points", "", "closed points of broken interfaces", "f_BCM_GRIFFITH[10]"),
+    Field("closed_force", "N", "normal force carried by the closed points of broken interfaces",
+          _g("f_BCM_GRIFFITH[11]")),
+    Field("slip", "m", "cumulative Coulomb slip on broken interfaces, summed over their points",
+          _g("f_BCM_GRIFFITH[12]")),
+    Field("W_damp_broken", "J", "part of W_damp dissipated by broken interfaces after their break",
+          _g("f_BCM_GRIFFITH[13]")),
     Field("wall_contacts", "", "cells touching the plane", "f_plane[1]"),
     Field("wall_force", "N", "normal force of the plane", _g("f_plane[2]")),
     Field("W_wall", "J", "energy dissipated by the plane (all channels)", _g("f_plane[3]")),
@@ -94,6 +103,9 @@ IMPACT_RECORD = Record("impact", (
     Field("W_contact_npoints", "J", "cell-cell contacts: changes of the number of points", _g("c_cpair[6]")),
     Field("work_contacts", "J", "work of the cell-cell contact forces on the cells (a check)", _g("c_cpair[7]")),
 ))
+
+#: IMPACT_RECORD fields that records of runs made before them lack (read when present)
+IMPACT_DIAGNOSTICS = ("broken_closed", "closed_points", "closed_force", "slip", "W_damp_broken")
 
 # ------------------------------------------------- BCM block calibration (SPEC 3, cells of SPEC 1.1-1.2)
 # pressure tensor: virial (rigid-body virial of the interfaces and contacts, from the cell
@@ -261,7 +273,7 @@ CELLS_DUMP = Dump("cells", (
       for k, c in enumerate("wijk", start=1)),
 ))
 # BCM interfaces (dump local of compute property/local batom1 batom2 and compute bond/local
-# b1..b6 of bond bcm/griffith, plugins/doc/bond_bcm_griffith.md)
+# b1..b13 of bond bcm/griffith, plugins/doc/bond_bcm_griffith.md)
 INTERFACES_DUMP = Dump("interfaces", (
     Column("batom1", "", "cell 1 (smaller id)", "c_ifc[1]"),
     Column("batom2", "", "cell 2", "c_ifc[2]"),
@@ -271,7 +283,17 @@ INTERFACES_DUMP = Dump("interfaces", (
     Column("break_step", "", "step of the break (-1 intact)", "c_ifs[4]"),
     Column("break_time", "s", "time of the break", "c_ifs[5]"),
     Column("energy_at_break", "J", "elastic energy stored just before the break", "c_ifs[6]"),
+    # where each interface's energy went (dumps of runs before these columns lack them)
+    Column("W_damp", "J", "energy its damping dissipated (intact and broken)", "c_ifs[7]"),
+    Column("W_damp_broken", "J", "the part of W_damp after its break", "c_ifs[8]"),
+    Column("W_friction", "J", "energy its friction dissipated (broken)", "c_ifs[9]"),
+    Column("W_switch", "J", "energy lost at its switches (break, retirement)", "c_ifs[10]"),
+    Column("slip", "m", "cumulative Coulomb slip of its points", "c_ifs[11]"),
+    Column("closed_points", "", "its closed points now (broken, not retired)", "c_ifs[12]"),
+    Column("closed_force", "N", "normal force of its closed points now", "c_ifs[13]"),
 ))
+#: the INTERFACES_DUMP columns every interface dump has (the rest came later)
+INTERFACES_REQUIRED = 8
 
 
 def atoms_dump(dimension: int) -> Dump:

@@ -75,8 +75,9 @@ def alpha(e2: float) -> float:
 
 
 def make_cells(lmp, tmp_path, centres, faces, *, en2=1.0, gc=1e9, en2c=0.001, energy=None,
-               newton="on off", geometry=None):
-    """Cells at `centres` (random body frames), bonded through `faces` [(t1, t2, points)]."""
+               newton="on off", geometry=None, settings="", mu=MU):
+    """Cells at `centres` (random body frames), bonded through `faces` [(t1, t2, points)];
+    `settings`: further bond_style keywords."""
     geo = tmp_path / "interfaces.txt"
     if geometry is None:
         lines = ["# tag1 tag2 area nx ny nz npts points"]
@@ -89,20 +90,21 @@ def make_cells(lmp, tmp_path, centres, faces, *, en2=1.0, gc=1e9, en2c=0.001, en
     lmp.commands(SETUP.format(newton=newton))
     for c in centres:
         lmp.command("create_atoms 1 single " + " ".join(fnum(v) for v in c))
-    style = f"bond_style bcm/griffith geometry {geo}" + (f" energy {energy}" if energy else "")
+    style = f"bond_style bcm/griffith geometry {geo}" + (f" energy {energy}" if energy else "") + (
+        f" {settings}" if settings else "")
     lmp.commands(f"""
         mass 1 {fnum(MASS)}
         set group all mass {fnum(MASS)} diameter {fnum(2 * A)}
         pair_style zero {fnum(3 * A)}
         pair_coeff * *
         {style}
-        bond_coeff 1 {KN} {KT} {en2} {gc} {KNC} {KTC} {en2c} {MU}
+        bond_coeff 1 {KN} {KT} {en2} {gc} {KNC} {KTC} {en2c} {mu}
     """)
     for t1, t2, _ in faces:
         lmp.command(f"create_bonds single/bond 1 {t1} {t2}")
     lmp.commands("""
         compute pl all property/local batom1 batom2
-        compute bl all bond/local engpot force b1 b2 b3 b4 b5 b6
+        compute bl all bond/local engpot force b1 b2 b3 b4 b5 b6 b7 b8 b9 b10 b11 b12 b13
         thermo_style custom step pe ebond ke
         thermo_modify norm no
     """)
@@ -146,7 +148,8 @@ def griffith(lmp, k):
 
 
 def interfaces(lmp):
-    """Rows of (tag1, tag2, engpot, force, state, area, energy, break step, time, E at break)."""
+    """Rows of (tag1, tag2, engpot, force, state, area, energy, break step, time, E at break,
+    W_damp, W_damp after the break, W_friction, W_switch, slip, closed points, their f_n)."""
     tags = np.atleast_2d(lmp.numpy.extract_compute("pl", 2, 2))
     vals = np.atleast_2d(lmp.numpy.extract_compute("bl", 2, 2))
     return np.hstack([tags, vals])

@@ -72,7 +72,8 @@ def test_channel_split_sums_to_measured_dissipation(tmp_path):
               "W_switch": -0.0005, "wall_contacts": 0, "wall_force": 0.0, "W_wall": 0.3985, "E_wall": 0.0,
               "W_wall_damp": 0.2965, "W_wall_friction": 0.1, "W_wall_npoints": 0.002, "work_wall": -0.3985,
               "E_contacts": 0.004, "W_contact_damp": 0.04, "W_contact_friction": 0.05, "W_contact_npoints": -0.002,
-              "work_contacts": 0.0}
+              "work_contacts": 0.0, "broken_closed": 1, "closed_points": 3, "closed_force": 0.5, "slip": 1e-6,
+              "W_damp_broken": 0.01}
     first = {k: 0.0 for k in columns} | {"ke_trans": 1.0, "intact": 13}
     path = tmp_path / "thermo.dat"
     path.write_text(f"# {' '.join(columns)}\n" + "\n".join(" ".join(str(row[c]) for c in columns)
@@ -93,3 +94,19 @@ def test_channel_split_sums_to_measured_dissipation(tmp_path):
     assert math.isclose(m["balance_residual"], 0.0, abs_tol=1e-12)
     # the two negative parts (switch overshoot, contact points gained) are flagged with their causes
     assert [f.split(" = ")[0] for f in m["energy_flags"]] == ["W_c_switch", "W_c_contact_npoints"]
+
+
+def test_a_record_without_the_broken_law_diagnostics_still_reads(tmp_path):
+    """Runs made before the diagnostics columns (broken_closed ... W_damp_broken) are analysed
+    as before: those columns are read when present, not required."""
+    from analysis.impact import read_impact_thermo
+    from runfiles.records import IMPACT_DIAGNOSTICS, IMPACT_RECORD
+
+    columns = [c for c in IMPACT_RECORD.names if c not in IMPACT_DIAGNOSTICS]
+    path = tmp_path / "thermo.dat"
+    path.write_text(f"# {' '.join(columns)}\n" + " ".join("0" for _ in columns) + "\n")
+    thermo = read_impact_thermo(path)
+    assert len(thermo) == 1 and "closed_force" not in thermo
+    path.write_text(f"# {' '.join(columns[:-1])}\n" + " ".join("0" for _ in columns[:-1]) + "\n")
+    with pytest.raises(ValueError, match=columns[-1]):
+        read_impact_thermo(path)

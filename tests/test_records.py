@@ -11,7 +11,7 @@ def test_fix_print_text_and_title_come_from_one_declaration():
     assert SHEAR_RECORD.print_text().startswith('"$(step) $(v_strain:%.8g) $(c_thermo_press[1]:%.10g)')
     assert SHEAR_RECORD.title() == ('title "# step strain pxx pyy pzz pxy pxz pyz pe ke vol bonds_broken '
                                     'angles_broken"')
-    assert IMPACT_RECORD.print_text().count("$(") == len(IMPACT_RECORD.names) == 25
+    assert IMPACT_RECORD.print_text().count("$(") == len(IMPACT_RECORD.names) == 30
     assert IMPACT_RECORD.column("broken") == 5 and SHEAR_RECORD.column("bonds_broken") == 11
     assert len(set(IMPACT_RECORD.names)) == len(IMPACT_RECORD.names)
 

@@ -38,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
+from driver.bcm import styles
 from driver.bcm.block import BlockTessellation, cached_periodic_cvt
 from driver.bcm.tessellation import Cell, erode
 
@@ -166,15 +167,10 @@ UNBREAKABLE_GC = 1e30
 
 def _styles(model, r_m: float, G_c: float | None = None) -> str:
     """Pair and bond styles of the model section; G_c overrides the interfaces' fracture energy."""
-    c, i = model.contact, model.interface
-    G_c = i.G_c if G_c is None else G_c
-    return (f"# Contacts between cells that share no interface (SPEC 1.2), frictional-contact parameters.\n"
-            f"pair_style      bcm/contact cells cells.txt rm {r_m:.12g}\n"
-            f"pair_coeff      * * {c.kn} {c.kt} {c.en2} {c.mu}\n"
-            f"# Griffith interfaces (SPEC 1.2 Eq. 1-7), one bond per shared face.\n"
-            f"bond_style      bcm/griffith geometry interfaces.txt energy {model.griffith_energy} "
-            f"stiffness {model.interface_stiffness}\n"
-            f"bond_coeff      1 {i.kn} {i.kt} {i.en2} {G_c:g} {c.kn} {c.kt} {c.en2} {c.mu}")
+    return ("# Contacts between cells that share no interface (SPEC 1.2), frictional-contact parameters.\n"
+            f"{styles.pair_setup(model, r_m)}\n"
+            "# Griffith interfaces (SPEC 1.2 Eq. 1-7), one bond per shared face.\n"
+            f"{styles.bond_setup(model, G_c)}")
 
 
 def render_block(cfg, plugin_path: Path, facts: BlockFacts, every: int, phase: str, start: str,

@@ -11,6 +11,7 @@ import numpy as np
 import driver
 from analysis.plots import PlotGuard
 from analysis.tables import save_table
+from driver.bcm import styles
 from driver.bcm.cellstats import cell_statistics, plot_cell_stats
 from driver.bcm.lammps_files import write_particle
 from runfiles.cells import write_cells
@@ -108,7 +109,7 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
     window, chunk = settle_windows(max(1, math.ceil(sc.settle_window / dt)), chunk)
     max_windows = max(1, math.ceil(sc.max_time / (window * dt)))
     periodic = ("compute         ifc all property/local batom1 batom2\n"
-                "compute         ifs all bond/local b1 b2 b3 b4 b5 b6")
+                "compute         ifs all bond/local " + " ".join(f"b{k}" for k in range(1, 14)))
     if sc.dump_every > 0:
         periodic += (f"\ndump            cells all custom {sc.dump_every} dumps/cells.*.lammpstrj {CELLS_DUMP.args()}\n"
                      f"dump_modify     cells sort id {CELLS_DUMP.modify()}\n"
@@ -121,7 +122,7 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
     common = dict(
         package_version=driver.__version__, config_name=cfg.name, plugin_path=plugin_path,
         comm_cutoff=f"{comm_cutoff:.9g}", r_m=f"{system['r_m']:.12g}",
-        kn_c=m.contact.kn, kt_c=m.contact.kt, en2_c=m.contact.en2, mu=m.contact.mu,
+        wall_setup=styles.wall_setup(m, system["r_m"]),
         skin=f"{skin:.9g}", steps_per_period=f"{sc.steps_per_period:g}",
         period=f"{system['shortest_period']:.6g}", timestep=f"{dt:.12g}",
         thermo_every=sc.thermo_every, periodic_dumps=periodic, record_print=IMPACT_RECORD.print_text(),
@@ -130,12 +131,8 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
     setup = render(
         "bcm_impact.in", role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).",
         system=SYSTEM_FRESH,
-        pair_setup=f"pair_style      bcm/contact cells cells.txt rm {system['r_m']:.12g}\n"
-                   f"pair_coeff      * * {m.contact.kn} {m.contact.kt} {m.contact.en2} {m.contact.mu}",
-        bond_setup=f"bond_style      bcm/griffith geometry interfaces.txt energy {m.griffith_energy} "
-                   f"stiffness {m.interface_stiffness}\n"
-                   f"bond_coeff      1 {m.interface.kn} {m.interface.kt} {m.interface.en2} {m.interface.G_c} "
-                   f"{m.contact.kn} {m.contact.kt} {m.contact.en2} {m.contact.mu}",
+        pair_setup=styles.pair_setup(m, system["r_m"]),
+        bond_setup=styles.bond_setup(m),
         velocity=f"velocity        all set 0.0 0.0 -{sc.velocity} units box",
         record_target="file thermo.dat",
         start=("run             0\n" + _dump_commands("start") +

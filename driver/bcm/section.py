@@ -44,6 +44,40 @@ class FrictionalContact(_Strict):
     mu: float = Field(0.3, ge=0.0, description="Coulomb friction coefficient mu_s")
 
 
+class BrokenInterface(_Strict):
+    """The law of a broken interface's closed points (SPEC 1.2, "After breaking"; the options
+    of issue 23, docs: the BCM below break-up). Each point of a broken interface is a
+    cohesionless frictional contact; these keys say which stiffness, damping and friction it
+    has, and what its tangential spring holds at the break."""
+
+    stiffness: Literal["contact", "interface"] = Field(
+        "contact", description="k_n, k_t of a closed point: `contact` = the frictional contact's (model.contact, "
+                               "whole interface, split over its N_p points; SPEC 1.2 read literally), `interface` = the "
+                               "intact interface's own (a closed crack as stiff as the material it cut: forces and "
+                               "energy continuous at the break)")
+    damping: Literal["contact", "interface"] = Field(
+        "contact", description="e_n of a closed point: `contact` = model.contact.en2, `interface` = "
+                               "model.interface.en2")
+    shear_at_break: Literal["carried", "released"] = Field(
+        "carried", description="the tangential spring of a point closed at the break: `carried` into the contact "
+                               "(its force kept, then the Coulomb cap: the part above mu f_n lost at once), or "
+                               "`released` (the contact starts unloaded; the spring's energy is lost at the switch)")
+    mu: float | None = Field(None, ge=0.0, description="friction coefficient on broken interfaces; null = "
+                                                       "model.contact.mu (0 bounds what friction can explain)")
+
+
+class Plane(_Strict):
+    """The rigid plane's contact law (SPEC 1.2, last bullets): the frictional-contact
+    parameters of model.contact at each touching cell vertex, or the options below."""
+
+    stiffness: Literal["per_point", "per_cell"] = Field(
+        "per_point", description="`per_point`: k_n, k_t at every touching vertex (SPEC 1.2: continuous when vertices "
+                                 "come and go); `per_cell`: the cell's k_n, k_t shared by its touching vertices (the "
+                                 "energy of a re-split is booked as W_wall_npoints)")
+    en2: float | None = Field(None, ge=0.0, le=1.0, description="squared restitution e_n^2 of the plane's contacts; "
+                                                                "null = model.contact.en2")
+
+
 class BCMModel(_Strict):
     """Bonded cell method (SPEC 1): a particle tessellated into rigid Voronoi cells, SI units."""
 
@@ -57,6 +91,8 @@ class BCMModel(_Strict):
                             description="rounding radius r_m as a fraction of the mean cell size h = (V/N_c)^(1/3)")
     interface: CohesiveInterface = Field(default_factory=CohesiveInterface)
     contact: FrictionalContact = Field(default_factory=FrictionalContact)
+    broken: BrokenInterface = Field(default_factory=BrokenInterface)
+    plane: Plane = Field(default_factory=Plane)
     griffith_energy: Literal["stored", "rockable", "literal"] = Field(
         "stored", description="energy in the Griffith criterion (SPEC 1.2): what the springs store (default), "
                               "Rockable's N_p-fold sum, or Eq. 5 read literally (1/N_p)")

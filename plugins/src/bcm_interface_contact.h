@@ -27,6 +27,9 @@ struct Constants {
 struct Energy {
   double fric = 0.0;      // dissipated by friction at this evaluation
   double stored = 0.0;    // the point's springs' energy
+  double slip = 0.0;      // length of the Coulomb slip at this evaluation
+  double fn = 0.0;        // normal force (>= 0) while closed
+  bool closed = false;    // the point is a closed contact
 };
 
 /* One point of a broken interface as a cohesionless frictional contact (SPEC 1.2 Eq. 1, 7;
@@ -52,8 +55,14 @@ inline Energy point(const Constants &k, const BcmInterfaceKinematics::Pair &p,
     const BcmContactLaw::Point law =
         BcmContactLaw::point(k.kc, k.ktc, k.cc, k.mu, -gap, dot(q.dv, n), u, pt[C_FT]);
     if (law.capped) {    // the rest of the tangential displacement became slip
-      for (int c = 0; c < 3; c++) slip[c] = q.dt[c] - u[c];
+      double moved = 0.0;
+      for (int c = 0; c < 3; c++) {
+        const double next = q.dt[c] - u[c];
+        moved += (next - slip[c]) * (next - slip[c]);
+        slip[c] = next;
+      }
       BcmRigid::rotate_back(p.R1, slip, pt + C_SLIP);
+      out.slip = std::sqrt(moved);
     }
     for (int c = 0; c < 3; c++) {
       fd[c] = (law.fn - law.fel) * n[c];
@@ -62,6 +71,8 @@ inline Energy point(const Constants &k, const BcmInterfaceKinematics::Pair &p,
     pt[C_FT] = law.ftm;
     out.fric = law.slip;
     out.stored = law.stored;
+    out.fn = law.fn;
+    out.closed = true;
   } else {
     if (pt[C_TOUCH] != 0.0) {    // opening: the tangential spring slips free (f_n = 0)
       BcmRigid::rotate(p.R1, pt + C_SLIP, slip);

@@ -25,6 +25,11 @@ enum {
   H_LAST_KIND,     // kind of the last evaluation (EvalKind)
   H_LAST_DT,       // time step of the last evaluation
   H_PD,            // power dissipated by damping at the last evaluation, -sum F_d . dv
+  H_W_DAMP_BREAK,  // H_W_DAMP when the interface broke: what its damping took after the
+                   // break is H_W_DAMP - H_W_DAMP_BREAK (diagnostics of the broken law)
+  H_SLIP,          // cumulative Coulomb slip of its points, m (summed over the points)
+  H_NCLOSED,       // closed points of the broken interface at the last evaluation
+  H_FN,            // normal force of its closed points at the last evaluation, N
   NHEAD
 };
 

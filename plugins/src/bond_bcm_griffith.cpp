@@ -49,13 +49,14 @@ using BcmContactLaw::damping_ratio;
 BondBcmGriffith::BondBcmGriffith(LAMMPS *_lmp) :
     Bond(_lmp), kn(nullptr), kt(nullptr), en2(nullptr), gc(nullptr), kn_c(nullptr),
     kt_c(nullptr), en2_c(nullptr), mu(nullptr), alpha(nullptr), alpha_c(nullptr),
-    table(_lmp), convention(BcmGriffith::STORED), stiffness(PER_INTERFACE), cache_store(nullptr),
+    table(_lmp), convention(BcmGriffith::STORED), stiffness(PER_INTERFACE),
+    broken_stiffness(CONTACT), broken_damping(CONTACT), break_shear(CARRIED), cache_store(nullptr),
     cache_valid(false), dirty(false), store_index(-1), slot_size(0), iquat(-1), nevaluations(0),
     special(nullptr)
 {
   writedata = 1;
   born_matrix_enable = 0;
-  single_extra = 6;
+  single_extra = 13;
   svector = new double[single_extra];
   // created now when possible so that thermo_style can name f_BCM_GRIFFITH
   if (domain->box_exist) FixBcmGriffith::get_or_create(lmp);
@@ -106,13 +107,29 @@ void BondBcmGriffith::allocate()
 /* ----------------------------------------------------------------------
    bond_style bcm/griffith geometry FILE [energy stored|rockable|literal]
                            [stiffness per_interface|per_area]
+                           [broken_stiffness contact|interface]
+                           [broken_damping contact|interface]
+                           [break_shear carried|released]
 ------------------------------------------------------------------------- */
+
+// value of a two-way keyword: `first` -> 0, `second` -> 1, anything else an error
+static int choice(Error *error, const char *key, const char *value, const char *first,
+                  const char *second)
+{
+  if (strcmp(value, first) == 0) return 0;
+  if (strcmp(value, second) == 0) return 1;
+  error->all(FLERR, "bond_style bcm/griffith: unknown {} {} (known: {}, {})", key, value, first,
+             second);
+  return 0;
+}
 
 void BondBcmGriffith::settings(int narg, char **arg)
 {
   std::string file;
   convention = BcmGriffith::STORED;
   stiffness = PER_INTERFACE;
+  broken_stiffness = broken_damping = CONTACT;
+  break_shear = CARRIED;
   for (int iarg = 0; iarg < narg; iarg += 2) {
     if (iarg + 1 >= narg)
       error->all(FLERR, "bond_style bcm/griffith: keyword {} needs a value", arg[iarg]);
@@ -130,9 +147,15 @@ void BondBcmGriffith::settings(int narg, char **arg)
       if (!BcmGriffith::parse(arg[iarg + 1], convention))
         error->all(FLERR, "bond_style bcm/griffith: unknown energy convention {} "
                    "(known: stored, rockable, literal)", arg[iarg + 1]);
+    } else if (strcmp(arg[iarg], "broken_stiffness") == 0) {
+      broken_stiffness = choice(error, arg[iarg], arg[iarg + 1], "contact", "interface");
+    } else if (strcmp(arg[iarg], "broken_damping") == 0) {
+      broken_damping = choice(error, arg[iarg], arg[iarg + 1], "contact", "interface");
+    } else if (strcmp(arg[iarg], "break_shear") == 0) {
+      break_shear = choice(error, arg[iarg], arg[iarg + 1], "carried", "released");
     } else {
-      error->all(FLERR, "bond_style bcm/griffith: unknown keyword {} (known: geometry, energy, stiffness)",
-                 arg[iarg]);
+      error->all(FLERR, "bond_style bcm/griffith: unknown keyword {} (known: geometry, energy, "
+                 "stiffness, broken_stiffness, broken_damping, break_shear)", arg[iarg]);
     }
   }
   if (file.empty())
@@ -355,11 +378,17 @@ void BondBcmGriffith::set_constants(const Entry &e, int type, double *rec) const
   rec[K_KP] = f * kn[type] / np;
   rec[K_KTP] = f * kt[type] / np;
   rec[K_CP] = 2.0 * alpha[type] * std::sqrt(f * kn[type] * mred) / np;
-  rec[K_KC] = kn_c[type] / np;
-  rec[K_KTC] = kt_c[type] / np;
-  // the contact law's damping (SPEC 1.2 Eq. 1): the point's k_n,c / N_p and the pair's
-  // reduced mass shared by the N_p points
-  rec[K_CC] = BcmContactLaw::damping(alpha_c[type], rec[K_KC], mred, np);
+  // broken interface, closed points: the contact's k_n,c / N_p, k_t,c / N_p (SPEC 1.2, the
+  // frictional-contact parameters), or the intact interface's own k_p, k_tp (a closed crack
+  // as stiff as the material it cut: the switch then keeps forces and energy)
+  const bool own = broken_stiffness == INTERFACE;
+  rec[K_KC] = own ? rec[K_KP] : kn_c[type] / np;
+  rec[K_KTC] = own ? rec[K_KTP] : kt_c[type] / np;
+  // their damping (SPEC 1.2 Eq. 1): the point's stiffness and the pair's reduced mass shared
+  // by the N_p points, with the contact's e_n or the interface's (with broken_stiffness
+  // interface and broken_damping interface the closed point's dashpot is the intact one, c_p)
+  const double a = broken_damping == INTERFACE ? alpha[type] : alpha_c[type];
+  rec[K_CC] = BcmContactLaw::damping(a, rec[K_KC], mred, np);
 }
 
 /* ----------------------------------------------------------------------
@@ -480,6 +509,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
         ? (last == EVAL_STEP) + (now.kind == EVAL_STEP)
         : 0;
     if (nkicks) slot[H_W_DAMP] += 0.25 * nkicks * slot[H_LAST_DT] * (slot[H_PD] - fd_dv);
+    if (just_broke) slot[H_W_DAMP_BREAK] = slot[H_W_DAMP];
 
     if (slot[H_BROKEN] != INTACT)
       contact_forces(e, type, rec, p, pts, just_broke, e_before, now, r);
@@ -531,8 +561,10 @@ double BondBcmGriffith::intact_forces(const Entry &e, double *rec, const Pair &p
    BROKEN (the Griffith criterion met at this evaluation). Records step,
    time and the energy stored just before (`stored`), and sets the contact
    state of the switch (SPEC 1.2): a point in compression keeps its normal
-   force, k_c (dn - s) = k_p dn, and its tangential force,
-   u_t = (k_tp / k_tc) dt; a point in tension opens.
+   force, k_c (dn - s) = k_p dn, and (break_shear carried) its tangential
+   force, u_t = (k_tp / k_tc) dt, or (break_shear released) starts with an
+   unloaded tangential spring, u_t = 0; a point in tension opens. What the
+   springs held and no longer do is booked at the switch (contact_forces()).
 ------------------------------------------------------------------------- */
 
 void BondBcmGriffith::break_interface(const Entry &e, double *rec, const Pair &p,
@@ -554,7 +586,9 @@ void BondBcmGriffith::break_interface(const Entry &e, double *rec, const Pair &p
     pt[C_SHIFT] = closed ? q.dn * (1.0 - kp / rec[K_KC]) : 0.0;
     pt[C_TOUCH] = closed ? 1.0 : 0.0;
     double slip[3];
-    const double keep = closed ? 1.0 - ktp / rec[K_KTC] : 1.0;
+    // slip offset sigma = (1 - kept) dt, so that u_t = dt - sigma = kept dt
+    const double kept = closed && break_shear == CARRIED ? ktp / rec[K_KTC] : 0.0;
+    const double keep = 1.0 - kept;
     for (int c = 0; c < 3; c++) slip[c] = keep * q.dt[c];
     BcmRigid::rotate_back(p.R1, slip, pt + C_SLIP);
     pt[C_FT] = 0.0;
@@ -580,7 +614,8 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
   const bool retiring = dot(p.d12, p.d12) >= rsum * rsum;
   const double kp = rec[K_KP], ktp = rec[K_KTP];
   const BcmInterfaceContact::Constants law{rec[K_KC], rec[K_KTC], rec[K_CC], mu[type]};
-  double fric = 0.0, unpaid = 0.0, held = 0.0;
+  double fric = 0.0, unpaid = 0.0, held = 0.0, slip = 0.0, fn = 0.0;
+  int nclosed = 0;
   double *cb = &contact[e.coff];
   for (int k = 0; k < e.npts; k++) {
     const Point &q = pts[k];
@@ -589,6 +624,9 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
     const BcmInterfaceContact::Energy ce =
         BcmInterfaceContact::point(law, p, q, cb + NCONTACT * k, fd, F);
     fric += ce.fric;
+    slip += ce.slip;
+    fn += ce.fn;
+    nclosed += ce.closed;
     r.stored += ce.stored;
     if (just_broke) {
       // the intact springs' force at this step was replaced before its half kick:
@@ -609,8 +647,12 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
   if (just_broke)
     slot[H_W_SWITCH] += e_before - r.stored - 2.0 * rec[K_AREA] * gc[type] -
         (now.kind == EVAL_STEP ? 0.5 * now.dt * unpaid : 0.0);
-  else
+  else {
     slot[H_W_FRIC] += fric;
+    slot[H_SLIP] += slip;
+  }
+  slot[H_NCLOSED] = nclosed;
+  slot[H_FN] = fn;
 
   if (retiring) retire(e, rec, held, now, r);
 }
@@ -649,6 +691,7 @@ void BondBcmGriffith::retire(const Entry &e, double *rec, double held, const Clo
   // damping force is dropped with its work: it never kicks)
   slot[H_W_SWITCH] += r.stored + (now.kind == EVAL_STEP ? 0.5 * now.dt * held : 0.0);
   slot[H_BROKEN] = RETIRED;
+  slot[H_NCLOSED] = slot[H_FN] = 0.0;
   r = Result();
   double *cb = &contact[e.coff];
   double *fdamp = slot + NHEAD;
@@ -726,8 +769,11 @@ bool BondBcmGriffith::released(int i, int m)
 /* ----------------------------------------------------------------------
    a multi-point interface has no force along the centre line: fforce = 0,
    energy = the elastic energy the interface stores now. Extra values
-   (compute bond/local b1..b6): state (1 intact, 0 broken), area, stored
-   energy, break step, break time (both -1 while intact), energy at break.
+   (compute bond/local b1..b13): state (1 intact, 0 broken), area, stored
+   energy, break step, break time (both -1 while intact), energy at break;
+   its cumulative damping work, the part of it after the break, friction
+   work, switch loss, Coulomb slip; its closed points and their normal force
+   at the last evaluation (0 while intact or retired).
 ------------------------------------------------------------------------- */
 
 double BondBcmGriffith::single(int type, double /*rsq*/, int i, int j, double &fforce)
@@ -745,6 +791,13 @@ double BondBcmGriffith::single(int type, double /*rsq*/, int i, int j, double &f
   svector[3] = broken ? slot[H_BREAK_STEP] : -1.0;
   svector[4] = broken ? slot[H_BREAK_TIME] : -1.0;
   svector[5] = broken ? slot[H_E_BREAK] : 0.0;
+  svector[6] = slot[H_W_DAMP];
+  svector[7] = broken ? slot[H_W_DAMP] - slot[H_W_DAMP_BREAK] : 0.0;
+  svector[8] = slot[H_W_FRIC];
+  svector[9] = slot[H_W_SWITCH];
+  svector[10] = slot[H_SLIP];
+  svector[11] = slot[H_NCLOSED];
+  svector[12] = slot[H_FN];
   return slot[H_E_EL];
 }
 
@@ -780,9 +833,17 @@ void BondBcmGriffith::tally(double *sums)
       }
       sums[4] += slot[H_E_EL];
       const double pending = (int) slot[H_LAST_KIND] == EVAL_STEP ? slot[H_PD] : 0.0;
-      sums[5] += slot[H_W_DAMP] + 0.5 * slot[H_LAST_DT] * pending;
+      const double damp = slot[H_W_DAMP] + 0.5 * slot[H_LAST_DT] * pending;
+      sums[5] += damp;
       sums[6] += slot[H_W_FRIC];
       sums[7] += slot[H_W_SWITCH];
+      if (slot[H_BROKEN] != INTACT) {
+        sums[8] += slot[H_NCLOSED] > 0.0;
+        sums[9] += slot[H_NCLOSED];
+        sums[10] += slot[H_FN];
+        sums[11] += slot[H_SLIP];
+        sums[12] += damp - slot[H_W_DAMP_BREAK];
+      }
     }
 }
 
@@ -833,8 +894,8 @@ void BondBcmGriffith::read_restart(FILE *fp)
 
 void BondBcmGriffith::write_restart_settings(FILE *fp)
 {
-  fwrite(&convention, sizeof(int), 1, fp);
-  fwrite(&stiffness, sizeof(int), 1, fp);
+  for (const int *v : {&convention, &stiffness, &broken_stiffness, &broken_damping, &break_shear})
+    fwrite(v, sizeof(int), 1, fp);
   table.write_restart(fp);
 }
 
@@ -842,13 +903,11 @@ void BondBcmGriffith::write_restart_settings(FILE *fp)
 
 void BondBcmGriffith::read_restart_settings(FILE *fp)
 {
-  if (comm->me == 0) {
-    utils::sfread(FLERR, &convention, sizeof(int), 1, fp, nullptr, error);
-    utils::sfread(FLERR, &stiffness, sizeof(int), 1, fp, nullptr, error);
-  }
+  int *settings[] = {&convention, &stiffness, &broken_stiffness, &broken_damping, &break_shear};
+  if (comm->me == 0)
+    for (int *v : settings) utils::sfread(FLERR, v, sizeof(int), 1, fp, nullptr, error);
   table.read_restart(fp);
-  MPI_Bcast(&convention, 1, MPI_INT, 0, world);
-  MPI_Bcast(&stiffness, 1, MPI_INT, 0, world);
+  for (int *v : settings) MPI_Bcast(v, 1, MPI_INT, 0, world);
   cache_valid = false;
 }
 

@@ -20,7 +20,7 @@ namespace LAMMPS_NS {
 
 class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
  public:
-  static constexpr int NVECTOR = 8;        // global vector of fix bcm/griffith
+  static constexpr int NVECTOR = 13;       // global vector of fix bcm/griffith
 
   BondBcmGriffith(class LAMMPS *);
   ~BondBcmGriffith() override;
@@ -53,6 +53,12 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
 
  private:
   enum Stiffness { PER_INTERFACE, PER_AREA };
+  // the law of a broken interface's closed points (plugins/doc/bond_bcm_griffith.md,
+  // "Broken interface"): stiffness and damping those of the contact (bond_coeff kn_c, kt_c,
+  // en2_c, split over N_p) or those of the intact interface; at the break, the tangential
+  // spring of a closed point carried into the contact (force kept, Coulomb cap) or released
+  enum BrokenLaw { CONTACT, INTERFACE };
+  enum BreakShear { CARRIED, RELEASED };
 
   // per type: bond_coeff values and derived damping ratios (SPEC Eq. 2)
   double *kn, *kt, *en2, *gc, *kn_c, *kt_c, *en2_c, *mu;
@@ -61,6 +67,9 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   BcmInterfaceTable table;    // the geometry of every interface, identical on every rank
   int convention;             // BcmGriffith::Convention
   int stiffness;              // PER_INTERFACE (the published model) or PER_AREA (k times S / <S>)
+  int broken_stiffness;       // BrokenLaw of the closed points' springs
+  int broken_damping;         // BrokenLaw of the closed points' damping
+  int break_shear;            // BreakShear
 
   // Working copy of the interfaces of the bond list, rebuilt with it (at each
   // reneighbouring): per entry one contiguous record in bondlist order holding the per-point

@@ -7,6 +7,10 @@
      [3] broken area A                [6] energy dissipated by damping
      [4] fracture energy W_f = 2 A G_c [7] energy dissipated by friction (sliding)
                                       [8] energy dissipated at the switch to contacts
+   Broken interfaces, as they are at the last evaluation (the diagnostics of the broken law):
+     [9] broken interfaces with a closed point   [12] cumulative Coulomb slip of their points, m
+     [10] their closed points                    [13] energy their damping dissipated after
+     [11] normal force those points carry, N          the break (part of [6])
    The per-interface values live in the bond style's per-atom store, so they migrate with
    their cells and carry on through restart files. The bond style works on a copy of them
    laid out in bondlist order; this fix has it written back to the store before atoms move
@@ -16,6 +20,7 @@
 #ifndef BRITTLE_FIX_BCM_GRIFFITH_H
 #define BRITTLE_FIX_BCM_GRIFFITH_H
 
+#include "bond_bcm_griffith.h"
 #include "fix.h"
 
 namespace LAMMPS_NS {
@@ -38,7 +43,7 @@ class FixBcmGriffith : public Fix {
   static FixBcmGriffith *get_or_create(class LAMMPS *);
 
  private:
-  double totals[8];
+  double totals[BondBcmGriffith::NVECTOR];
   void sync();
   bigint cached_step, cached_evaluations;
   bool cached;

@@ -17,7 +17,15 @@
    kicks of velocity Verlet (bcm_kick_work.h); friction: per Coulomb cap, the mean of the
    previous and the capped |f_t| times the slip, and when a vertex stops touching, its
    spring's energy (it slips free). A vertex starts and stops touching at zero overlap, so
-   a change of N moves no energy: vector value [7] is identically zero. */
+   a change of N moves no energy: vector value [7] is identically zero.
+
+   Option `stiffness per_cell` (not the SPEC 1.2 law: a diagnostic of what the plane's law
+   does to an impact): the cell's contact is one spring k_n, k_t shared by its N touching
+   vertices, k_n / N and k_t / N each, damping 2 alpha sqrt(k_n m) / N each. When N changes
+   the same deformation stores another energy: the jump, (1/N - 1/N_before) times the mean
+   of the whole-stiffness energies E_w = sum k_n delta^2/2 + k_t |u_t|^2/2 at the two steps
+   (velocity Verlet's trapezoid puts the switch at mid-step), is booked in [7] (negative
+   when the re-split creates energy). */
 
 #include "fix_bcm_wall.h"
 
@@ -38,22 +46,26 @@ using namespace FixConst;
 using BcmRigid::cross;
 using BcmRigid::dot;
 
-// slot: vertex + 1, step written, u_t[3], and |f_t| (the trapezoidal friction work)
-static constexpr int SLOT = 6;
-enum { S_VERTEX, S_STEP, S_U, S_FT = 5 };
+// slot: vertex + 1, step written, u_t[3], |f_t| (the trapezoidal friction work), and for
+// stiffness per_cell the cell's N and whole-stiffness energy E_w at that step
+static constexpr int SLOT = 8;
+enum { S_VERTEX, S_STEP, S_U, S_FT = 5, S_NP, S_EWHOLE };
 
 /* ----------------------------------------------------------------------
    fix ID group bcm/wall cells FILE rm R plane FACE VALUE kn kt en2 mu [slots N]
+                         [stiffness per_point|per_cell]
 ------------------------------------------------------------------------- */
 
 FixBcmWall::FixBcmWall(LAMMPS *_lmp, int narg, char **arg) :
     Fix(_lmp, narg, arg), rm(0.0), axis(2), side(1.0), coord(0.0), kn(0.0), kt(0.0), en2(0.0),
-    mu(0.0), alpha(1.0), nslots(16), iquat(-1), ihist(-1), local_now{0.0, 0.0, 0.0},
-    w_fric(0.0), totals{}, totals_valid(false), warned_slots(false),
+    mu(0.0), alpha(1.0), nslots(16), per_cell(false), iquat(-1), ihist(-1),
+    local_now{0.0, 0.0, 0.0}, w_fric(0.0), w_npoints(0.0), totals{}, totals_valid(false),
+    warned_slots(false),
     nmax_touch(0), touch(nullptr)
 {
   const char *usage =
-      "fix ID group bcm/wall cells FILE rm R plane FACE VALUE kn kt en2 mu [slots N]";
+      "fix ID group bcm/wall cells FILE rm R plane FACE VALUE kn kt en2 mu [slots N] "
+      "[stiffness per_point|per_cell]";
   if (narg < 14) error->all(FLERR, "Illegal fix bcm/wall command: {}", usage);
   if (strcmp(arg[3], "cells") != 0 || strcmp(arg[5], "rm") != 0 || strcmp(arg[7], "plane") != 0)
     error->all(FLERR, "Illegal fix bcm/wall command: {}", usage);
@@ -72,10 +84,19 @@ FixBcmWall::FixBcmWall(LAMMPS *_lmp, int narg, char **arg) :
   mu = utils::numeric(FLERR, arg[13], false, lmp);
   for (int iarg = 14; iarg < narg; iarg += 2) {
     if (iarg + 1 >= narg) error->all(FLERR, "fix bcm/wall: keyword {} needs a value", arg[iarg]);
-    if (strcmp(arg[iarg], "slots") == 0)
+    if (strcmp(arg[iarg], "slots") == 0) {
       nslots = utils::inumeric(FLERR, arg[iarg + 1], false, lmp);
-    else
-      error->all(FLERR, "fix bcm/wall: unknown keyword {} (known: slots)", arg[iarg]);
+    } else if (strcmp(arg[iarg], "stiffness") == 0) {
+      if (strcmp(arg[iarg + 1], "per_point") == 0)
+        per_cell = false;
+      else if (strcmp(arg[iarg + 1], "per_cell") == 0)
+        per_cell = true;
+      else
+        error->all(FLERR, "fix bcm/wall: unknown stiffness {} (known: per_point, per_cell)",
+                   arg[iarg + 1]);
+    } else {
+      error->all(FLERR, "fix bcm/wall: unknown keyword {} (known: slots, stiffness)", arg[iarg]);
+    }
   }
   if (!(rm >= 0.0)) error->all(FLERR, "fix bcm/wall: rm must be >= 0");
   if (!(kn > 0.0)) error->all(FLERR, "fix bcm/wall: kn must be > 0");
@@ -191,7 +212,7 @@ void FixBcmWall::wall_forces(bool advance)
   damp_work.begin(lmp, "fix bcm/wall");
   all_work.begin(lmp, "fix bcm/wall");
 
-  double ncells = 0.0, fnsum = 0.0, stored = 0.0, fric = 0.0;
+  double ncells = 0.0, fnsum = 0.0, stored = 0.0, fric = 0.0, npoints = 0.0;
   double nw[3] = {0.0, 0.0, 0.0};
   nw[axis] = side;
 
@@ -217,10 +238,14 @@ void FixBcmWall::wall_forces(bool advance)
     touch[i] = np;
     ncells += 1.0;
 
+    // per vertex: k_n, k_t (SPEC 1.2), or the cell's k_n, k_t shared by its N vertices
+    const double knp = per_cell ? kn / np : kn, ktp = per_cell ? kt / np : kt;
     // SPEC 1.2 Eq. 1, 2: the cell's mass shared by its touching vertices (bcm_contact_law.h)
-    const double gamma = BcmContactLaw::damping(alpha, kn, rmass[i], np);
+    const double gamma = BcmContactLaw::damping(alpha, knp, rmass[i], np);
     double fcell[3] = {0.0, 0.0, 0.0}, tcell[3] = {0.0, 0.0, 0.0};
     double fdamp[3] = {0.0, 0.0, 0.0}, tdamp[3] = {0.0, 0.0, 0.0};
+    // per_cell: N and E_w at the cell's last step (from any slot written then), E_w now
+    double np_before = 0.0, ew_before = 0.0, ewhole = 0.0;
 
     for (const int k : touching) {
       double r[3];
@@ -251,6 +276,10 @@ void FixBcmWall::wall_forces(bool advance)
           const double *s = h + SLOT * slot;
           for (int d = 0; d < 3; d++) u[d] = s[S_U + d];
           ft_before = s[S_FT];
+          if (s[S_STEP] == before) {
+            np_before = s[S_NP];
+            ew_before = s[S_EWHOLE];
+          }
         }
         u[axis] = 0.0;    // the plane does not turn: u_t stays in it
         if (advance)
@@ -259,7 +288,8 @@ void FixBcmWall::wall_forces(bool advance)
       }
 
       const BcmContactLaw::Point pt =
-          BcmContactLaw::point(kn, kt, gamma, mu, overlap, vn, u, ft_before);
+          BcmContactLaw::point(knp, ktp, gamma, mu, overlap, vn, u, ft_before);
+      if (per_cell) ewhole += np * pt.stored;
 
       if (kt > 0.0 && advance) {
         fric += pt.slip;
@@ -270,6 +300,7 @@ void FixBcmWall::wall_forces(bool advance)
           s[S_STEP] = now;
           for (int d = 0; d < 3; d++) s[S_U + d] = u[d];
           s[S_FT] = pt.ftm;
+          s[S_NP] = np;
         } else if (!warned_slots) {
           warned_slots = true;
           error->warning(FLERR, "fix bcm/wall: cell {} touches with more than {} vertices: "
@@ -301,6 +332,16 @@ void FixBcmWall::wall_forces(bool advance)
     }
     damp_work.add(lmp, i, -1, fdamp, tdamp, nullptr);
     all_work.add(lmp, i, -1, fcell, tcell, nullptr);
+    if (per_cell && advance && kt > 0.0) {
+      if (np_before > 0.0 && np_before != np)
+        npoints -= (1.0 / np - 1.0 / np_before) * 0.5 * (ewhole + ew_before);
+      for (const int k : touching) {    // E_w into the slots written at this step
+        double *h = hist[i];
+        for (int m = 0; m < nslots; m++)
+          if (h[SLOT * m + S_VERTEX] == k + 1 && h[SLOT * m + S_STEP] == now)
+            h[SLOT * m + S_EWHOLE] = ewhole;
+      }
+    }
   }
 
   // vertices that touched at the last step and no longer do: the spring slips free, its
@@ -324,6 +365,7 @@ void FixBcmWall::wall_forces(bool advance)
   local_now[1] = fnsum;
   local_now[2] = stored;
   w_fric += fric;
+  w_npoints += npoints;
   totals_valid = false;
 }
 
@@ -334,9 +376,9 @@ void FixBcmWall::sum_totals()
   if (totals_valid) return;
   const double damp = -damp_work.work();
   // [7], the energy of changes of N under a shared stiffness, is identically zero under the
-  // per-point law: kept so that the vector keeps its positions
-  const double mine[NVECTOR] = {local_now[0], local_now[1], damp + w_fric, local_now[2],
-                                damp, w_fric, 0.0, all_work.work()};
+  // per-point law (SPEC 1.2); stiffness per_cell books it
+  const double mine[NVECTOR] = {local_now[0], local_now[1], damp + w_fric + w_npoints,
+                                local_now[2], damp, w_fric, w_npoints, all_work.work()};
   MPI_Allreduce(mine, totals, NVECTOR, MPI_DOUBLE, MPI_SUM, world);
   totals_valid = true;
 }
@@ -355,8 +397,8 @@ double FixBcmWall::compute_vector(int n)
 
 /* ----------------------------------------------------------------------
    the dissipated energies and the work of the wall's forces carry on across restarts
-   (kept on rank 0): damping, friction, 0 (the place of [7], identically zero: the record
-   keeps its layout), work. The kick works are closed as the
+   (kept on rank 0): damping, friction, the energy of changes of N ([7]: zero but for
+   stiffness per_cell), work. The kick works are closed as the
    next run's setup would close them (BcmKickWork::work_closed), so a resumed run carries
    on with the very numbers of an uninterrupted one. Called on every rank (the sums need
    them all); only rank 0 has a file.
@@ -364,7 +406,7 @@ double FixBcmWall::compute_vector(int n)
 
 void FixBcmWall::write_restart(FILE *fp)
 {
-  const double mine[4] = {-damp_work.work_closed(lmp, "fix bcm/wall"), w_fric, 0.0,
+  const double mine[4] = {-damp_work.work_closed(lmp, "fix bcm/wall"), w_fric, w_npoints,
                           all_work.work_closed(lmp, "fix bcm/wall")};
   double total[4] = {0.0, 0.0, 0.0, 0.0};
   MPI_Reduce(mine, total, 4, MPI_DOUBLE, MPI_SUM, 0, world);
@@ -382,6 +424,7 @@ void FixBcmWall::restart(char *buf)
   const bool root = comm->me == 0;
   damp_work.restore(root ? -total[0] : 0.0);
   w_fric = root ? total[1] : 0.0;
+  w_npoints = root ? total[2] : 0.0;
   all_work.restore(root ? total[3] : 0.0);
 }
 

@@ -41,6 +41,7 @@ class FixBcmWall : public Fix {
   double coord;
   double kn, kt, en2, mu, alpha;
   int nslots;
+  bool per_cell;    // stiffness per_cell: k_n, k_t of the cell shared by its touching vertices
 
   std::string hist_id, hist_name;
   int iquat, ihist;
@@ -51,6 +52,7 @@ class FixBcmWall : public Fix {
   // all the wall's forces on the cells, energy dissipated by friction
   BcmKickWork damp_work, all_work;
   double w_fric;
+  double w_npoints;    // energy of changes of N (stiffness per_cell), [7]
   // the global vector: [1] cells touching, [2] sum of f_n, [3] dissipated ([5] + [6] + [7]),
   // [4] stored, [5] damping, [6] friction, [7] change of N (identically zero under the
   // per-point law: kept for the positions), [8] work of the wall's forces

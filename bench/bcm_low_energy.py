@@ -1,0 +1,151 @@
+"""The BCM impact below break-up (issue 23): where the energy goes, and what the law of a broken
+interface does to the restitution, the damage and the break-up.
+
+The 1728-cell impact of examples/bcm_impact.yaml (G_c = 1 J/m^2) at the damage potentials
+OMEGAS, seeds 1 and 2, under each VARIANT of the broken interfaces' law and of the plane's
+(driver/bcm/section.py: model.broken, model.plane). omega = W_k^- / (2 A_0 G_c) (SPEC 1.5); each
+(seed, omega) gets its own v_0 = sqrt(4 omega A_0 G_c / M) from its particle (A_0, M: the cached
+tessellation, driver/compare/omega.py), so every run's own analysis finds omega at the target.
+
+    python bench/bcm_low_energy.py plan                  # sweep files, runs/bcm_low_energy/<variant>.yaml
+    python bench/bcm_low_energy.py run base intact_law   # driver sweep of those variants, 2 workers
+    python bench/bcm_low_energy.py table                 # the tables (every variant against omega)
+
+One sweep directory per variant, runs/bcm_low_energy/<variant>/ (finished runs are kept: a
+re-run resumes). `table` writes bench/bcm_low_energy_runs.csv (one row per run) and
+bench/bcm_low_energy.csv (means and standard deviations over seeds per variant and omega) and
+prints them as Markdown.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import yaml
+
+ROOT = Path(__file__).resolve().parent.parent
+BASE = ROOT / "examples" / "bcm_impact.yaml"
+OUT = ROOT / "runs" / "bcm_low_energy"
+OMEGAS = [0.1, 0.3, 0.5, 1.0, 2.0]
+SEEDS = [1, 2]
+
+#: the law of a broken interface and of the plane: name -> dotted keys set in the base config
+#: (today's defaults are `base`; each other variant changes one thing, but intact_law, which
+#: changes stiffness and damping together: the whole intact law kept for closed points)
+VARIANTS: dict[str, dict] = {
+    "base": {},
+    "intact_law": {"model.broken.stiffness": "interface", "model.broken.damping": "interface"},
+    "stiffness_interface": {"model.broken.stiffness": "interface"},
+    "damping_interface": {"model.broken.damping": "interface"},
+    "shear_released": {"model.broken.shear_at_break": "released"},
+    "mu0": {"model.broken.mu": 0.0},
+    "plane_per_cell": {"model.plane.stiffness": "per_cell"},
+    "plane_elastic": {"model.plane.en2": 0.999},
+}
+
+#: per run: the measures of the issue and the loss channels (summary keys; W_c_* as shares of W_k^-)
+MEASURES = ["omega", "velocity", "D_w", "e_k2", "eta", "largest_fragment_mass_fraction",
+            "second_fragment_mass_fraction", "n_fragments_multi_cell", "broken_interfaces", "balance_residual"]
+CHANNELS = ["interface_friction", "switch", "interface_damping", "wall_damping", "wall_friction",
+            "wall_npoints", "contact_damping", "contact_friction"]
+
+
+def velocities() -> dict[tuple[int, float], float]:
+    """v_0 per (seed, omega) for the base particle (the variants do not change A_0 or M)."""
+    sys.path.insert(0, str(ROOT))
+    from driver.compare.omega import particle_area_mass, velocity_for_omega  # noqa: PLC0415
+    from driver.config import load_config  # noqa: PLC0415
+
+    out = {}
+    for seed in SEEDS:
+        cfg = load_config(BASE).model_copy(update={"seed": seed})
+        area, mass = particle_area_mass(cfg)
+        for w in OMEGAS:
+            out[(seed, w)] = velocity_for_omega(w, area, mass, cfg.model.interface.G_c)
+    return out
+
+
+def plan() -> None:
+    """One sweep file per variant: (velocity, seed) zipped so that each run hits its omega; the
+    variant's keys are given to `driver sweep --set` (run())."""
+    OUT.mkdir(parents=True, exist_ok=True)
+    v = velocities()
+    pairs = [(seed, w) for w in OMEGAS for seed in SEEDS]
+    for name, keys in VARIANTS.items():
+        sweep = {"base": str(BASE), "zip": [{"scenario.velocity": [round(v[p], 9) for p in pairs],
+                                             "seed": [p[0] for p in pairs]}]}
+        text = (f"# issue 23, variant {name}: {keys or 'the defaults'}; omega {OMEGAS} x seeds {SEEDS}\n"
+                + yaml.safe_dump(sweep, sort_keys=False))
+        (OUT / f"{name}.yaml").write_text(text)
+        print(OUT / f"{name}.yaml")
+
+
+def run(names: list[str], workers: int) -> None:
+    for name in names:
+        sets = [f"--set={k}={val}" for k, val in VARIANTS[name].items()]
+        cmd = [str(ROOT / ".venv" / "bin" / "driver"), "sweep", str(OUT / f"{name}.yaml"), "--workers", str(workers),
+               "--out", str(OUT / name), *sets]
+        print(" ".join(cmd), flush=True)
+        subprocess.run(cmd, check=False)
+
+
+def read_runs() -> pd.DataFrame:
+    import json  # noqa: PLC0415
+
+    rows = []
+    for name in VARIANTS:
+        for run in sorted((OUT / name).glob("*/results/summary.json")):
+            s = json.loads(run.read_text())
+            cfg = yaml.safe_load((run.parent.parent / "config.resolved.yaml").read_text())
+            wk = s["W_k_minus"]
+            row = {"variant": name, "run": run.parent.parent.name, "seed": cfg["seed"],
+                   "omega_target": min(OMEGAS, key=lambda w: abs(w - s["omega"]))}
+            row.update({m: s.get(m) for m in MEASURES})
+            row["velocity"] = cfg["scenario"]["velocity"]
+            row.update({f"loss_{c}": s.get(f"W_c_{c}", float("nan")) / wk for c in CHANNELS})
+            row["loss_besides_W_f"] = s["W_c_measured"] / wk
+            row["end_time_us"] = s.get("end_time", float("nan")) * 1e6
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def table() -> None:
+    runs = read_runs()
+    if runs.empty:
+        print("no finished runs under", OUT)
+        return
+    runs.to_csv(ROOT / "bench" / "bcm_low_energy_runs.csv", index=False)
+    cols = ["e_k2", "D_w", "eta", "largest_fragment_mass_fraction", "n_fragments_multi_cell", "loss_besides_W_f",
+            *[f"loss_{c}" for c in CHANNELS], "balance_residual"]
+    g = runs.groupby(["variant", "omega_target"], sort=False)
+    points = g[cols].agg(["mean", "std"])
+    points.columns = [f"{a}_{b}" for a, b in points.columns]
+    points.insert(0, "n", g.size())
+    points = points.reset_index()
+    points.to_csv(ROOT / "bench" / "bcm_low_energy.csv", index=False)
+    show = ["variant", "omega_target", "n", "e_k2_mean", "D_w_mean", "largest_fragment_mass_fraction_mean",
+            "n_fragments_multi_cell_mean", "loss_besides_W_f_mean", "loss_interface_friction_mean",
+            "loss_switch_mean", "loss_interface_damping_mean", "loss_wall_damping_mean"]
+    print(points[show].to_markdown(index=False, floatfmt=".3g"))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("what", choices=["plan", "run", "table"])
+    ap.add_argument("variants", nargs="*", help="for run: the variants (default: all)")
+    ap.add_argument("--workers", type=int, default=2)
+    a = ap.parse_args()
+    if a.what == "plan":
+        plan()
+    elif a.what == "run":
+        run(a.variants or list(VARIANTS), a.workers)
+    else:
+        table()
+
+
+if __name__ == "__main__":
+    main()
