@@ -209,27 +209,37 @@ def plot_curves(curves: list[tuple[str, np.ndarray, np.ndarray]], path: Path, xl
     _finish(fig, ax, path, title)
 
 
+def _series(points: pd.DataFrame) -> list:
+    """The curves of a set's points: one per `series` (G_c and the variant: analysis/runset.py)
+    where the table has it, else one per G_c."""
+    return list(points.groupby("series" if "series" in points else "G_c", sort=True))
+
+
+def _series_label(key) -> str:
+    return key if isinstance(key, str) else f"$G_c$ = {key:g} J/m²"
+
+
 def plot_measures(points: pd.DataFrame, path: Path, x: str = "omega", thresholds: dict | None = None,
                   fits: dict | None = None, title: str = "") -> None:
     """SPEC 1.5 sweep level: D_w, eta, e_k^2 and fragment count against omega (x="omega") or
     the impact velocity (x="velocity"), mean +- standard deviation over tessellations, one
-    marker per G_c. Against omega: thresholds[G_c] = {name: omega} drawn as vertical lines
-    (dashed, dotted, dash-dot in order; e.g. omega_0 and omega_1 under each break-up
-    definition), and fits[(G_c, measure)] = (callable(omega), omega_lo, omega_hi) drawn over
-    the fitted range."""
+    marker per series (G_c, and the variant where the set has several: _series). Against omega:
+    thresholds[series] = {name: omega} drawn as vertical lines (dashed, dotted, dash-dot in
+    order; e.g. omega_0 and omega_1 under each break-up definition), and fits[(series,
+    measure)] = (callable(omega), omega_lo, omega_hi) drawn over the fitted range."""
     panels = [("D_w", "damage $D_w = A/A_0$ [-]"), ("eta", r"fracture efficiency $\eta$ [-]"),
               ("e_k2", "restitution $e_k^2$ [-]"), ("n_fragments", "fragments [-]")]
     xcol = "omega_mean" if x == "omega" else "velocity"
     xlabel = r"damage potential $\omega = W_k^-/W_s$ [-]" if x == "omega" else "impact velocity $v_0$ [m/s]"
     fig, axes = plt.subplots(2, 2, figsize=(8.0, 6.5), dpi=150)
-    groups = list(points.groupby("G_c", sort=True))
+    groups = _series(points)
     for ax, (col, label) in zip(axes.flat, panels):
         for k, (gc, grp) in enumerate(groups):
             grey = str(0.6 * k / max(1, len(groups) - 1))
             grp = grp.sort_values(xcol)
             ax.errorbar(grp[xcol], grp[f"{col}_mean"], yerr=grp[f"{col}_std"].fillna(0),
                         marker=_MARKERS[k % len(_MARKERS)], linestyle=_LINES[k % len(_LINES)], color=grey,
-                        mfc="white", ms=5, capsize=2, label=f"$G_c$ = {gc:g} J/m²")
+                        mfc="white", ms=5, capsize=2, label=_series_label(gc))
             if x != "omega":
                 continue
             f = (fits or {}).get((gc, col))
@@ -262,7 +272,7 @@ def plot_energy_split(points: pd.DataFrame, parts: list[tuple[str, str]], path: 
     against the impact velocity, one panel per G_c, mean +- standard deviation over
     tessellations. parts: (column, label) with points holding <column>_mean and _std; parts
     that are zero at every point are left out (named in the panel)."""
-    groups = list(points.groupby("G_c", sort=True))
+    groups = _series(points)
     legend_rows = (len(parts) + 1) // 2
     height = 4.0 + 0.22 * legend_rows
     fig, axes = plt.subplots(1, len(groups), figsize=(max(7.0, 4.5 * len(groups)), height), dpi=150, squeeze=False)
@@ -287,7 +297,7 @@ def plot_energy_split(points: pd.DataFrame, parts: list[tuple[str, str]], path: 
         ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.set_xlabel("impact velocity $v_0$ [m/s]")
         ax.set_ylabel("energy / $W_k^-$ [-]")
-        ax.set_title(f"$G_c$ = {gc:g} J/m²", fontsize=9)
+        ax.set_title(_series_label(gc), fontsize=9)
         if silent:
             ax.text(0.02, 0.02, "zero throughout: " + ", ".join(silent), transform=ax.transAxes, fontsize=6,
                     wrap=True)

@@ -305,6 +305,37 @@ def _materials(runs: list[dict]) -> dict[str, str]:
                          f"{MATERIAL_KEYS[i]}={v[i]}" for i in varying) for d, v in values.items()}
 
 
+#: config keys that never define a parameter point of an impact set: the run's identity and
+#: where and how it ran; the impact variable and the seed are handled apart
+_NOT_A_VARIANT = ("name", "seed", "output.", "execution.", "scenario.velocity", "model.interface.G_c")
+
+
+def _flatten(node, prefix: str = "") -> dict:
+    if not isinstance(node, dict):
+        return {prefix: node}
+    out = {}
+    for k, v in node.items():
+        out.update(_flatten(v, f"{prefix}.{k}" if prefix else str(k)))
+    return out
+
+
+def impact_variants(runs: list[dict]) -> dict[str, str]:
+    """Each run's variant label (run_dir -> 'model.broken.stiffness=interface, ...'): the
+    config keys that differ within the set, other than the impact variable (the velocity),
+    G_c (grouped apart) and the seed, and the run's identity (name, output, execution); ''
+    for every run when no other key varies. A set that varies a model option is analysed per
+    variant: its points, crossovers and fits never pool runs of two options."""
+    flat = {str(r["dir"]): _flatten(r["cfg"]) for r in runs}
+    keys = sorted({k for f in flat.values() for k in f})
+    varying = [k for k in keys if not k.startswith(_NOT_A_VARIANT)
+               and len({repr(f.get(k)) for f in flat.values()}) > 1]
+
+    def text(v) -> str:
+        return f"{v:g}" if isinstance(v, float) else str(v)
+
+    return {d: ", ".join(f"{k}={text(f.get(k))}" for k in varying) for d, f in flat.items()}
+
+
 def _scale_material(fits: list, collapses: dict, material: str, table: pd.DataFrame, nm: pd.DataFrame,
                     masses: dict, frames: dict, strain: float, d: int, cut: int, n_bootstrap: int) -> None:
     """tau and the SPEC 2.5 collapses of one material's runs (fits and collapses named with
@@ -408,6 +439,11 @@ def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True, left_out
     definitions = breakup_definitions(breakup_fraction)
     primary, chips = list(definitions)
     table = pd.DataFrame([_run_row(r, params) for r in runs])
+    # one series per (variant, G_c): every varied key but the velocity and the seed
+    variants = impact_variants(runs)
+    table["variant"] = [variants[str(r["dir"])] for r in runs]
+    table["series"] = [f"G_c = {gc:g} J/m²" + (f", {v}" if v else "") for gc, v in zip(table.G_c, table.variant)]
+    keys = ["series", "variant", "G_c"] if table.variant.ne("").any() else ["series", "G_c"]
     if "largest_fragment_mass_fraction" in table:
         table[f"breakup_{primary}"] = table.largest_fragment_mass_fraction < breakup_fraction
     table[f"breakup_{chips}"] = table.n_fragments_multi_cell >= 2
@@ -417,14 +453,19 @@ def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True, left_out
                 table[col] = table[key] / table.W_k_minus
     split_cols = [c for c, _, _ in ENERGY_SPLIT if c in table]
     cols = [c for c in MEASURES if c in table] + split_cols
-    grouped = table.groupby(["G_c", "velocity"], sort=True)
+    grouped = table.groupby([*keys, "velocity"], sort=True)
     points = grouped[cols].agg(["mean", "std"])
     points.columns = [f"{a}_{b}" for a, b in points.columns]
     points = points.reset_index()
-    points.insert(2, "n_runs", grouped.size().to_numpy())
+    points.insert(len(keys) + 1, "n_runs", grouped.size().to_numpy())
 
     thresholds, threshold_rows, fits, fit_fns, lines = {}, [], [], {}, {}
-    for gc, grp in table.groupby("G_c", sort=True):
+    for (series, *rest), grp in table.groupby(keys, sort=True):
+        gc = rest[-1]
+        variant = rest[0] if len(rest) == 2 else ""
+        # the key of the summary's thresholds: G_c, with the variant when the set has several
+        tkey = f"{gc:g}" + (f", {variant}" if variant else "")
+        vcol = {"variant": variant} if len(rest) == 2 else {}
         # bracketed between parameter points (velocities): tessellations of one point differ a little in omega
         found: dict[tuple[str, str], Threshold | str] = {
             ("omega_0", CRACKS): omega_0(grp.omega, grp.D_w, groups=grp.velocity),
@@ -436,32 +477,35 @@ def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True, left_out
             found[("omega_1", primary)] = omega_1_largest(grp.omega, grp.largest_fragment_mass_fraction,
                                                           breakup_fraction, groups=grp.velocity)
         meaning = {CRACKS: "first cracks: D_w > 0", **definitions}
-        thresholds[f"{gc:g}"] = {"omega_0": {}, "omega_1": {}}
+        thresholds[tkey] = {"omega_0": {}, "omega_1": {}}
         for name, definition in (("omega_0", CRACKS), ("omega_1", primary), ("omega_1", chips)):
             th = found[(name, definition)]
             entry = ({"value": th.value, "lo": th.lo, "hi": th.hi, "half_width": th.half_width, "note": ""}
                      if isinstance(th, Threshold) else
                      {"value": np.nan, "lo": np.nan, "hi": np.nan, "half_width": np.nan, "note": th})
-            thresholds[f"{gc:g}"][name][definition] = entry
-            threshold_rows.append({"G_c": gc, "threshold": name, "definition": definition,
+            thresholds[tkey][name][definition] = entry
+            threshold_rows.append({**vcol, "G_c": gc, "threshold": name, "definition": definition,
                                    "meaning": meaning[definition], **entry, "n_runs": len(grp)})
             method = (f"bracket [{entry['lo']:.4g}, {entry['hi']:.4g}] between velocities" if not entry["note"]
                       else entry["note"])
-            fits.append({"G_c": gc, "fit": f"{name} [{definition}] ({meaning[definition]})", "parameter": name,
+            fits.append({**vcol, "G_c": gc, "fit": f"{name} [{definition}] ({meaning[definition]})",
+                         "parameter": name,
                          "value": entry["value"], "sigma": entry["half_width"], "n": len(grp), "method": method,
                          "flag": None})
-        lines[gc] = {f"{name} [{definition}]": thresholds[f"{gc:g}"][name][definition]["value"]
+        lines[series] = {f"{name} [{definition}]": thresholds[tkey][name][definition]["value"]
                      for name, definition in (("omega_0", CRACKS), ("omega_1", primary), ("omega_1", chips))}
         try:
             tf = fit_threshold_power(grp.omega, grp.D_w)
-            fits += [{"G_c": gc, "fit": "D_w = A (omega - omega0)^beta", "parameter": p, "value": v, "sigma": s,
+            fits += [{**vcol, "G_c": gc, "fit": "D_w = A (omega - omega0)^beta", "parameter": p, "value": v,
+                      "sigma": s,
                       "n": tf.n, "method": tf.method, "flag": tf.flag}
                      for p, v, s in (("omega0", tf.omega0, tf.sigma_omega0), ("beta", tf.beta, tf.sigma_beta),
                                      ("A", tf.prefactor, tf.sigma_prefactor))]
-            fit_fns[(gc, "D_w")] = (lambda w, tf=tf: threshold_power(w, tf.omega0, tf.beta, tf.prefactor),
+            fit_fns[(series, "D_w")] = (lambda w, tf=tf: threshold_power(w, tf.omega0, tf.beta, tf.prefactor),
                                     grp.omega.min(), grp.omega.max())
         except ValueError as exc:
-            fits.append({"G_c": gc, "fit": "D_w = A (omega - omega0)^beta", "parameter": "-", "value": np.nan,
+            fits.append({**vcol, "G_c": gc, "fit": "D_w = A (omega - omega0)^beta", "parameter": "-",
+                         "value": np.nan,
                          "sigma": np.nan, "n": len(grp), "method": f"not fitted: {exc}", "flag": None})
         # every run of the parameter points from the first break-up (primary definition, the chip
         # count when the runs lack the fragment fractions) on
@@ -474,38 +518,42 @@ def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True, left_out
             fit_name = f"{col} = A omega^b above omega_1 [{rule}]"
             try:
                 pf = fit_loglog(above.omega, above[col])
-                fits.append({"G_c": gc, "fit": fit_name, "parameter": "b", "value": pf.exponent,
+                fits.append({**vcol, "G_c": gc, "fit": fit_name, "parameter": "b", "value": pf.exponent,
                              "sigma": pf.sigma_exponent, "n": pf.n, "method": "log-log least squares", "flag": None})
-                fit_fns[(gc, col)] = (lambda w, pf=pf: power_law(w, pf.prefactor, pf.exponent),
+                fit_fns[(series, col)] = (lambda w, pf=pf: power_law(w, pf.prefactor, pf.exponent),
                                       above.omega.min(), above.omega.max())
             except ValueError as exc:
-                fits.append({"G_c": gc, "fit": fit_name, "parameter": "-", "value": np.nan, "sigma": np.nan,
+                fits.append({**vcol, "G_c": gc, "fit": fit_name, "parameter": "-", "value": np.nan, "sigma": np.nan,
                              "n": len(above), "method": f"not fitted: {exc}", "flag": None})
 
-    # fragments of every run: p(S_f) pooled, p(m/m_max) per G_c
+    # fragments of every run: p(S_f) pooled, p(m/m_max) per G_c (and variant)
+    series_of = dict(zip(table.run_dir, table.series))
     frags = pd.concat([pd.read_parquet(r["dir"] / "results" / "fragments.parquet").assign(
-        run_dir=str(r["dir"]), G_c=float(params(r["cfg"])["G_c"])) for r in runs], ignore_index=True)
+        run_dir=str(r["dir"]), G_c=float(params(r["cfg"])["G_c"]), series=series_of[str(r["dir"])])
+        for r in runs], ignore_index=True)
     frags["m_over_m_max"] = frags.mass / frags.groupby("run_dir").mass.transform("max")
     multi = frags[~frags.single_cell]
     sf = histogram_table(multi.shape_factor, bins=20) if len(multi) else pd.DataFrame()
     mass_tables, mass_fits = {}, {}
-    for gc, grp in frags.groupby("G_c", sort=True):
-        label = f"G_c = {gc:g} J/m²"
+    for (label, gc), grp in frags.groupby(["series", "G_c"], sort=True):
+        vcol = {"variant": variants[grp.run_dir.iloc[0]]} if "variant" in keys else {}
         mass_tables[label] = normalised_mass_distribution(grp.m_over_m_max.to_numpy())
         pl = fit_mass_ratio_law([g.mass.to_numpy() for _, g in grp.groupby("run_dir")], n_bootstrap=100)
         if pl is not None:
             mass_fits[label] = {"tau": pl.tau, "sigma": max(pl.sigma, pl.sigma_bootstrap or 0.0), "xmin": pl.xmin,
                                 "xmax": 1.0}
-            fits.append({"G_c": gc, "fit": "p(m/m_max) ~ (m/m_max)^-tau, all runs (largest of each left out)",
+            fits.append({**vcol, "G_c": gc, "fit": "p(m/m_max) ~ (m/m_max)^-tau, all runs (largest of each left out)",
                          "parameter": "tau",
                          "value": pl.tau, "sigma": mass_fits[label]["sigma"], "n": pl.n,
                          "method": f"{pl.method}; range [{pl.xmin:.3g}, 1]", "flag": None})
-    fits_df = pd.DataFrame(fits, columns=["G_c", "fit", "parameter", "value", "sigma", "n", "method", "flag"])
+    fits_df = pd.DataFrame(fits, columns=[*keys[1:], "fit", "parameter", "value", "sigma", "n", "method", "flag"])
     thresholds_df = pd.DataFrame(threshold_rows)
     mass_pdf = pd.concat([t.assign(label=k) for k, t in mass_tables.items()], ignore_index=True)
 
-    save_table(_runs_table(table, left_out, params), out / "runs")
-    save_table(points, out / "points")
+    # a set of one variant keeps its tables as they were: series is G_c there
+    internal = [] if "variant" in keys else ["series", "variant"]
+    save_table(_runs_table(table.drop(columns=internal), left_out, params), out / "runs")
+    save_table(points.drop(columns=internal[:1]), out / "points")
     save_table(thresholds_df, out / "thresholds")
     save_table(fits_df, out / "fits")
     save_table(mass_pdf, out / "fragment_masses")
@@ -531,7 +579,7 @@ def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True, left_out
                        r"shape factor $S_f$ [-]", r"$p(S_f)$ [-]", title)
     rep = Report(f"Impact set: {title}", f"{len(runs)} runs: " + ", ".join(str(r["dir"]) for r in runs))
     _report_left_out(rep, left_out, len(runs))
-    rep.table(thresholds_df[["G_c", "threshold", "definition", "value", "lo", "hi", "n_runs", "note"]],
+    rep.table(thresholds_df[[*keys[1:], "threshold", "definition", "value", "lo", "hi", "n_runs", "note"]],
               f"crossovers under every definition, each bracketed [lo, hi] between velocities: "
               + "; ".join(f"{k}: {v}" for k, v in {CRACKS: "first cracks, D_w > 0", **definitions}.items())
               + f" (the break-up rule of SPEC 1.5 is {primary})")
@@ -540,11 +588,11 @@ def analyse_impact_set(runs: list[dict], out: Path, plots: bool = True, left_out
               "parameter at a bound of its physical range, not constrained by the data)")
     _report_energy_flags(rep, table, points)
     _report_plot_failures(rep, table, guard)
-    rep.table(points[["G_c", "velocity", "n_runs", *[c for c in points.columns if c.endswith("_mean")
+    rep.table(points[[*keys[1:], "velocity", "n_runs", *[c for c in points.columns if c.endswith("_mean")
                                                       and not c.startswith("split_")]]],
               "measures per parameter point (means over tessellations; points.csv has the standard deviations)")
     if split_cols:
-        rep.table(points[["G_c", "velocity", *[f"{c}_mean" for c in split_cols]]],
+        rep.table(points[[*keys[1:], "velocity", *[f"{c}_mean" for c in split_cols]]],
                   "where W_k^- goes, fractions of W_k^- per parameter point (means; split_<channel>: the "
                   "dissipation channels, which sum to W_c measured)")
     rep.figure(plot_dir / "measures_vs_omega.png", "measures against the damage potential omega")

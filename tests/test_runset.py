@@ -143,14 +143,15 @@ def test_no_bootstrap_and_repeated_run_names(size_set, tmp_path):
     assert np.isfinite(s_alpha) and s_alpha > 0 and "curvature" in " ".join(fits.method)
 
 
-def fake_impact_run(root: Path, velocity: float, seed: int) -> Path:
+def fake_impact_run(root: Path, velocity: float, seed: int, model: dict | None = None, breakup: float = 5.0) -> Path:
     """omega = velocity^2 / 4; D_w = 0.2 (omega - 0.5)^0.8 above 0.5; two or more multi-cell
     fragments from omega 2 (chips: the largest fragment keeps 95 % of the mass), the largest
-    below 0.9 of the parent from omega 5; eta = 0.05 omega^0.3; fragment masses p(m) ~ m^-1.6."""
+    below 0.9 of the parent from omega `breakup` (5); eta = 0.05 omega^0.3; fragment masses
+    p(m) ~ m^-1.6. model: further keys of the model section."""
     omega = velocity ** 2 / 4
     d_w = 0.2 * (omega - 0.5) ** 0.8 if omega > 0.5 else 0.0
     multi = 1 if omega < 2 else int(3 * omega)
-    largest = 1.0 if omega < 2 else 0.95 if omega < 5 else 0.5
+    largest = 1.0 if omega < 2 else 0.95 if omega < breakup else 0.5
     rng = np.random.default_rng(seed)
     masses = sample_power_law(150, 1.6, 1e-3, xmax=1.0, rng=rng)
     frags = pd.DataFrame({"mass": masses, "single_cell": False, "shape_factor": rng.uniform(3.0, 3.5, len(masses))})
@@ -158,7 +159,7 @@ def fake_impact_run(root: Path, velocity: float, seed: int) -> Path:
                "n_fragments": multi + 5, "n_fragments_multi_cell": multi, "largest_fragment_mass_fraction": largest,
                "second_fragment_mass_fraction": min(0.3, 1 - largest)}
     cfg = {"name": f"v{velocity:g}_s{seed}", "seed": seed,
-           "model": {"kind": "bcm", "n_cells": 100, "interface": {"G_c": 1.0}},
+           "model": {"kind": "bcm", "n_cells": 100, "interface": {"G_c": 1.0}, **(model or {})},
            "scenario": {"kind": "impact", "velocity": velocity}}
     return _write_run(root, cfg, summary, {"fragments": frags})
 
@@ -190,6 +191,37 @@ def test_impact_set_crossovers_and_fits(tmp_path):
     points = pd.read_csv(out / "points.csv")
     assert (points.n_runs == 2).all() and len(points) == 7
     assert (out / "plots/measures_vs_omega.png").exists() and (out / "report.html").exists()
+
+
+@pytest.mark.slow
+def test_impact_set_varying_a_model_option_is_analysed_per_option(tmp_path):
+    """Runs of two model options (as a sweep of model.interface_stiffness zipped with
+    model.min_interface_area makes them) with their break-up at different omega: the points,
+    crossovers and fits are per option, never pooled over both (issue 23)."""
+    runs = tmp_path / "runs"
+    options = {"per_interface": ({"interface_stiffness": "per_interface", "min_interface_area": 0.0}, 5.0),
+               "per_area": ({"interface_stiffness": "per_area", "min_interface_area": 0.01}, 3.0)}
+    for name, (model, breakup) in options.items():
+        for v in [1.0, 1.6, 2.4, 3.6, 5.0, 7.0]:
+            for seed in (1, 2):
+                fake_impact_run(runs / f"{name}_v{v:g}_s{seed}", v, seed, model=model, breakup=breakup)
+    out = tmp_path / "out"
+    result = analyse_set([runs], out, n_bootstrap=0)
+    assert set(result["thresholds"]) == {
+        "1, model.interface_stiffness=per_area, model.min_interface_area=0.01",
+        "1, model.interface_stiffness=per_interface, model.min_interface_area=0"}
+    thresholds = pd.read_csv(out / "thresholds.csv")
+    primary = thresholds[thresholds.definition == "largest_below_0.9"].set_index("variant")
+    assert (primary.n_runs == 12).all()  # each option's own 12 runs, not 24
+    # omega sampled at 0.25, 0.64, 1.44, 3.24, 6.25, 12.25
+    assert primary.value["model.interface_stiffness=per_interface, model.min_interface_area=0"] == pytest.approx(
+        (3.24 + 6.25) / 2)
+    assert primary.value["model.interface_stiffness=per_area, model.min_interface_area=0.01"] == pytest.approx(
+        (1.44 + 3.24) / 2)
+    points = pd.read_csv(out / "points.csv")
+    assert (points.n_runs == 2).all() and len(points) == 12 and points.variant.nunique() == 2
+    assert "variant" in pd.read_csv(out / "fits.csv")
+    assert (out / "plots/measures_vs_omega.png").exists()
 
 
 def test_sets_of_several_kinds_are_analysed_per_kind(tmp_path, size_set):
