@@ -47,16 +47,26 @@ class FrictionalContact(_Strict):
 class BCMModel(_Strict):
     """Bonded cell method (SPEC 1): a particle tessellated into rigid Voronoi cells, SI units."""
 
-    kind: Literal["bcm"] = "bcm"
-    shape: Literal["truncated_pentakis_dodecahedron", "cube", "icosphere_like"] = "truncated_pentakis_dodecahedron"
+    kind: Literal["bcm"] = Field("bcm", description="bcm: the bonded cell method")
+    shape: Literal["truncated_pentakis_dodecahedron", "cube", "icosphere_like"] = Field(
+        "truncated_pentakis_dodecahedron",
+        description="parent shape: truncated_pentakis_dodecahedron (GP(3,0), 92 faces: 12 regular pentagons, 20 "
+                    "regular hexagons, 60 mirror-symmetric hexagons), cube or icosphere_like")
     diameter: float = Field(2e-3, gt=0.0, description="parent diameter, m")
-    diameter_kind: Literal["circumscribed", "equal_volume"] = "circumscribed"
+    diameter_kind: Literal["circumscribed", "equal_volume"] = Field(
+        "circumscribed", description="which diameter `diameter` is: of the circumscribed sphere, or of the sphere of "
+                                     "the parent's volume")
     n_cells: int = Field(1728, ge=2, le=200_000, description="number of Voronoi cells N_c")
     density: float = Field(6000.0, gt=0.0, description="solid density rho_s, kg/m^3")
     rounding: float = Field(0.02, ge=0.0, lt=0.3,
                             description="rounding radius r_m as a fraction of the mean cell size h = (V/N_c)^(1/3)")
-    interface: CohesiveInterface = Field(default_factory=CohesiveInterface)
-    contact: FrictionalContact = Field(default_factory=FrictionalContact)
+    interface: CohesiveInterface = Field(
+        default_factory=CohesiveInterface,
+        description="cohesive interfaces: whole-interface stiffness, split over the interface's N_p points")
+    contact: FrictionalContact = Field(
+        default_factory=FrictionalContact,
+        description="frictional contacts: cell-cell and cell-plane (k_n, k_t per contact point), and broken "
+                    "interfaces (k_n, k_t of the whole interface, split over its N_p points)")
     griffith_energy: Literal["stored", "rockable", "literal"] = Field(
         "stored", description="energy in the Griffith criterion (SPEC 1.2): what the springs store (default), "
                               "Rockable's N_p-fold sum, or Eq. 5 read literally (1/N_p)")
@@ -69,4 +79,4 @@ class BCMModel(_Strict):
                                          "bonded (their cells only touch as contacts); 0 = every face bonded, the "
                                          "published model. A_0 and D_w count bonded interfaces only")
     lloyd_tol: float = Field(2e-3, gt=0.0, lt=0.1, description="Lloyd stop: RMS seed step / h")
-    lloyd_max_iter: int = Field(400, ge=0, le=10_000)
+    lloyd_max_iter: int = Field(400, ge=0, le=10_000, description="Lloyd stop: at most this many iterations")

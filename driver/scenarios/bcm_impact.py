@@ -18,7 +18,7 @@ from driver.schema import _Strict
 class ImpactScenario(_Strict):
     """One particle hits a rigid plane (SPEC 1.4)."""
 
-    kind: Literal["impact"] = "impact"
+    kind: Literal["impact"] = Field("impact", description="impact: one particle hits a rigid plane")
     velocity: float = Field(4.5, gt=0.0, le=100.0, description="impact velocity v_0 normal to the plane, m/s")
     gap: float = Field(1e-3, ge=0.0, lt=1.0, description="initial gap to the plane, fraction of the diameter")
     # below 12 refused (check_steps_per_period). 50 by the time-step study (bench/timestep_study.py,
