@@ -60,20 +60,23 @@ def _load(spec: str) -> Any:
 
 # ---------------------------------------------------------------------------- markdown helpers
 def _text(value: str) -> str:
-    """Plain text for a table cell: HTML escaped, `|`, `*`, `_` escaped outside code spans, one line."""
+    """Plain text for a table cell, on one line: outside code spans HTML escaped, Markdown's
+    `|`, `*`, `_`, `\\`, `[`, `]` escaped and braces as entities (attr_list would read a cell
+    ending in `{...}` as attributes); code spans as they are (a table keeps their pipes)."""
     parts = re.split(r"(`[^`]*`)", " ".join(str(value).split()))
     out = []
     for k, part in enumerate(parts):
-        if k % 2:  # a code span: only the pipe needs escaping inside a table
-            out.append(part.replace("|", "\\|"))
+        if k % 2:
+            out.append(part)
         else:
-            out.append(re.sub(r"([|*_\\\[\]])", r"\\\1", html.escape(part, quote=False)))
+            text = re.sub(r"([|*_\\\[\]])", r"\\\1", html.escape(part, quote=False))
+            out.append(text.replace("{", "&#123;").replace("}", "&#125;"))
     return "".join(out)
 
 
 def _code(value: str) -> str:
-    """`value` as a code span in a table cell."""
-    return "`" + str(value).replace("|", "\\|") + "`"
+    """`value` as a code span (a table keeps the pipes inside a code span)."""
+    return "`" + str(value) + "`"
 
 
 def _table(header: list[str], rows: list[list[str]]) -> str:

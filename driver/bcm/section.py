@@ -12,7 +12,7 @@ from driver.schema import _Strict
 # contact_timestep). The fastest motions are faster than that period says: a whole cell face
 # on the plane (k_n and k_t at each of its N points, rocking the cell about its centroid) is up
 # to 3.6x faster, and velocity Verlet blows up past omega dt = 2. Measured and derived in
-# bench/timestep_study.py (README "Time step").
+# bench/timestep_study.py (docs/models/bcm-timestep.md).
 MIN_STEPS_PER_PERIOD = 12.0
 
 
@@ -22,7 +22,7 @@ def check_steps_per_period(value: float) -> float:
         raise ValueError(f"steps_per_period = {value:g} is below the stability limit {MIN_STEPS_PER_PERIOD:g}: "
                          f"the time step would exceed 2 / omega of the stiffest contacts (a cell face on the plane "
                          f"or on another cell) and the run would blow up; use {MIN_STEPS_PER_PERIOD:g} or more "
-                         f"(README, Time step)")
+                         f"(docs/models/bcm-timestep.md)")
     return value
 
 
