@@ -209,12 +209,25 @@ def _doc(cls: type) -> str:
     return " ".join(doc.split("\n\n")[0].split())
 
 
+def _is_mapping(annotation: Any) -> bool:
+    """A mapping of sections (`dict[str, Section]`, optional or not): its keys are names."""
+    if typing.get_origin(annotation) is dict:
+        return True
+    return any(typing.get_origin(a) is dict for a in typing.get_args(annotation))
+
+
+def _key(path: str, name: str, annotation: Any = None) -> str:
+    """The dotted key of a field; `<name>` stands for the keys of a mapping of sections."""
+    key = f"{path}.{name}" if path else name
+    return f"{key}.<name>" if annotation is not None and _is_mapping(annotation) else key
+
+
 def _sections(cls: type, path: str, anchor: str, title: str) -> list[tuple[str, str, str, type]]:
     """Every section below (and including) `cls`: (dotted path, anchor, title, class), depth first."""
     out = [(path, anchor, title, cls)]
     for name, field in cls.model_fields.items():
         models = _models_in(field.annotation)
-        sub = f"{path}.{name}" if path else name
+        sub = _key(path, name, field.annotation)
         for m in models:
             kind = m.model_fields.get("kind")
             tag = f" (kind: {kind.default})" if len(models) > 1 and kind is not None else ""
@@ -236,14 +249,15 @@ def schema_page(root: type, title: str, intro: str, top: str = "top level") -> s
             parts += [_text(_doc(cls)), ""]
         rows = []
         for name, field in cls.model_fields.items():
-            key = f"{path}.{name}" if path else name
+            key = _key(path, name)
             default = _default(field)
             models = _models_in(field.annotation)
             kind = _type_name(field.annotation)
             if models:
-                targets = links.get(key, [])
-                kind = ", ".join(f"[section{'' if len(targets) == 1 else ' (' + str(c.model_fields['kind'].default) + ')'}]"
-                                 f"(#{a})" for c, a in targets) + (" or null" if "null" in kind else "")
+                targets = links.get(_key(path, name, field.annotation), [])
+                kind = ("mapping of " if _is_mapping(field.annotation) else "") + ", ".join(
+                    f"[section{'' if len(targets) == 1 else ' (' + str(c.model_fields['kind'].default) + ')'}](#{a})"
+                    for c, a in targets) + (" or null" if "null" in kind else "")
             rows.append([_code(key), kind if models else _text(kind), default, _limits(field),
                          _text(field.description or "")])
         parts += [_table(["key", "type", "default", "limits", "description"], rows), ""]
@@ -268,11 +282,16 @@ def config_page() -> str:
     return schema_page(run_config, "Configuration reference", intro)
 
 
+def _module_doc(cls: type) -> str:
+    """The docstring of the module that declares `cls` (an example file, indented: a code block)."""
+    return inspect.getdoc(sys.modules[cls.__module__]) or ""
+
+
 def material_page() -> str:
     cls = _load(SOURCES["material file"])
     intro = ("Every key of a material file (`driver calibrate MATERIAL.yaml`, [Calibration](../calibration.md)), "
              f"generated from the schema (`{SOURCES['material file'].replace(':', '.')}`) at each build of this "
-             "site. Unknown keys are errors.")
+             "site. Unknown keys are errors.\n\n" + _module_doc(cls))
     return schema_page(cls, "Material file reference", intro)
 
 
@@ -280,7 +299,7 @@ def compare_page() -> str:
     cls = _load(SOURCES["compare file"])
     intro = ("Every key of a compare file (`driver compare COMPARE.yaml`, [Comparing the models](../compare.md)), "
              f"generated from the schema (`{SOURCES['compare file'].replace(':', '.')}`) at each build of this "
-             "site. Unknown keys are errors.")
+             "site. Unknown keys are errors.\n\n" + _module_doc(cls))
     return schema_page(cls, "Compare file reference", intro)
 
 

@@ -5,6 +5,7 @@ page. The site tests are skipped when MkDocs (the `docs` extra) is not installed
 
 from __future__ import annotations
 
+import html
 import importlib.util
 import os
 import re
@@ -57,12 +58,14 @@ def _models_in(annotation) -> list[type]:
 
 
 def _fields(cls: type, prefix: str = ""):
-    """(dotted key, field) of every field of a schema, sections of every kind included."""
+    """(dotted key, field) of every field of a schema, sections of every kind included; the keys
+    of a mapping of sections (`dict[str, Section]`) are written `<name>`."""
     for name, field in cls.model_fields.items():
         key = f"{prefix}.{name}" if prefix else name
         yield key, field
+        mapping = "dict[" in str(field.annotation)
         for sub in _models_in(field.annotation):
-            yield from _fields(sub, key)
+            yield from _fields(sub, f"{key}.<name>" if mapping else key)
 
 
 SCHEMAS = {"run config": "reference/config", "material file": "reference/material",
@@ -186,7 +189,7 @@ def _page(site: Path, rel: str) -> str:
 @pytest.mark.parametrize("schema", list(SCHEMAS))
 def test_reference_page_lists_every_field(site, schema):
     page = _page(site, SCHEMAS[schema])
-    missing = [key for key, _ in _fields(_source(schema)) if f"<code>{key}</code>" not in page]
+    missing = [key for key, _ in _fields(_source(schema)) if f"<code>{html.escape(key)}</code>" not in page]
     assert missing == []
 
 
