@@ -438,7 +438,7 @@ def plot(drift: pd.DataFrame, stab: pd.DataFrame, outcomes: dict[str, pd.DataFra
 
 
 def markdown(drift: pd.DataFrame, outcomes: dict[str, pd.DataFrame]) -> str:
-    """The README's tables: drift per case, and per scale the measures as mean +- std."""
+    """The tables of docs/models/bcm-timestep.md: drift per case, and per scale the measures as mean +- std."""
     lines = ["| steps_per_period | " + " | ".join(f"{c}: drift | {c}: fluctuation" for c in drift.case.unique()) + " |",
              "|---|" + "---|---|" * drift.case.nunique()]
     for spp, d in drift.groupby("steps_per_period"):

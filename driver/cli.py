@@ -473,7 +473,7 @@ def _calibration_errors():
 
 @app.command()
 def calibrate(material_yaml: Path = typer.Argument(..., help="a material file: the target material and each "
-                                                             "model's resolution (README, Calibration)"),
+                                                             "model's resolution (docs/calibration.md)"),
               out: Optional[Path] = typer.Option(None, "--out", help="where to write calibration.json/.md and "
                                                                      "the plots (default runs/calibrate_<name>)"),
               workers: Optional[int] = typer.Option(None, "--workers", min=1, help="runs at a time while a curve "
@@ -520,8 +520,7 @@ def calibrate(material_yaml: Path = typer.Argument(..., help="a material file: t
 
 @app.command()
 def compare(compare_yaml: Path = typer.Argument(..., help="a compare file: material (or calibration.json), test, "
-                                                          "grid, both models' resolutions (README, Comparing "
-                                                          "the models)"),
+                                                          "grid, both models' resolutions (docs/compare.md)"),
             out: Optional[Path] = typer.Option(None, "--out", help="the comparison directory (default "
                                                                    "runs/compare_<name>); a re-run resumes it"),
             workers: Optional[int] = typer.Option(None, "--workers", min=1, help="runs at a time (default: the "

@@ -32,7 +32,8 @@ from driver.scenarios.bpm_shear import ShearScenario  # noqa: F401 (re-exported)
 class Output(_Strict):
     dir: Path | None = Field(None, description="run directory; default runs/<name> (filled in when the config is "
                                                "read)")
-    plots: bool = True
+    plots: bool = Field(True, description="write the PNG plots and pictures (tables and the report are always "
+                                          "written)")
     count_above: list[Annotated[float, Field(ge=1)]] = Field(
         [10, 100], description="grain masses (in particle masses) whose grain counts per frame the frame table "
                                "holds, besides SPEC 2.5's small-grain cut")
@@ -101,10 +102,14 @@ class RunConfig(_Strict):
                       description="run name: a plain file name (letters, digits, _ . -; starts with a letter, "
                                   "digit or _, so never . or ..)")
     seed: int = Field(1, ge=1, le=2**31 - 1, description="seeds the packing/tessellation and orientations")
-    model: ModelSection = Field(default_factory=BPMModel)
-    scenario: ScenarioSection = Field(default_factory=ShearScenario)
-    output: Output = Field(default_factory=Output)
-    execution: Execution = Field(default_factory=Execution)
+    model: ModelSection = Field(default_factory=BPMModel,
+                                description="the model and its parameters; model.kind chooses the section")
+    scenario: ScenarioSection = Field(default_factory=ShearScenario,
+                                      description="the scenario and its parameters; scenario.kind chooses the "
+                                                  "section, and (model.kind, scenario.kind) must be a registered pair")
+    output: Output = Field(default_factory=Output, description="where the run goes and what it writes")
+    execution: Execution = Field(default_factory=Execution,
+                                 description="how the run executes: MPI ranks, checkpoints, chunks")
 
     @model_validator(mode="before")
     @classmethod

@@ -259,6 +259,11 @@ class Dump:
         """dump_modify keywords giving each renamed column its name (`colname N name`)."""
         return " ".join(f"colname {k} {c.name}" for k, c in enumerate(self.columns, start=1) if c.arg != c.name)
 
+    def describe(self) -> str:
+        """A Markdown table of the columns (name, unit, meaning), for the docs."""
+        rows = [f"| `{c.name}` | {c.unit or '-'} | {c.meaning} |" for c in self.columns]
+        return "\n".join(["| column | unit | meaning |", "|---|---|---|", *rows])
+
 
 # BCM: one atom per cell (SPEC 1.1); the orientation is fix property/atom d2_bcm_quat, named
 # as OVITO's and atom_style ellipsoid's quaternion columns; radius: the cell's bounding sphere

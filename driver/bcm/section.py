@@ -12,7 +12,7 @@ from driver.schema import _Strict
 # contact_timestep). The fastest motions are faster than that period says: a whole cell face
 # on the plane (k_n and k_t at each of its N points, rocking the cell about its centroid) is up
 # to 3.6x faster, and velocity Verlet blows up past omega dt = 2. Measured and derived in
-# bench/timestep_study.py (README "Time step").
+# bench/timestep_study.py (docs/models/bcm-timestep.md).
 MIN_STEPS_PER_PERIOD = 12.0
 
 
@@ -22,7 +22,7 @@ def check_steps_per_period(value: float) -> float:
         raise ValueError(f"steps_per_period = {value:g} is below the stability limit {MIN_STEPS_PER_PERIOD:g}: "
                          f"the time step would exceed 2 / omega of the stiffest contacts (a cell face on the plane "
                          f"or on another cell) and the run would blow up; use {MIN_STEPS_PER_PERIOD:g} or more "
-                         f"(README, Time step)")
+                         f"(docs/models/bcm-timestep.md)")
     return value
 
 
@@ -81,18 +81,32 @@ class Plane(_Strict):
 class BCMModel(_Strict):
     """Bonded cell method (SPEC 1): a particle tessellated into rigid Voronoi cells, SI units."""
 
-    kind: Literal["bcm"] = "bcm"
-    shape: Literal["truncated_pentakis_dodecahedron", "cube", "icosphere_like"] = "truncated_pentakis_dodecahedron"
+    kind: Literal["bcm"] = Field("bcm", description="bcm: the bonded cell method")
+    shape: Literal["truncated_pentakis_dodecahedron", "cube", "icosphere_like"] = Field(
+        "truncated_pentakis_dodecahedron",
+        description="parent shape: truncated_pentakis_dodecahedron (GP(3,0), 92 faces: 12 regular pentagons, 20 "
+                    "regular hexagons, 60 mirror-symmetric hexagons), cube or icosphere_like")
     diameter: float = Field(2e-3, gt=0.0, description="parent diameter, m")
-    diameter_kind: Literal["circumscribed", "equal_volume"] = "circumscribed"
+    diameter_kind: Literal["circumscribed", "equal_volume"] = Field(
+        "circumscribed", description="which diameter `diameter` is: of the circumscribed sphere, or of the sphere of "
+                                     "the parent's volume")
     n_cells: int = Field(1728, ge=2, le=200_000, description="number of Voronoi cells N_c")
     density: float = Field(6000.0, gt=0.0, description="solid density rho_s, kg/m^3")
     rounding: float = Field(0.02, ge=0.0, lt=0.3,
                             description="rounding radius r_m as a fraction of the mean cell size h = (V/N_c)^(1/3)")
-    interface: CohesiveInterface = Field(default_factory=CohesiveInterface)
-    contact: FrictionalContact = Field(default_factory=FrictionalContact)
-    broken: BrokenInterface = Field(default_factory=BrokenInterface)
-    plane: Plane = Field(default_factory=Plane)
+    interface: CohesiveInterface = Field(
+        default_factory=CohesiveInterface,
+        description="cohesive interfaces: whole-interface stiffness, split over the interface's N_p points")
+    contact: FrictionalContact = Field(
+        default_factory=FrictionalContact,
+        description="frictional contacts: cell-cell and cell-plane (k_n, k_t per contact point), and broken "
+                    "interfaces (k_n, k_t of the whole interface, split over its N_p points; model.broken)")
+    broken: BrokenInterface = Field(
+        default_factory=BrokenInterface,
+        description="the law of a broken interface's closed points: stiffness, damping, friction, and what its "
+                    "tangential spring keeps at the break")
+    plane: Plane = Field(default_factory=Plane, description="the rigid plane's contact law (stiffness per vertex or "
+                                                            "per cell, its restitution)")
     griffith_energy: Literal["stored", "rockable", "literal"] = Field(
         "stored", description="energy in the Griffith criterion (SPEC 1.2): what the springs store (default), "
                               "Rockable's N_p-fold sum, or Eq. 5 read literally (1/N_p)")
@@ -105,4 +119,4 @@ class BCMModel(_Strict):
                                          "bonded (their cells only touch as contacts); 0 = every face bonded, the "
                                          "published model. A_0 and D_w count bonded interfaces only")
     lloyd_tol: float = Field(2e-3, gt=0.0, lt=0.1, description="Lloyd stop: RMS seed step / h")
-    lloyd_max_iter: int = Field(400, ge=0, le=10_000)
+    lloyd_max_iter: int = Field(400, ge=0, le=10_000, description="Lloyd stop: at most this many iterations")

@@ -29,7 +29,7 @@ MAX_BOND_LENGTH_3D = 1.25
 class BPMModel(_Strict):
     """Clemmer-Robbins bonded particle model (SPEC 2.1-2.2), LJ reduced units (a = m = u = 1)."""
 
-    kind: Literal["bpm"] = "bpm"
+    kind: Literal["bpm"] = Field("bpm", description="bpm: the Clemmer-Robbins bonded particle model")
     dimension: Literal[2, 3] = Field(2, description="2: bidisperse disks; 3: monodisperse spheres")
     L: float = Field(24.0, ge=6.0, le=5000.0, description="periodic box side, in particle diameters a")
     packing_fraction: float | None = Field(

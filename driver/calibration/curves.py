@@ -16,7 +16,7 @@ hash, so a changed test, package or plugin measures the curve again; an unchange
 back in seconds.
 
 Default sizes (what `driver calibrate` measures unless the material file's `curves:` changes
-them; the cost on 2 cores is in the README):
+them; the cost on 2 cores is in docs/calibration.md):
 - bpm_moduli: the moduli test of driver/bpm/moduli.py; 2D L = 24 (976 disks), k_A 0 to 12 by
   2, 2 seeds; 3D L = 8 (645 spheres on `contact`), k_A in K_A[3], 1 seed (the seeds differ by
   0.4 % in B and G).

@@ -57,9 +57,11 @@ class Target(_Strict):
 class BcmResolution(_Strict):
     """The BCM particle the parameters are for: its cells' size sets k_n (E ~ k_n / h)."""
 
-    shape: Literal["truncated_pentakis_dodecahedron", "cube", "icosphere_like"] = "truncated_pentakis_dodecahedron"
+    shape: Literal["truncated_pentakis_dodecahedron", "cube", "icosphere_like"] = Field(
+        "truncated_pentakis_dodecahedron", description="parent shape, as the BCM's model.shape")
     diameter: float = Field(2e-3, gt=0.0, description="parent diameter, m")
-    diameter_kind: Literal["circumscribed", "equal_volume"] = "circumscribed"
+    diameter_kind: Literal["circumscribed", "equal_volume"] = Field(
+        "circumscribed", description="which diameter `diameter` is, as the BCM's model.diameter_kind")
     n_cells: int | None = Field(None, ge=2, le=200_000, description="cells in the particle (default 1728, or give "
                                                                     "cell_size)")
     cell_size: float | None = Field(None, gt=0.0, description="mean cell size h = (V / N_c)^(1/3), m (instead of "
@@ -118,19 +120,23 @@ class CurveChange(_Strict):
     """Changes to the sweep of one calibration curve (as a sweep file's scales entry)."""
 
     base: dict[str, Any] = Field(default_factory=dict, description="dotted keys of the base run config")
-    axes: dict[str, Any] | None = None
-    zip: list[Any] | None = None
-    seeds: Any = None
+    axes: dict[str, Any] | None = Field(None, description="the varied keys and their values, as a sweep file's "
+                                                          "axes (replace the curve's own)")
+    zip: list[Any] | None = Field(None, description="groups of keys varied together, as a sweep file's zip")
+    seeds: Any = Field(None, description="seeds 1..n, or a list of seeds (replace the curve's own)")
 
 
 class MaterialFile(_Strict):
     """A `driver calibrate` input (module docstring)."""
 
-    name: str = Field("material", min_length=1, max_length=100, pattern=r"^[A-Za-z0-9_.-]+$")
-    material: Target
-    bcm: BcmResolution | None = None
-    bpm: BpmResolution | None = None
-    curves: dict[str, CurveChange] = Field(default_factory=dict)
+    name: str = Field("material", min_length=1, max_length=100, pattern=r"^[A-Za-z0-9_.-]+$",
+                      description="the material's name: the output directory is runs/calibrate_<name>")
+    material: Target = Field(..., description="the target material, SI units")
+    bcm: BcmResolution | None = Field(None, description="calibrate the BCM, for this particle and cell size")
+    bpm: BpmResolution | None = Field(None, description="calibrate the BPM, for this solid and particle size")
+    curves: dict[str, CurveChange] = Field(default_factory=dict,
+                                           description="changes to the sweeps of the calibration curves, by curve "
+                                                       "name (bpm_moduli, bpm_mode1, bcm_moduli, bcm_fracture)")
 
     @model_validator(mode="after")
     def _some_model(self) -> "MaterialFile":

@@ -82,8 +82,8 @@ class BpmCompare(_Strict):
 class BcmCompare(_Strict):
     """The BCM particle's resolution (replaces the material file's)."""
 
-    n_cells: int | None = Field(None, ge=2, le=200_000)
-    cell_size: float | None = Field(None, gt=0.0)
+    n_cells: int | None = Field(None, ge=2, le=200_000, description="cells in the BCM particle")
+    cell_size: float | None = Field(None, gt=0.0, description="mean cell size h, m (instead of n_cells)")
 
     @model_validator(mode="after")
     def _size(self) -> "BcmCompare":
@@ -100,16 +100,19 @@ class Bases(_Strict):
 class CompareFile(_Strict):
     """A `driver compare` input (module docstring)."""
 
-    name: str = Field("compare", min_length=1, max_length=80, pattern=r"^[A-Za-z0-9_.-]+$")
+    name: str = Field("compare", min_length=1, max_length=80, pattern=r"^[A-Za-z0-9_.-]+$",
+                      description="the comparison's name: the directory is runs/compare_<name> by default")
     material: str = Field(..., min_length=1, description="a material file or a calibration.json, relative to "
                                                          "the compare file")
     test: Literal["impact"] = Field("impact", description="the test both models run (impact; shear to come)")
-    grid: Grid
-    bcm: BcmCompare = Field(default_factory=BcmCompare)
-    bpm: BpmCompare = Field(default_factory=BpmCompare)
+    grid: Grid = Field(..., description="the parameter points both models run")
+    bcm: BcmCompare = Field(default_factory=BcmCompare,
+                            description="the BCM particle's resolution (replaces the material file's)")
+    bpm: BpmCompare = Field(default_factory=BpmCompare,
+                            description="the BPM particle's resolution and break stretch")
     scenario: dict[str, Any] = Field(default_factory=dict, description="keys of the shared impact section "
                                                                        "(not velocity: the grid's)")
-    base: Bases = Field(default_factory=Bases)
+    base: Bases = Field(default_factory=Bases, description="further dotted keys of either model's run config")
     curves: dict[str, Any] = Field(default_factory=dict, description="changes to the calibration curves, as a "
                                                                      "material file's curves: (replace its entries)")
     breakup_fraction: float = Field(0.9, gt=0.0, lt=1.0, description="break-up: largest fragment below this "

@@ -18,11 +18,11 @@ from driver.schema import _Strict
 class ImpactScenario(_Strict):
     """One particle hits a rigid plane (SPEC 1.4)."""
 
-    kind: Literal["impact"] = "impact"
+    kind: Literal["impact"] = Field("impact", description="impact: one particle hits a rigid plane")
     velocity: float = Field(4.5, gt=0.0, le=100.0, description="impact velocity v_0 normal to the plane, m/s")
     gap: float = Field(1e-3, ge=0.0, lt=1.0, description="initial gap to the plane, fraction of the diameter")
     # below 12 refused (check_steps_per_period). 50 by the time-step study (bench/timestep_study.py,
-    # README "Time step"): the largest value whose run energy balance stays below 1e-4 with a
+    # docs/models/bcm-timestep.md): the largest value whose run energy balance stays below 1e-4 with a
     # margin of 2 in every case measured (a 100-cell particle at 10 m/s: 1.1e-4 at 30, 8.6e-5 at
     # 40, 4.1e-5 at 50), the outcome within the 100-step reference's seed-to-seed spread
     steps_per_period: float = Field(50.0, gt=0.0, description="time step = shortest contact period / this")

@@ -24,7 +24,7 @@ from driver.schema import _Strict
 class CalibrateScenario(_Strict):
     """A calibration test of the model's material (SPEC 2.3)."""
 
-    kind: Literal["calibrate"] = "calibrate"
+    kind: Literal["calibrate"] = Field("calibrate", description="calibrate: a calibration test, chosen by `test`")
     test: Literal["moduli", "mode1", "mode2", "crack_speed"] = Field(
         "moduli", description="moduli: B, G, E, nu by compression and simple shear at strain_rate, then at half of "
                               "it (the rate check); mode1: K_IC of a free sample with an elliptic void, pulled "

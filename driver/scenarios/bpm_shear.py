@@ -20,7 +20,7 @@ MAX_STEPS = 2e9
 class ShearScenario(_Strict):
     """Constant-volume shear at a true strain rate (SPEC 2.4): 2D pure shear, 3D triaxial."""
 
-    kind: Literal["shear"] = "shear"
+    kind: Literal["shear"] = Field("shear", description="shear: constant-volume shear of a periodic solid")
     strain_rate: float = Field(1e-3, gt=0.0, le=0.1, description="true strain rate edot, units 1/tau")
     max_strain: float = Field(1.0, gt=0.0, le=3.0, description="final true strain eps = edot t")
     measure_strains: list[Annotated[float, Field(gt=0.0)]] = Field(
