@@ -23,7 +23,7 @@ from analysis.dumps import DumpError, read_atom_dump, read_local_dump
 from analysis.grain_table import grain_table
 from analysis.grains import grain_labels
 from analysis.pictures import render_cells
-from analysis.plots import PlotGuard, plot_energies, plot_mass_pdf, plot_shapes
+from analysis.plots import PlotGuard, plot_energies, plot_losses, plot_mass_pdf, plot_shapes
 from analysis.report import Report, clear_report, provenance_line, write_report
 from analysis.fragment_shapes import fragment_table, shape_averages, vertices_in_space
 from analysis.statistics import fit_mass_ratio_law, normalised_mass_distribution
@@ -31,6 +31,8 @@ from analysis.tables import save_table
 from analysis.tracking import lineage_table
 from runfiles.cells import read_cells
 from runfiles.layout import display_dir
+from analysis.interface_losses import (LOSS_COLUMNS, channels_in_time, interface_centroids, losses_by_depth,
+                                       with_depth)
 from runfiles.records import IMPACT_DIAGNOSTICS, IMPACT_RECORD, INTERFACES_DUMP, INTERFACES_REQUIRED, read_record
 
 
@@ -328,6 +330,7 @@ def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bool =
         **({"warnings": warnings_} if warnings_ else {}),
     })
     history, tracking = fragment_history(run_dir, n)
+    losses = interface_losses(run_dir, cfg, ifaces, thermo, wk_minus)
 
     res = run_dir / "results"
     save_table(thermo, res / "energies")
@@ -338,6 +341,8 @@ def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bool =
     if history is not None:
         save_table(history, res / "frames")
         save_table(tracking, res / "tracking")
+    if losses is not None:
+        save_table(losses[1], res / "losses_by_depth")
     title = (f"BCM impact, N_c = {system['n_cells']}, v0 = {scen['velocity']:g} m/s, "
              f"G_c = {model['interface']['G_c']:g} J/m²")
     guard = PlotGuard()  # a figure that fails is listed in plots_failed; the analysis goes on
@@ -351,9 +356,25 @@ def analyse_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bool =
         guard.draw("shapes", plot_dir / "shapes.png", plot_shapes, frags, plot_dir / "shapes.png", title)
         guard.draw("fragments", plot_dir / "fragments.png", _fragment_picture, space, offsets, faces, labels,
                    plot_dir / "fragments.png", f"{title}\n{len(frags)} fragments, D_w = {measures['D_w']:.3f}")
+        if losses is not None:
+            guard.draw("losses", plot_dir / "losses.png", plot_losses, {f"omega = {measures['omega']:.3g}": losses},
+                       plot_dir / "losses.png", title)
     measures["plots_failed"] = system.get("plots_failed", []) + guard.failed  # built with the system, then here
     write_report(impact_report(run_dir, cfg, system, measures, frags, channels, title), run_dir)
     return measures
+
+
+def interface_losses(run_dir: Path, cfg: dict, ifaces: pd.DataFrame, thermo: pd.DataFrame,
+                     wk_minus: float) -> tuple[pd.DataFrame, pd.DataFrame] | None:
+    """(loss channels in time, losses by depth below the contact) of a run whose interface dump
+    has the per-interface losses (analysis/interface_losses.py); None for runs made before them."""
+    if not all(c in ifaces for c in LOSS_COLUMNS) or not (run_dir / "interfaces.txt").exists():
+        return None
+    model, scen = cfg["model"], cfg["scenario"]
+    # the particle's lowest rounded point was placed `gap` above the plane z = 0 (driver/bcm/particle.py)
+    lowest = scen.get("gap", 1e-3) * model["diameter"]
+    table = with_depth(ifaces, interface_centroids(run_dir / "interfaces.txt"), lowest, model["diameter"])
+    return channels_in_time(thermo, wk_minus), losses_by_depth(table, wk_minus)
 
 
 def _fragment_picture(space: np.ndarray, offsets: np.ndarray, faces: list, labels: np.ndarray, path: Path,

@@ -319,3 +319,60 @@ def plot_histograms(tables: dict[str, pd.DataFrame], path: Path, xlabel: str, yl
     if ax.has_data():
         ax.legend(fontsize=7, frameon=False)
     _finish(fig, ax, path, title)
+
+
+def plot_losses(series: dict[str, tuple[pd.DataFrame, pd.DataFrame]], path: Path, title: str = "") -> None:
+    """Three panels per run label (series[label] = (channels_in_time, losses_by_depth)): the
+    loss channels against time (shares of W_k^-), the losses per slab of depth below the
+    contact, and the broken interfaces that stay closed with the normal force they carry
+    beside the plane's force."""
+    from analysis.interface_losses import TIME_CHANNELS  # noqa: PLC0415
+
+    labels = list(series)
+    fig, axes = plt.subplots(len(labels), 3, figsize=(14.0, 3.6 * len(labels)), dpi=130, squeeze=False)
+    styles = ["-", "--", ":", "-.", (0, (5, 1)), (0, (3, 1, 1, 1)), (0, (1, 2))]
+    for row, label in zip(axes, labels):
+        ts, depth = series[label]
+        ax = row[0]
+        t_us = ts.time * 1e6
+        for k, (name, _) in enumerate(TIME_CHANNELS):
+            if name in ts:
+                ax.plot(t_us, ts[name], ls=styles[k % len(styles)], color=str(0.55 * (k % 3) / 2), label=name)
+        ax.set_xlabel("time [µs]")
+        ax.set_ylabel("energy / $W_k^-$")
+        ax.set_title(f"{label}: losses in time", fontsize=9)
+        ax.legend(fontsize=6, frameon=False)
+        ax = row[1]
+        mid = 0.5 * (depth.depth_lo + depth.depth_hi)
+        width = (depth.depth_hi - depth.depth_lo).iloc[0]
+        bottom = np.zeros(len(depth))
+        for k, col in enumerate(("W_friction_share", "W_switch_share", "W_damp_broken_share", "W_damp_intact_share")):
+            ax.barh(mid, depth[col], height=0.9 * width, left=bottom, color=str(0.15 + 0.25 * k), edgecolor="k",
+                    lw=0.3, label=col.replace("_share", ""))
+            bottom = bottom + depth[col].to_numpy()
+        ax.set_xlabel("energy / $W_k^-$ per slab")
+        ax.set_ylabel("depth above the contact / d")
+        ax.set_title(f"{label}: losses by depth (broken per slab at right)", fontsize=9)
+        for y, n, b in zip(mid, depth.interfaces, depth.broken):
+            if n:
+                ax.text(ax.get_xlim()[1], y, f" {b}/{n}", fontsize=6, va="center")
+        ax.legend(fontsize=6, frameon=False, loc="upper right")
+        ax = row[2]
+        if "broken_closed" in ts:
+            ax.plot(t_us, ts.broken, "-", color="0.6", label="broken interfaces")
+            ax.plot(t_us, ts.broken_closed, "-", color="k", label="broken and closed")
+            ax.set_ylabel("interfaces")
+            ax2 = ax.twinx()
+            ax2.plot(t_us, ts.closed_force, "--", color="k", lw=0.9, label="normal force on closed broken points")
+            if "wall_force" in ts:
+                ax2.plot(t_us, ts.wall_force, ":", color="0.4", label="plane force")
+            ax2.set_ylabel("force [N]")
+            h1, l1 = ax.get_legend_handles_labels()
+            h2, l2 = ax2.get_legend_handles_labels()
+            ax.legend(h1 + h2, l1 + l2, fontsize=6, frameon=False, loc="upper left")
+        ax.set_xlabel("time [µs]")
+        ax.set_title(f"{label}: broken interfaces that stay closed", fontsize=9)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    atomic_save(path, lambda p: fig.savefig(p, format="png"))
+    plt.close(fig)

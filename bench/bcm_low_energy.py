@@ -10,6 +10,7 @@ tessellation, driver/compare/omega.py), so every run's own analysis finds omega 
     python bench/bcm_low_energy.py plan                  # sweep files, runs/bcm_low_energy/<variant>.yaml
     python bench/bcm_low_energy.py run base intact_law   # driver sweep of those variants, 2 workers
     python bench/bcm_low_energy.py table                 # the tables (every variant against omega)
+    python bench/bcm_low_energy.py figures base          # docs/figures: losses in time and by depth
 
 One sweep directory per variant, runs/bcm_low_energy/<variant>/ (finished runs are kept: a
 re-run resumes). `table` writes bench/bcm_low_energy_runs.csv (one row per run) and
@@ -26,6 +27,9 @@ from pathlib import Path
 
 import pandas as pd
 import yaml
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from analysis.report import _md_table  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 BASE = ROOT / "examples" / "bcm_impact.yaml"
@@ -130,19 +134,56 @@ def table() -> None:
     show = ["variant", "omega_target", "n", "e_k2_mean", "D_w_mean", "largest_fragment_mass_fraction_mean",
             "n_fragments_multi_cell_mean", "loss_besides_W_f_mean", "loss_interface_friction_mean",
             "loss_switch_mean", "loss_interface_damping_mean", "loss_wall_damping_mean"]
-    print(points[show].to_markdown(index=False, floatfmt=".3g"))
+    print(_md_table(points[show]))
+
+
+def run_dirs(variant: str, omega: float) -> list[Path]:
+    """The finished runs of a variant at a target omega, by seed."""
+    runs = read_runs()
+    sel = runs[(runs.variant == variant) & (runs.omega_target == omega)].sort_values("seed")
+    return [OUT / variant / r for r in sel.run]
+
+
+def figures(variants: list[str], omegas: list[float]) -> None:
+    """docs/figures/bcm_low_energy_<variant>_omega<w>.png: per seed, the loss channels in time,
+    the losses by depth below the contact and the broken interfaces that stay closed
+    (analysis/interface_losses.py, from each run's interface dump and record)."""
+    import json  # noqa: PLC0415
+
+    from analysis.impact import interface_losses, read_impact_thermo, read_interfaces  # noqa: PLC0415
+    from analysis.plots import plot_losses  # noqa: PLC0415
+
+    fig_dir = ROOT / "docs" / "figures"
+    fig_dir.mkdir(parents=True, exist_ok=True)
+    for variant in variants:
+        for w in omegas:
+            series = {}
+            for run in run_dirs(variant, w):
+                cfg = yaml.safe_load((run / "config.resolved.yaml").read_text())
+                s = json.loads((run / "results" / "summary.json").read_text())
+                got = interface_losses(run, cfg, read_interfaces(run / "dumps" / "interfaces.end.lammpstrj"),
+                                       read_impact_thermo(run / "thermo.dat"), s["W_k_minus"])
+                if got is not None:
+                    series[f"seed {cfg['seed']}"] = got
+            if series:
+                path = fig_dir / f"bcm_low_energy_{variant}_omega{w:g}.png"
+                plot_losses(series, path, f"1728 cells, G_c = 1 J/m², omega = {w:g}, {variant}")
+                print(path)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("what", choices=["plan", "run", "table"])
-    ap.add_argument("variants", nargs="*", help="for run: the variants (default: all)")
+    ap.add_argument("what", choices=["plan", "run", "table", "figures"])
+    ap.add_argument("variants", nargs="*", help="for run and figures: the variants (default: all; figures: base)")
+    ap.add_argument("--omegas", type=float, nargs="+", default=[0.1, 0.3, 1.0], help="for figures")
     ap.add_argument("--workers", type=int, default=2)
     a = ap.parse_args()
     if a.what == "plan":
         plan()
     elif a.what == "run":
         run(a.variants or list(VARIANTS), a.workers)
+    elif a.what == "figures":
+        figures(a.variants or ["base"], a.omegas)
     else:
         table()
 
