@@ -278,3 +278,37 @@ def test_style_lines_carry_the_options():
     d = BCMModel()
     assert bond_setup(d).splitlines()[1].split()[-1] == str(d.contact.mu)
     assert wall_setup(d, 1e-6).split()[-4] == str(d.contact.en2)
+
+
+# ------------------------------------------------------------ the impact, with every option
+
+#: model keys of each option of issue 23 (bench/bcm_low_energy.py VARIANTS), and all at once
+IMPACT_OPTIONS = {
+    "stiffness_interface": {"broken": {"stiffness": "interface"}},
+    "damping_interface": {"broken": {"damping": "interface"}},
+    "shear_released": {"broken": {"shear_at_break": "released"}},
+    "mu0": {"broken": {"mu": 0.0}},
+    "plane_per_cell": {"plane": {"stiffness": "per_cell"}},
+    "plane_elastic": {"plane": {"en2": 0.999}},
+    "all": {"broken": {"stiffness": "interface", "damping": "interface", "shear_at_break": "released"},
+            "plane": {"stiffness": "per_cell", "en2": 0.5}},
+}
+
+
+@pytest.mark.parametrize("option", [pytest.param(k, marks=[] if k == "all" else pytest.mark.slow)
+                                    for k in IMPACT_OPTIONS])
+def test_impact_energy_balance_with_every_option(tmp_path, plugin_path, option):
+    """The 100-cell impact of tests/test_bcm_impact.py (4.5 m/s, most interfaces break) under
+    each option: W_k^- = W_k^+ + W_f + W_c (measured, channel by channel) + E_el to 1e-3, and
+    each contact law's own account closed (check_balance)."""
+    from test_bcm_impact import SMALL, check_balance, impact_config
+
+    from driver.config import parse_config
+    from driver.pipeline import execute
+
+    cfg = impact_config(tmp_path / "r", **SMALL)
+    for section, keys in IMPACT_OPTIONS[option].items():
+        cfg["model"][section] = keys
+    execute(parse_config(cfg), np_ranks=1, show_progress=False)
+    summary = check_balance(tmp_path / "r")
+    assert summary["broken_interfaces"] > 100
