@@ -47,6 +47,7 @@ VARIANTS: dict[str, dict] = {
     "damping_interface": {"model.broken.damping": "interface"},
     "shear_released": {"model.broken.shear_at_break": "released"},
     "mu0": {"model.broken.mu": 0.0},
+    "normal_unshifted": {"model.broken.normal_at_break": "unshifted"},
     "plane_per_cell": {"model.plane.stiffness": "per_cell"},
     "plane_elastic": {"model.plane.en2": 0.999},
 }

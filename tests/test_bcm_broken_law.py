@@ -155,7 +155,7 @@ def test_released_shear_starts_the_contact_unloaded(lmp, tmp_path):
     assert (f[1] - (f[1] @ N) * N) @ T1 == pytest.approx(-KTC * 1e-9, rel=1e-6)
 
 
-@pytest.mark.parametrize("settings", ["break_shear released", "broken_stiffness interface",
+@pytest.mark.parametrize("settings", ["break_shear released", "broken_stiffness interface", "break_normal unshifted",
                                       "broken_stiffness interface broken_damping interface break_shear released"])
 def test_energy_balance_through_a_break_without_damping(lmp, tmp_path, settings):
     """Cells driven together and sideways, spinning, e_n = 1 everywhere: the interface breaks
@@ -179,6 +179,23 @@ def test_energy_balance_through_a_break_without_damping(lmp, tmp_path, settings)
     assert abs(e + accounted - e0) / e0 < 1e-6
     np.testing.assert_allclose(p, p0, rtol=0, atol=1e-12 * np.abs(p0).max())
     np.testing.assert_allclose(l, l0, rtol=0, atol=1e-12 * np.abs(l0).max())
+
+
+# ------------------------------------------------------------ break_normal unshifted
+
+def test_unshifted_switch_jumps_the_normal_force_and_books_the_energy_it_creates(lmp, tmp_path):
+    """break_normal unshifted (the reference code's switch): the contact law takes the overlap
+    itself, f_n = k_n,c D instead of k_n D; the energy that creates comes out of W_switch,
+    which is then negative, and the balance still closes."""
+    f, before = break_in_compression_by_shear(lmp, tmp_path, "break_normal unshifted")
+    fn = f @ N
+    assert fn == pytest.approx(KNC * D, rel=1e-9)
+    ft = min(KT * S_BREAK, MU * KNC * D)  # the Coulomb limit rises with f_n
+    np.testing.assert_allclose(f - fn * N, -ft * T1, rtol=1e-9, atol=1e-9 * ft)
+    after = 0.5 * KNC * D**2 + 0.5 * ft**2 / KTC
+    assert lmp.get_thermo("ebond") == pytest.approx(after, rel=1e-9)
+    assert after > before  # the switch created energy ...
+    assert griffith(lmp, 8) == pytest.approx(before - after - 2 * S * GC_SHEAR, rel=1e-9) and griffith(lmp, 8) < 0
 
 
 # ------------------------------------------------------------ diagnostics
@@ -270,7 +287,8 @@ def test_style_lines_carry_the_options():
     m = BCMModel(broken={"stiffness": "interface", "damping": "interface", "shear_at_break": "released", "mu": 0.0},
                  plane={"stiffness": "per_cell", "en2": 0.5})
     bond = bond_setup(m).splitlines()
-    assert bond[0].endswith("broken_stiffness interface broken_damping interface break_shear released")
+    assert bond[0].endswith("broken_stiffness interface broken_damping interface break_shear released "
+                            "break_normal shifted")
     assert bond[1].split()[-1] == "0.0"  # mu of the broken interfaces
     assert bond[1].split()[-4] == str(m.contact.kn)
     wall = wall_setup(m, 1e-6).split()
@@ -288,6 +306,7 @@ IMPACT_OPTIONS = {
     "damping_interface": {"broken": {"damping": "interface"}},
     "shear_released": {"broken": {"shear_at_break": "released"}},
     "mu0": {"broken": {"mu": 0.0}},
+    "normal_unshifted": {"broken": {"normal_at_break": "unshifted"}},
     "plane_per_cell": {"plane": {"stiffness": "per_cell"}},
     "plane_elastic": {"plane": {"en2": 0.999}},
     "all": {"broken": {"stiffness": "interface", "damping": "interface", "shear_at_break": "released"},

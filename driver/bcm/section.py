@@ -62,6 +62,12 @@ class BrokenInterface(_Strict):
         "carried", description="the tangential spring of a point closed at the break: `carried` into the contact "
                                "(its force kept, then the Coulomb cap: the part above mu f_n lost at once), or "
                                "`released` (the contact starts unloaded; the spring's energy is lost at the switch)")
+    normal_at_break: Literal["shifted", "unshifted"] = Field(
+        "shifted", description="the normal spring of a point closed at the break: `shifted` keeps its normal force "
+                               "(the overlap's reference moved; SPEC 1.2: the switch must not create energy), "
+                               "`unshifted` takes the overlap itself under the contact stiffness, as the reference "
+                               "code Rockable does: a diagnostic that creates energy at every break in compression "
+                               "(a negative W_switch)")
     mu: float | None = Field(None, ge=0.0, description="friction coefficient on broken interfaces; null = "
                                                        "model.contact.mu (0 bounds what friction can explain)")
 

@@ -50,7 +50,8 @@ BondBcmGriffith::BondBcmGriffith(LAMMPS *_lmp) :
     Bond(_lmp), kn(nullptr), kt(nullptr), en2(nullptr), gc(nullptr), kn_c(nullptr),
     kt_c(nullptr), en2_c(nullptr), mu(nullptr), alpha(nullptr), alpha_c(nullptr),
     table(_lmp), convention(BcmGriffith::STORED), stiffness(PER_INTERFACE),
-    broken_stiffness(CONTACT), broken_damping(CONTACT), break_shear(CARRIED), cache_store(nullptr),
+    broken_stiffness(CONTACT), broken_damping(CONTACT), break_shear(CARRIED), break_normal(SHIFTED),
+    cache_store(nullptr),
     cache_valid(false), dirty(false), store_index(-1), slot_size(0), iquat(-1), nevaluations(0),
     special(nullptr)
 {
@@ -110,6 +111,7 @@ void BondBcmGriffith::allocate()
                            [broken_stiffness contact|interface]
                            [broken_damping contact|interface]
                            [break_shear carried|released]
+                           [break_normal shifted|unshifted]
 ------------------------------------------------------------------------- */
 
 // value of a two-way keyword: `first` -> 0, `second` -> 1, anything else an error
@@ -130,6 +132,7 @@ void BondBcmGriffith::settings(int narg, char **arg)
   stiffness = PER_INTERFACE;
   broken_stiffness = broken_damping = CONTACT;
   break_shear = CARRIED;
+  break_normal = SHIFTED;
   for (int iarg = 0; iarg < narg; iarg += 2) {
     if (iarg + 1 >= narg)
       error->all(FLERR, "bond_style bcm/griffith: keyword {} needs a value", arg[iarg]);
@@ -153,9 +156,11 @@ void BondBcmGriffith::settings(int narg, char **arg)
       broken_damping = choice(error, arg[iarg], arg[iarg + 1], "contact", "interface");
     } else if (strcmp(arg[iarg], "break_shear") == 0) {
       break_shear = choice(error, arg[iarg], arg[iarg + 1], "carried", "released");
+    } else if (strcmp(arg[iarg], "break_normal") == 0) {
+      break_normal = choice(error, arg[iarg], arg[iarg + 1], "shifted", "unshifted");
     } else {
       error->all(FLERR, "bond_style bcm/griffith: unknown keyword {} (known: geometry, energy, "
-                 "stiffness, broken_stiffness, broken_damping, break_shear)", arg[iarg]);
+                 "stiffness, broken_stiffness, broken_damping, break_shear, break_normal)", arg[iarg]);
     }
   }
   if (file.empty())
@@ -561,7 +566,8 @@ double BondBcmGriffith::intact_forces(const Entry &e, double *rec, const Pair &p
    BROKEN (the Griffith criterion met at this evaluation). Records step,
    time and the energy stored just before (`stored`), and sets the contact
    state of the switch (SPEC 1.2): a point in compression keeps its normal
-   force, k_c (dn - s) = k_p dn, and (break_shear carried) its tangential
+   force, k_c (dn - s) = k_p dn (break_normal unshifted: s = 0, the force
+   jumps to k_c dn), and (break_shear carried) its tangential
    force, u_t = (k_tp / k_tc) dt, or (break_shear released) starts with an
    unloaded tangential spring, u_t = 0; a point in tension opens. What the
    springs held and no longer do is booked at the switch (contact_forces()).
@@ -583,7 +589,7 @@ void BondBcmGriffith::break_interface(const Entry &e, double *rec, const Pair &p
     const Point &q = pts[k];
     double *pt = cb + NCONTACT * k;
     const bool closed = q.dn < 0.0;
-    pt[C_SHIFT] = closed ? q.dn * (1.0 - kp / rec[K_KC]) : 0.0;
+    pt[C_SHIFT] = closed && break_normal == SHIFTED ? q.dn * (1.0 - kp / rec[K_KC]) : 0.0;
     pt[C_TOUCH] = closed ? 1.0 : 0.0;
     double slip[3];
     // slip offset sigma = (1 - kept) dt, so that u_t = dt - sigma = kept dt
@@ -894,7 +900,8 @@ void BondBcmGriffith::read_restart(FILE *fp)
 
 void BondBcmGriffith::write_restart_settings(FILE *fp)
 {
-  for (const int *v : {&convention, &stiffness, &broken_stiffness, &broken_damping, &break_shear})
+  for (const int *v :
+       {&convention, &stiffness, &broken_stiffness, &broken_damping, &break_shear, &break_normal})
     fwrite(v, sizeof(int), 1, fp);
   table.write_restart(fp);
 }
@@ -903,7 +910,8 @@ void BondBcmGriffith::write_restart_settings(FILE *fp)
 
 void BondBcmGriffith::read_restart_settings(FILE *fp)
 {
-  int *settings[] = {&convention, &stiffness, &broken_stiffness, &broken_damping, &break_shear};
+  int *settings[] = {&convention,     &stiffness,   &broken_stiffness,
+                     &broken_damping, &break_shear, &break_normal};
   if (comm->me == 0)
     for (int *v : settings) utils::sfread(FLERR, v, sizeof(int), 1, fp, nullptr, error);
   table.read_restart(fp);

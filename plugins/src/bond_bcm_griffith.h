@@ -59,6 +59,11 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   // spring of a closed point carried into the contact (force kept, Coulomb cap) or released
   enum BrokenLaw { CONTACT, INTERFACE };
   enum BreakShear { CARRIED, RELEASED };
+  // at the break, the normal spring of a closed point: its reference shifted so that the
+  // normal force is kept (SPEC 1.2), or not shifted (the contact law from the overlap itself,
+  // as the reference code Rockable switches: a diagnostic; it creates energy, booked as a
+  // negative switch term)
+  enum BreakNormal { SHIFTED, UNSHIFTED };
 
   // per type: bond_coeff values and derived damping ratios (SPEC Eq. 2)
   double *kn, *kt, *en2, *gc, *kn_c, *kt_c, *en2_c, *mu;
@@ -70,6 +75,7 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   int broken_stiffness;       // BrokenLaw of the closed points' springs
   int broken_damping;         // BrokenLaw of the closed points' damping
   int break_shear;            // BreakShear
+  int break_normal;           // BreakNormal
 
   // Working copy of the interfaces of the bond list, rebuilt with it (at each
   // reneighbouring): per entry one contiguous record in bondlist order holding the per-point
