@@ -322,14 +322,14 @@ def plot_histograms(tables: dict[str, pd.DataFrame], path: Path, xlabel: str, yl
 
 
 def plot_losses(series: dict[str, tuple[pd.DataFrame, pd.DataFrame]], path: Path, title: str = "") -> None:
-    """Three panels per run label (series[label] = (channels_in_time, losses_by_depth)): the
+    """Four panels per run label (series[label] = (channels_in_time, losses_by_depth)): the
     loss channels against time (shares of W_k^-), the losses per slab of depth below the
-    contact, and the broken interfaces that stay closed with the normal force they carry
-    beside the plane's force."""
+    contact, the broken interfaces that stay closed with the normal force they carry beside
+    the plane's force, and the Coulomb slip on broken interfaces (summed over their points)."""
     from analysis.interface_losses import TIME_CHANNELS  # noqa: PLC0415
 
     labels = list(series)
-    fig, axes = plt.subplots(len(labels), 3, figsize=(14.0, 3.6 * len(labels)), dpi=130, squeeze=False)
+    fig, axes = plt.subplots(len(labels), 4, figsize=(18.0, 3.6 * len(labels)), dpi=130, squeeze=False)
     styles = ["-", "--", ":", "-.", (0, (5, 1)), (0, (3, 1, 1, 1)), (0, (1, 2))]
     for row, label in zip(axes, labels):
         ts, depth = series[label]
@@ -372,6 +372,12 @@ def plot_losses(series: dict[str, tuple[pd.DataFrame, pd.DataFrame]], path: Path
             ax.legend(h1 + h2, l1 + l2, fontsize=6, frameon=False, loc="upper left")
         ax.set_xlabel("time [µs]")
         ax.set_title(f"{label}: broken interfaces that stay closed", fontsize=9)
+        ax = row[3]
+        if "slip" in ts:
+            ax.plot(t_us, ts.slip * 1e3, "-", color="k")
+        ax.set_xlabel("time [µs]")
+        ax.set_ylabel("slip, summed over the points [mm]")
+        ax.set_title(f"{label}: Coulomb slip on broken interfaces", fontsize=9)
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     atomic_save(path, lambda p: fig.savefig(p, format="png"))
