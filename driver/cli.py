@@ -488,7 +488,8 @@ def calibrate(material_yaml: Path = typer.Argument(..., help="a material file: t
     from driver.calibration.material import load_material  # noqa: PLC0415
     from driver.calibration.report import TITLES, comparison, reach_notes, rows, write_outputs  # noqa: PLC0415
     from driver.distributed import default_workers  # noqa: PLC0415
-    from driver.plugin_build import cache_base, plugin_library  # noqa: PLC0415
+    from driver.cache import cache_base  # noqa: PLC0415
+    from driver.plugin_build import plugin_library  # noqa: PLC0415
     from driver.rundir import claim_dir  # noqa: PLC0415
 
     with _calibration_errors():
@@ -534,7 +535,8 @@ def compare(compare_yaml: Path = typer.Argument(..., help="a compare file: mater
     from driver.compare.compare import run_compare  # noqa: PLC0415
     from driver.compare.schema import load_compare  # noqa: PLC0415
     from driver.distributed import default_workers  # noqa: PLC0415
-    from driver.plugin_build import cache_base, plugin_library  # noqa: PLC0415
+    from driver.cache import cache_base  # noqa: PLC0415
+    from driver.plugin_build import plugin_library  # noqa: PLC0415
 
     with _calibration_errors():
         cmp = load_compare(compare_yaml)

@@ -2,7 +2,8 @@
 
 Every default of the tool lives in the schema: the common sections here (output, execution),
 the `model:` sections in driver/bcm/section.py and driver/bpm/section.py, the `scenario:`
-sections in their units (driver/scenarios/), all joined through driver/registry.py. A config is
+sections in driver/scenarios/ (a unit's own, or one several units share in sections.py), all
+joined through driver/registry.py. A config is
 checked completely before anything runs or is written: unknown keys, wrong types,
 out-of-range values, an unregistered (model, scenario) pair and inconsistent choices are
 refused with the field's path, the value given and what is allowed; defaults that depend on
@@ -11,7 +12,6 @@ other keys are filled in, so config.resolved.yaml holds every value the run used
 
 from __future__ import annotations
 
-import math
 import os
 import re
 import reprlib
@@ -21,12 +21,9 @@ from typing import Annotated, Any, Union
 import yaml
 from pydantic import BaseModel, Field, ValidationError, field_validator, model_validator
 
-from driver.bcm.section import BCMModel, CohesiveInterface, FrictionalContact  # noqa: F401 (re-exported)
-from driver.bpm.section import BPMModel  # noqa: F401 (re-exported)
-from driver.registry import MODELS, SCENARIOS, unit
-from driver.schema import ConfigError, _Strict  # noqa: F401 (re-exported)
-from driver.scenarios.bcm_impact import ImpactScenario  # noqa: F401 (re-exported)
-from driver.scenarios.bpm_shear import ShearScenario  # noqa: F401 (re-exported)
+from driver.bpm.section import BPMModel
+from driver.registry import MODELS, scenario_sections, unit
+from driver.schema import ConfigError, _Strict
 
 
 class Output(_Strict):
@@ -87,9 +84,10 @@ class Execution(_Strict):
         return None if unit == "steps" else value * {"s": 1.0, "min": 60.0, "h": 3600.0}[unit]
 
 
+# the sections a config may hold, from the registry (driver/registry.py; the units are imported here)
+SCENARIOS = scenario_sections()
 MODEL_KINDS = tuple(MODELS)
 SCENARIO_KINDS = tuple(SCENARIOS)
-# the sections a config may hold, from the registry (driver/registry.py)
 ModelSection = Annotated[Union[tuple(MODELS.values())], Field(discriminator="kind")]
 ScenarioSection = Annotated[Union[tuple(SCENARIOS.values())], Field(discriminator="kind")]
 
@@ -101,8 +99,9 @@ class RunConfig(_Strict):
                       description="run name: a plain file name (letters, digits, _ . -; starts with a letter, "
                                   "digit or _, so never . or ..)")
     seed: int = Field(1, ge=1, le=2**31 - 1, description="seeds the packing/tessellation and orientations")
+    # without model: and scenario:, a BPM shear run
     model: ModelSection = Field(default_factory=BPMModel)
-    scenario: ScenarioSection = Field(default_factory=ShearScenario)
+    scenario: ScenarioSection = Field(default_factory=SCENARIOS["shear"])
     output: Output = Field(default_factory=Output)
     execution: Execution = Field(default_factory=Execution)
 
@@ -339,7 +338,3 @@ def resolved_yaml(cfg: RunConfig) -> str:
     """The config with every default filled in, as YAML (what the run actually used)."""
     return yaml.safe_dump(cfg.model_dump(mode="json"), sort_keys=False)
 
-
-def steps_for_strain(strain: float, strain_rate: float, timestep: float) -> int:
-    """Number of steps to reach a true strain at a given rate (rounded to the nearest step)."""
-    return int(math.floor(strain / (strain_rate * timestep) + 0.5))

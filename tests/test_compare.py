@@ -217,7 +217,7 @@ def test_tiny_grid_writes_tables_plots_report_and_resumes(tmp_path, monkeypatch,
     """Two velocities, one seed, about 200 cells and 220 particles: calibration (small curves),
     4 runs, the tidy and side-by-side tables, the plots and the report; the second call finds
     every run finished and the curves cached."""
-    from driver.plugin_build import cache_base  # noqa: PLC0415
+    from driver.cache import cache_base  # noqa: PLC0415
 
     plugins = cache_base() / "plugins"  # the fixture's build, shared with the test's cache
     monkeypatch.setenv("BRITTLE_CACHE", str(tmp_path / "cache"))

@@ -591,9 +591,9 @@ def cached_periodic_cvt(lengths, n_cells: int, seed: int, tol: float = 2e-3, max
                         min_face_area_rel: float = 1e-10) -> BlockTessellation:
     """``periodic_cvt(...)``, read from ``cache_dir/block_<key>.npz`` when present, computed
     and written there otherwise (key: ``block_key``). Default ``cache_dir``:
-    ``driver.plugin_build.cache_base() / "blocks"``."""
+    ``driver.cache.cache_base() / "blocks"``."""
     if cache_dir is None:
-        from driver.plugin_build import cache_base  # the project's one cache location
+        from driver.cache import cache_base  # the project's one cache location
         cache_dir = cache_base() / "blocks"
     lengths = np.asarray(lengths, dtype=float).reshape(3)
     key = block_key(lengths, n_cells, seed, tol, max_iter, min_face_area_rel)

@@ -106,6 +106,10 @@ class Packing:
             occupied = 4.0 / 3.0 * np.pi * np.sum(self.radii**3)
         return float(occupied / np.prod(self.lengths))
 
+    def type_diameters(self) -> dict[int, float]:
+        """Diameter of each particle type, {type: diameter} (a type's particles share one radius)."""
+        return {int(t): float(2 * self.radii[self.types == t][0]) for t in np.unique(self.types)}
+
     def max_overlap(self) -> float:
         """Largest overlap of a contact relative to its abar = r_i + r_j: max(1 - r / abar), >= 0."""
         dim = self.dimension
