@@ -456,11 +456,17 @@ def _sweep_results(expanded, columns: str) -> None:
 
 
 @contextlib.contextmanager
-def _calibration_errors():
+def _calibration_errors(command: str):
     """The exit codes of calibrate and compare: 2 a refused input or folder, 3 the plugins or
-    the site LAMMPS, 1 curves or runs that failed (the finished ones are kept)."""
+    the site LAMMPS, 1 curves or runs that failed (the finished ones are kept); stopped by
+    Ctrl-C or SIGTERM, one line and the signal's code, as `driver run` and `driver sweep`
+    (130 for a stop of the Dask client or between two runs)."""
     from driver.calibration.curves import CalibrationError  # noqa: PLC0415
+    from driver.distributed import SweepInterrupted  # noqa: PLC0415
+    from driver.runner import RunInterrupted  # noqa: PLC0415
 
+    stopped = (f"{command} interrupted; run the same command again to resume (finished runs are kept, "
+               "interrupted ones resume from their checkpoints)")
     try:
         yield
     except (ConfigError, RunDirError) as exc:
@@ -469,6 +475,13 @@ def _calibration_errors():
         _fail(str(exc), 3)
     except CalibrationError as exc:
         _fail(str(exc), 1)
+    except RunInterrupted as exc:  # a run in this process (--workers 1)
+        _fail(stopped, exc.exit_code)
+    except SweepInterrupted as stop:  # the Dask client: its running runs were asked to checkpoint
+        cut = f" (cut off without a final checkpoint: {', '.join(stop.cut)})" if stop.cut else ""
+        _fail(stopped + cut, 130)
+    except KeyboardInterrupt:  # between two runs, or before any started
+        _fail(stopped, 130)
 
 
 @app.command()
@@ -492,7 +505,7 @@ def calibrate(material_yaml: Path = typer.Argument(..., help="a material file: t
     from driver.plugin_build import plugin_library  # noqa: PLC0415
     from driver.rundir import claim_dir  # noqa: PLC0415
 
-    with _calibration_errors():
+    with _calibration_errors("calibrate"):
         mat = load_material(material_yaml)
         target = claim_dir(out if out is not None else Path("runs") / f"calibrate_{mat.name}", ".brittle-calibration",
                            "calibration directory")
@@ -538,7 +551,7 @@ def compare(compare_yaml: Path = typer.Argument(..., help="a compare file: mater
     from driver.cache import cache_base  # noqa: PLC0415
     from driver.plugin_build import plugin_library  # noqa: PLC0415
 
-    with _calibration_errors():
+    with _calibration_errors("compare"):
         cmp = load_compare(compare_yaml)
         target = out if out is not None else Path("runs") / f"compare_{cmp.name}"
         plugin_library()
