@@ -141,25 +141,38 @@ def _describe_allowed(model_cls: type[BaseModel] | None) -> str:
     return "allowed keys: " + ", ".join(model_cls.model_fields)
 
 
-def _model_at(loc: tuple[Any, ...], data: Any) -> type[BaseModel] | None:
-    """The pydantic class that owns the mapping at `loc` (for listing allowed keys)."""
-    cls: type[BaseModel] | None = RunConfig
-    for key in loc:
-        if cls is None or not isinstance(key, str):
-            return None
-        if key not in cls.model_fields:
-            # a discriminated-union tag such as 'bpm' appears in loc: resolve it
-            return None
+def _tag(cls: type[BaseModel]) -> Any:
+    """The `kind` a section of a discriminated union answers to (None: not such a section)."""
+    field = cls.model_fields.get("kind")
+    return field.default if field is not None else None
+
+
+def _located(loc: tuple[Any, ...], root: type[BaseModel], data: Any) -> tuple[tuple[Any, ...], type[BaseModel] | None]:
+    """An error's location as the input file spells it (the tag pydantic puts after a
+    discriminated union, `model.bcm.interface`, left out: `model.interface`), and the pydantic
+    class that owns the mapping there (for listing its keys; None below a list or a plain value).
+    Walked from `root`, the class of the whole file."""
+    shown: list[Any] = []
+    cls: type[BaseModel] | None = root
+    i = 0
+    while i < len(loc):
+        key = loc[i]
+        shown.append(key)
+        i += 1
+        if cls is None or not isinstance(key, str) or key not in cls.model_fields:
+            cls = None  # a list index, a key of a free mapping, or the unknown key itself
+            continue
         ann = cls.model_fields[key].annotation
         candidates = [a for a in getattr(ann, "__args__", (ann,)) if isinstance(a, type) and issubclass(a, BaseModel)]
-        if not candidates:
-            return None
-        if len(candidates) > 1 and isinstance(data, dict):
-            kind = (data.get(key) or {}).get("kind") if isinstance(data.get(key), dict) else None
-            candidates = [c for c in candidates if c.model_fields.get("kind") and c.model_fields["kind"].default == kind] or candidates
-        cls = candidates[0]
         data = data.get(key) if isinstance(data, dict) else None
-    return cls
+        if len(candidates) > 1:
+            tagged = [c for c in candidates if i < len(loc) and _tag(c) is not None and _tag(c) == loc[i]]
+            if tagged:  # a discriminated union: the next element of loc is the tag, not a key
+                candidates, i = tagged, i + 1
+            elif isinstance(data, dict):
+                candidates = [c for c in candidates if _tag(c) == data.get("kind")] or candidates
+        cls = candidates[0] if candidates else None
+    return tuple(shown), cls
 
 
 #: Longest `(got ...)` value and field path shown in a message.
@@ -183,15 +196,19 @@ def short_repr(value: Any, limit: int = SHOWN_CHARS) -> str:
     return clip(_repr.repr(value), limit)
 
 
-def format_validation_error(exc: ValidationError, source: str, raw: Any) -> str:
+def format_validation_error(exc: ValidationError, source: str, raw: Any, root: type[BaseModel] | None = None) -> str:
+    """The problems of a refused input file, one line each: where (as the file spells it), what
+    is wrong, the value given, and for an unknown key the keys allowed there. root: the class
+    of the whole file (default: RunConfig; a material or compare file passes its own)."""
+    root = RunConfig if root is None else root
     errors = exc.errors()
     lines = [f"{source}: invalid configuration ({len(errors)} problem(s))"]
     for err in errors[:SHOWN_PROBLEMS]:
-        loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and p in MODEL_KINDS + SCENARIO_KINDS))
+        loc, _ = _located(tuple(err["loc"]), root, raw)
         path = clip(".".join(str(p) for p in loc)) or "<top level>"
         msg = err["msg"].removeprefix("Value error, ")
         if err["type"] == "extra_forbidden":
-            owner = _model_at(loc[:-1], raw)
+            _, owner = _located(tuple(err["loc"][:-1]), root, raw)
             msg = f"unknown key '{clip(str(loc[-1]))}'; {_describe_allowed(owner)}"
         elif err["type"] == "finite_number":
             msg = "must be a finite number (.inf and .nan are not allowed)"

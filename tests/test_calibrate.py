@@ -96,6 +96,19 @@ def test_material_names_a_model_and_known_curves(tmp_path):
         load_material(write(tmp_path, "material: {rho: 1, E: 1, nu: 0.2, G_c: 1}\nbpm: {particles_across: 10}\n"))
 
 
+def test_material_file_unknown_keys_list_the_material_files_own_keys(tmp_path):
+    """Unknown keys of a material file are named with the keys allowed where they are (not a
+    run config's, and not an empty list under `material:`)."""
+    (tmp_path / "m.yaml").write_text("name: m\nmaterial: {density: 1, E: 1, nu: 0.2, G_c: 1, colour: red}\n"
+                                     "bcm: {diameter: 2.0e-3, shap: cube}\noutput: {}\n")
+    with pytest.raises(ConfigError) as info:
+        load_material(tmp_path / "m.yaml")
+    assert sorted(str(info.value).splitlines()[1:]) == sorted([
+        "  material.colour: unknown key 'colour'; allowed keys: density, E, nu, G_c, K_IC",
+        "  bcm.shap: unknown key 'shap'; allowed keys: shape, diameter, diameter_kind, n_cells, cell_size",
+        "  output: unknown key 'output'; allowed keys: name, material, bcm, bpm, curves"])
+
+
 def test_toughness_conversions():
     t = Target(density=1, E=2.0, nu=0.3, G_c=4.0)
     assert t.toughness(2) == (4.0, pytest.approx(math.sqrt(8.0)))  # 2D: E' = E
