@@ -310,12 +310,14 @@ def sweep(input_yaml: Path = typer.Argument(..., help="sweep file (base, axes, z
 
     from driver.distributed import default_workers  # noqa: PLC0415
     from driver.rundir import SWEEP_MARKER, check_claimable, claim_dir  # noqa: PLC0415
-    from driver.sweep import load_sweep, pending, plan, plan_summary, plan_table  # noqa: PLC0415
+    from driver.sweep import load_sweep, plan, plan_summary, plan_table  # noqa: PLC0415
+    from driver.sweep_lock import sweep_lock  # noqa: PLC0415
 
     batch = None  # (dask-jobqueue cluster, jobs) of --cluster
+    held = contextlib.ExitStack()  # the sweep lock, from the claim of the directory to the last table
     try:
         expanded = load_sweep(input_yaml, set_, out, scale)
-        runs, sweep_dir = expanded.runs, expanded.directory
+        sweep_dir = expanded.directory
         if dry_run:
             dry = plan(expanded, np_ranks=np, cost_from=cost_from)
             table = plan_table(dry)
@@ -337,10 +339,21 @@ def sweep(input_yaml: Path = typer.Argument(..., help="sweep file (base, axes, z
             batch = make_cluster(cluster)  # the file is checked before anything is written; no job yet
             slots = cluster_slots(*batch)
         claim_dir(sweep_dir, SWEEP_MARKER, "sweep directory")
+        held.enter_context(sweep_lock(sweep_dir, ["driver", *sys.argv[1:]]))
     except (ConfigError, RunDirError) as exc:
         if batch is not None:
             batch[0].close()
         _fail(str(exc), 2)
+    with held:
+        _sweep_holding_the_lock(expanded, np, slots, scheduler, cluster, batch, columns)
+
+
+def _sweep_holding_the_lock(expanded, np: int | None, slots: int, scheduler: str | None, cluster: Path | None,
+                            batch: tuple | None, columns: str) -> None:
+    """The runs of a claimed and locked sweep directory not finished yet, then its tables."""
+    from driver.sweep import pending  # noqa: PLC0415
+
+    runs, sweep_dir = expanded.runs, expanded.directory
     todo = pending(runs)
     if todo:
         from driver.plugin_build import plugin_library  # noqa: PLC0415

@@ -38,7 +38,7 @@ DRIVER_LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("the configuration", ("driver.config",)),
     ("one run and a set of runs: the size check, the pipeline, set analyses, run states, cluster files",
      ("driver.estimate", "driver.pipeline", "driver.sets", "driver.status", "driver.cluster")),
-    ("many runs: Dask, sweeps", ("driver.distributed", "driver.sweep")),
+    ("many runs: Dask, sweeps and their lock", ("driver.distributed", "driver.sweep", "driver.sweep_lock")),
     ("calibration", ("driver.calibration",)),
     ("comparison of the models", ("driver.compare",)),
     ("the command line", ("driver.cli",)),
