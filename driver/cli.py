@@ -436,8 +436,6 @@ def _sweep_in_process(todo: list, np: int | None) -> list[str]:
 def _sweep_results(expanded, columns: str) -> None:
     """sweep.csv/.parquet (every run, its state and summary), sweep_points (means and standard
     deviations over seeds), the set analysis of the finished runs, and a table on screen."""
-    from rich.table import Table  # noqa: PLC0415
-
     from analysis.tables import save_table  # noqa: PLC0415
     from driver.sweep import seed_points, sweep_table  # noqa: PLC0415
 
@@ -460,12 +458,28 @@ def _sweep_results(expanded, columns: str) -> None:
     if missing:
         err.print(f"[yellow]--columns: not in the sweep table: {', '.join(missing)}")
         shown = [c for c in shown if c in finished.columns]
-    rt = Table(*shown)
-    for _, row in finished.iterrows():
-        rt.add_row(*(f"{row[c]:.4g}" if isinstance(row[c], float) else str(row[c]) for c in shown))
-    Console(width=max(120, Console().width)).print(rt)
+    print_runs(finished, shown)
     err.print(f"tables: {sweep_dir}/sweep.csv (every run), {sweep_dir}/sweep_points.csv (means and standard "
               f"deviations over seeds)")
+
+
+def print_runs(finished, shown: list[str], console: Console | None = None) -> None:
+    """The columns `shown` of the finished runs (a DataFrame), on stdout: a table on a terminal;
+    written to a file or a pipe, a header line and one line per run, tab-separated, every value
+    whole (a table there is squeezed to a fixed width: a grid of cut and empty cells)."""
+    console = console or Console()
+    rows = [[f"{row[c]:.4g}" if isinstance(row[c], float) else str(row[c]) for c in shown]
+            for _, row in finished.iterrows()]
+    if not console.is_terminal:
+        for cells in (shown, *rows):  # written as they are: rich would expand the tabs
+            console.file.write("\t".join(cells) + "\n")
+        return
+    from rich.table import Table  # noqa: PLC0415
+
+    rt = Table(*shown)
+    for cells in rows:
+        rt.add_row(*cells)
+    Console(file=console.file, width=max(120, console.width)).print(rt)
 
 
 @contextlib.contextmanager
