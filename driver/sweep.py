@@ -247,13 +247,6 @@ def _describe(keys: list[str], combo: tuple[Any, ...]) -> str:
     return ", ".join(f"{k}={v!r}" for k, v in zip(keys, combo))
 
 
-def expand(base: dict, assignments: list[tuple[str, list[Any]]], sweep_dir: Path,
-           source: str) -> list[tuple[dict[str, Any], RunConfig]]:
-    """All combinations of `--set` assignments as (varied values, validated config) with run
-    dirs under sweep_dir."""
-    return expand_groups(base, [((k,), [(v,) for v in values]) for k, values in assignments], sweep_dir, source)
-
-
 @dataclass(frozen=True)
 class Sweep:
     """An expanded sweep: where it came from, its folder, the varied keys and its runs."""
