@@ -120,10 +120,6 @@ def _farthest_pair(p: np.ndarray) -> tuple[int, int, float]:
 # ---------------------------------------------------------------------------------------
 # Fragments
 
-FRAGMENT_COLUMNS = ["fragment", "n_cells", "mass", "volume", "a", "b", "c", "elongation", "flatness",
-                    "shape_factor", "single_cell"]
-
-
 def fragment_table(labels: np.ndarray, masses: np.ndarray, volumes: np.ndarray, cell_vertices) -> pd.DataFrame:
     """One row per fragment: fragment, n_cells, mass, volume, a, b, c, elongation (b/a),
     flatness (c/b), shape_factor (S_f), single_cell.

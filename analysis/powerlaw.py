@@ -56,18 +56,6 @@ class PowerLawFit:
     sigma_bootstrap: float | None = None
     n_bootstrap: int = 0
 
-    def cdf(self, x: np.ndarray) -> np.ndarray:
-        """P(X <= x) of the fitted law (0 below xmin, 1 above xmax)."""
-        return _cdf(np.asarray(x, dtype=float), self.tau, self.xmin, self.xmax, self.discrete)
-
-    def pdf(self, x: np.ndarray) -> np.ndarray:
-        """Density (continuous) or probability mass (discrete) at x, 0 outside [xmin, xmax]."""
-        x = np.asarray(x, dtype=float)
-        inside = (x >= self.xmin) & ((x <= self.xmax) if self.xmax is not None else True)
-        with np.errstate(divide="ignore"):
-            p = np.exp(-self.tau * np.log(x) - _log_norm(self.tau, self.xmin, self.xmax, self.discrete))
-        return np.where(inside, p, 0.0)
-
 
 def fit_power_law(x: np.ndarray, xmin: float | None = None, xmax: float | None = None, discrete: bool = False,
                   n_bootstrap: int = 0, seed: int = 0, min_tail: int = 10, max_candidates: int = 1000) -> PowerLawFit:
@@ -103,41 +91,6 @@ def fit_power_law(x: np.ndarray, xmin: float | None = None, xmax: float | None =
     sb = float(np.std(taus, ddof=1)) if len(taus) > 1 else float("nan")
     return PowerLawFit(fit.tau, fit.sigma, fit.xmin, fit.xmax, fit.n, fit.ks, fit.method + f"; bootstrap x{len(taus)}",
                        fit.discrete, fit.loglik, sb, len(taus))
-
-
-def sample_power_law(n: int, tau: float, xmin: float, xmax: float | None = None, discrete: bool = False,
-                     rng: np.random.Generator | int | None = None) -> np.ndarray:
-    """n independent draws from the law (exact inverse transform, discrete ones included)."""
-    rng = np.random.default_rng(rng)
-    u = 1.0 - rng.random(n)  # (0, 1]: the survival probability to invert
-    if not discrete:
-        s = tau - 1.0
-        if xmax is None:
-            if s <= 0:
-                raise ValueError("an untruncated law needs tau > 1")
-            return xmin * u ** (-1.0 / s)
-        # Truncated: F(x) = g(s, ln(x/xmin)) / g(s, ln(xmax/xmin)), g(s, y) = (1 - e^{-sy}) / s.
-        target = (1.0 - u) * _g(s, np.log(xmax / xmin))
-        y = np.log1p(-s * target) / -s if abs(s) > 1e-12 else target
-        return np.minimum(xmin * np.exp(y), xmax)
-    # Discrete: X = the largest k with P(X >= k) >= u, by vectorised bisection on integers.
-    xmin = int(xmin)
-    norm = _dtail(tau, np.array([xmin]), xmax)[0]
-    lo = np.full(n, xmin, dtype=np.int64)  # P(X >= lo) = 1 >= u always
-    approx = (xmin - 0.5) * u ** (-1.0 / max(tau - 1.0, 1e-3)) + 0.5
-    cap = (xmax + 1) if xmax is not None else np.iinfo(np.int64).max // 4
-    hi = np.minimum(np.maximum(np.ceil(2 * approx).astype(np.int64), xmin + 1), cap)
-    while True:  # make P(X >= hi) < u
-        grow = (hi < cap) & (_dtail(tau, hi, xmax) / norm >= u)
-        if not grow.any():
-            break
-        hi[grow] = np.minimum(hi[grow] * 2, cap)
-    while np.any(hi - lo > 1):
-        mid = (lo + hi) // 2
-        ok = _dtail(tau, mid, xmax) / norm >= u
-        lo = np.where(ok, mid, lo)
-        hi = np.where(ok, hi, mid)
-    return lo.astype(float)
 
 
 # When a fitted exponent of the grain-mass distribution N(M) ~ M^-tau is a result.

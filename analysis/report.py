@@ -54,12 +54,18 @@ class Report:
         self.blocks.append(("figure", Path(path), caption))
 
 
+#: What a table shows where there is no value: NaN, or None (a flag not raised, a fit not made).
+NO_VALUE = "–"
+
+
 def fmt(v: Any) -> str:
-    """4 significant digits for floats, plain text otherwise."""
-    if isinstance(v, bool) or v is None:
+    """4 significant digits for floats, NO_VALUE for NaN and None, plain text otherwise."""
+    if v is None:
+        return NO_VALUE
+    if isinstance(v, bool):
         return str(v)
     if isinstance(v, (float, np.floating)):
-        return "–" if math.isnan(v) else f"{v:.4g}"
+        return NO_VALUE if math.isnan(v) else f"{v:.4g}"
     return str(v)
 
 

@@ -77,15 +77,6 @@ def survey_runs(paths: list[Path], required: TablesOf | None = None) -> tuple[li
     return list(dict.fromkeys(finished)), list(left.values())
 
 
-def find_runs(paths: list[Path], required: TablesOf | None = None) -> list[Path]:
-    """The finished run directories among `paths` (survey_runs); none is an error that lists
-    why each run was left out."""
-    finished, left = survey_runs(paths, required)
-    if not finished:
-        raise no_runs(paths, left)
-    return finished
-
-
 def no_runs(paths: list[Path], left: list[dict]) -> RunSetError:
     why = "; ".join(f"{r['run_dir']}: {r['reason']}" for r in left[:10])
     return RunSetError(f"no finished runs in {', '.join(map(str, paths))}" + (f" ({why})" if why else ""))

@@ -42,7 +42,6 @@ from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
 import numpy as np
-import pandas as pd
 from scipy import stats
 from scipy.optimize import least_squares, minimize
 
@@ -311,22 +310,6 @@ def fit_moment_collapse(curves: Sequence[Curve], d: int, p0: tuple[float, float]
         return moment_rescale(cv.x, cv.y, cv.params["L"], p[0], p[1], d)
 
     return fit_collapse(curves, rescale, p0, ("alpha", "nu"), **kw)
-
-
-def curves_from_table(table: pd.DataFrame, by: Sequence[str], x: str = "m_mean", y: str = "N",
-                      count: str | None = "count") -> list[Curve]:
-    """Curves from a long table (e.g. N(M) of analysis.statistics.mass_distribution with run
-    parameter columns such as L and edot): one curve per group of `by`; with `count`, the
-    standard error of ln y is 1/sqrt(count) (Poisson)."""
-    out = []
-    for key, grp in table.groupby(list(by), sort=True):
-        key = key if isinstance(key, tuple) else (key,)
-        grp = grp[(grp[y] > 0) & (grp[x] > 0)]
-        if count is not None:
-            grp = grp[grp[count] > 0]
-        sig = None if count is None else 1.0 / np.sqrt(grp[count].to_numpy(dtype=float))
-        out.append(Curve(grp[x].to_numpy(), grp[y].to_numpy(), dict(zip(by, map(float, key))), sig))
-    return out
 
 
 # ---------------------------------------------------------------------------------------

@@ -15,25 +15,11 @@ PARENT_CHILD_COLUMNS = ["child", "parent", "shared", "shared_mass", "child_mass"
                         "fraction_of_child", "fraction_of_parent", "main_parent", "main_child"]
 
 
-def align_labels(ids_a: np.ndarray, labels_a: np.ndarray, ids_b: np.ndarray, labels_b: np.ndarray,
-                 masses_b: np.ndarray | None = None):
-    """Labels of the atoms present in both frames, in common-id order.
-
-    ids_*: (n_*,) atom ids of each frame; labels_*: grain label per atom in the same order.
-    Returns (common ids, labels at a, labels at b, masses at b or None). Atoms lost between
-    frames are left out.
-    """
-    ids_a, ids_b = np.asarray(ids_a), np.asarray(ids_b)
-    common, ia, ib = np.intersect1d(ids_a, ids_b, assume_unique=True, return_indices=True)
-    mb = None if masses_b is None else np.asarray(masses_b, dtype=float)[ib]
-    return common, np.asarray(labels_a)[ia], np.asarray(labels_b)[ib], mb
-
-
 def parent_child(labels_k: np.ndarray, labels_k1: np.ndarray, masses: np.ndarray | None = None) -> pd.DataFrame:
     """Parent-child table between grain labels at frame k and frame k+1 of the same atoms.
 
-    labels_k, labels_k1: (n_atoms,) non-negative grain labels of the same atoms (same order;
-    use align_labels first when the frames' atom sets or orders differ); masses: (n_atoms,)
+    labels_k, labels_k1: (n_atoms,) non-negative grain labels of the same atoms (same order:
+    the readers sort every frame by atom id); masses: (n_atoms,)
     atom masses (default 1, so mass = number of atoms).
 
     One row per (child, parent) pair sharing atoms, sorted by child then shared mass
@@ -81,61 +67,6 @@ def _is_main(df: pd.DataFrame, group: str, other: str) -> np.ndarray:
     main = np.zeros(len(df), dtype=bool)
     main[order[first]] = True
     return main
-
-
-def main_parents(table: pd.DataFrame) -> pd.Series:
-    """child -> main parent label, from a parent_child table."""
-    main = table[table["main_parent"]]
-    return pd.Series(main["parent"].to_numpy(), index=main["child"].to_numpy(), name="parent")
-
-
-def lineage(labels: list[np.ndarray], grain: int, frame: int | None = None,
-            masses: np.ndarray | None = None, direction: str = "backward") -> pd.DataFrame:
-    """Follow one grain through a sequence of label arrays (same atoms, same order each frame).
-
-    direction="backward": start from `grain` at `frame` (default: the last) and step to its
-    main parent at each earlier frame, back to frame 0. "forward": start at `frame`
-    (default 0) and step to the main child (the grain that received most of its mass) at
-    each later frame. Returns one row per frame: frame, grain, mass, and link_fraction =
-    the fraction of the child's mass from the parent (backward) or of the parent's mass
-    kept by the child (forward) on the link into that row (NaN on the start row).
-    """
-    if direction not in ("backward", "forward"):
-        raise ValueError(f"direction must be 'backward' or 'forward', not {direction!r}")
-    if not labels:
-        raise ValueError("no frames")
-    n = len(labels)
-    start = (n - 1 if direction == "backward" else 0) if frame is None else frame
-    if not 0 <= start < n:
-        raise ValueError(f"frame {start} outside 0..{n - 1}")
-    w = np.ones(len(labels[0])) if masses is None else np.asarray(masses, dtype=float)
-
-    def grain_mass(k: int, g: int) -> float:
-        return float(w[np.asarray(labels[k]) == g].sum())
-
-    if grain_mass(start, grain) == 0:
-        raise ValueError(f"grain {grain} does not exist at frame {start}")
-    rows = [{"frame": start, "grain": grain, "mass": grain_mass(start, grain), "link_fraction": np.nan}]
-    g = grain
-    steps = range(start - 1, -1, -1) if direction == "backward" else range(start + 1, n)
-    for k in steps:
-        cur = np.asarray(labels[k + 1] if direction == "backward" else labels[k - 1])
-        nxt = np.asarray(labels[k])
-        inside = cur == g
-        # Only the atoms of the followed grain matter: a small parent_child on them.
-        if direction == "backward":
-            t = parent_child(nxt[inside], cur[inside], w[inside])
-            row = t[t["main_parent"]].iloc[0]
-            g = int(row["parent"])
-            frac = float(row["fraction_of_child"])
-        else:
-            t = parent_child(cur[inside], nxt[inside], w[inside])
-            t = t.sort_values(["shared_mass", "child"], ascending=[False, True])
-            row = t.iloc[0]
-            g = int(row["child"])
-            frac = float(row["shared_mass"]) / float(w[inside].sum())
-        rows.append({"frame": k, "grain": g, "mass": grain_mass(k, g), "link_fraction": frac})
-    return pd.DataFrame(rows).sort_values("frame").reset_index(drop=True)
 
 
 def lineage_table(labels: list[np.ndarray], masses: np.ndarray | None = None) -> pd.DataFrame:

@@ -27,7 +27,8 @@ from driver.bpm.datafile import write_data
 from driver.bpm.network import MAX_BOND_LENGTH_3D, delaunay_network
 from driver.bpm.packing import cached_packing
 from driver.engine import Lammps, venv_bin
-from driver.plugin_build import cache_base, plugin_library
+from driver.cache import cache_base
+from driver.plugin_build import plugin_library
 
 COMMON = """
 units lj

@@ -59,7 +59,7 @@ import numpy as np
 import pandas as pd
 
 from driver.bcm.conservative import CONSERVATIVE_SETUP, impulse, intact_particle
-from driver.config import BCMModel
+from driver.bcm.section import BCMModel
 from driver.engine import Lammps
 from driver.plugin_build import plugin_library
 
@@ -208,7 +208,7 @@ def fastest_modes(cells: int, seed: int, n_modes: int = 6) -> dict:
     import scipy.sparse as sp  # noqa: PLC0415
 
     from driver.bcm.particle import particle_tessellation  # noqa: PLC0415
-    from driver.plugin_build import cache_base  # noqa: PLC0415
+    from driver.cache import cache_base  # noqa: PLC0415
     from scipy.sparse.linalg import eigsh  # noqa: PLC0415
 
     model = BCMModel(n_cells=cells)

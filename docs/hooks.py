@@ -37,7 +37,7 @@ ROOT = Path(__file__).resolve().parent.parent
 #: Where each generated page comes from ("module:attribute", or a folder of the repository).
 SOURCES = {
     "run config": "driver.config:RunConfig",
-    "pairs": "driver.registry:UNITS",
+    "pairs": "driver.registry:units",
     "material file": "driver.calibration.material:MaterialFile",
     "compare file": "driver.compare.schema:CompareFile",
     "cli": "driver.cli:app",
@@ -266,7 +266,7 @@ def schema_page(root: type, title: str, intro: str, top: str = "top level") -> s
 
 def config_page() -> str:
     run_config = _load(SOURCES["run config"])
-    units = _load(SOURCES["pairs"])
+    units = _load(SOURCES["pairs"])()
     pairs = _table(["model.kind", "scenario.kind", "what it runs"],
                    [[_code(m), _code(s), _text(u.description)] for (m, s), u in units.items()])
     intro = "\n\n".join([

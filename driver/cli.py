@@ -310,12 +310,14 @@ def sweep(input_yaml: Path = typer.Argument(..., help="sweep file (base, axes, z
 
     from driver.distributed import default_workers  # noqa: PLC0415
     from driver.rundir import SWEEP_MARKER, check_claimable, claim_dir  # noqa: PLC0415
-    from driver.sweep import load_sweep, pending, plan, plan_summary, plan_table  # noqa: PLC0415
+    from driver.sweep import load_sweep, plan, plan_summary, plan_table  # noqa: PLC0415
+    from driver.sweep_lock import sweep_lock  # noqa: PLC0415
 
     batch = None  # (dask-jobqueue cluster, jobs) of --cluster
+    held = contextlib.ExitStack()  # the sweep lock, from the claim of the directory to the last table
     try:
         expanded = load_sweep(input_yaml, set_, out, scale)
-        runs, sweep_dir = expanded.runs, expanded.directory
+        sweep_dir = expanded.directory
         if dry_run:
             dry = plan(expanded, np_ranks=np, cost_from=cost_from)
             table = plan_table(dry)
@@ -337,10 +339,21 @@ def sweep(input_yaml: Path = typer.Argument(..., help="sweep file (base, axes, z
             batch = make_cluster(cluster)  # the file is checked before anything is written; no job yet
             slots = cluster_slots(*batch)
         claim_dir(sweep_dir, SWEEP_MARKER, "sweep directory")
+        held.enter_context(sweep_lock(sweep_dir, ["driver", *sys.argv[1:]]))
     except (ConfigError, RunDirError) as exc:
         if batch is not None:
             batch[0].close()
         _fail(str(exc), 2)
+    with held:
+        _sweep_holding_the_lock(expanded, np, slots, scheduler, cluster, batch, columns)
+
+
+def _sweep_holding_the_lock(expanded, np: int | None, slots: int, scheduler: str | None, cluster: Path | None,
+                            batch: tuple | None, columns: str) -> None:
+    """The runs of a claimed and locked sweep directory not finished yet, then its tables."""
+    from driver.sweep import pending  # noqa: PLC0415
+
+    runs, sweep_dir = expanded.runs, expanded.directory
     todo = pending(runs)
     if todo:
         from driver.plugin_build import plugin_library  # noqa: PLC0415
@@ -423,8 +436,6 @@ def _sweep_in_process(todo: list, np: int | None) -> list[str]:
 def _sweep_results(expanded, columns: str) -> None:
     """sweep.csv/.parquet (every run, its state and summary), sweep_points (means and standard
     deviations over seeds), the set analysis of the finished runs, and a table on screen."""
-    from rich.table import Table  # noqa: PLC0415
-
     from analysis.tables import save_table  # noqa: PLC0415
     from driver.sweep import seed_points, sweep_table  # noqa: PLC0415
 
@@ -447,20 +458,42 @@ def _sweep_results(expanded, columns: str) -> None:
     if missing:
         err.print(f"[yellow]--columns: not in the sweep table: {', '.join(missing)}")
         shown = [c for c in shown if c in finished.columns]
-    rt = Table(*shown)
-    for _, row in finished.iterrows():
-        rt.add_row(*(f"{row[c]:.4g}" if isinstance(row[c], float) else str(row[c]) for c in shown))
-    Console(width=max(120, Console().width)).print(rt)
+    print_runs(finished, shown)
     err.print(f"tables: {sweep_dir}/sweep.csv (every run), {sweep_dir}/sweep_points.csv (means and standard "
               f"deviations over seeds)")
 
 
-@contextlib.contextmanager
-def _calibration_errors():
-    """The exit codes of calibrate and compare: 2 a refused input or folder, 3 the plugins or
-    the site LAMMPS, 1 curves or runs that failed (the finished ones are kept)."""
-    from driver.calibration.curves import CalibrationError  # noqa: PLC0415
+def print_runs(finished, shown: list[str], console: Console | None = None) -> None:
+    """The columns `shown` of the finished runs (a DataFrame), on stdout: a table on a terminal;
+    written to a file or a pipe, a header line and one line per run, tab-separated, every value
+    whole (a table there is squeezed to a fixed width: a grid of cut and empty cells)."""
+    console = console or Console()
+    rows = [[f"{row[c]:.4g}" if isinstance(row[c], float) else str(row[c]) for c in shown]
+            for _, row in finished.iterrows()]
+    if not console.is_terminal:
+        for cells in (shown, *rows):  # written as they are: rich would expand the tabs
+            console.file.write("\t".join(cells) + "\n")
+        return
+    from rich.table import Table  # noqa: PLC0415
 
+    rt = Table(*shown)
+    for cells in rows:
+        rt.add_row(*cells)
+    Console(file=console.file, width=max(120, console.width)).print(rt)
+
+
+@contextlib.contextmanager
+def _calibration_errors(command: str):
+    """The exit codes of calibrate and compare: 2 a refused input or folder, 3 the plugins or
+    the site LAMMPS, 1 curves or runs that failed (the finished ones are kept); stopped by
+    Ctrl-C or SIGTERM, one line and the signal's code, as `driver run` and `driver sweep`
+    (130 for a stop of the Dask client or between two runs)."""
+    from driver.calibration.curves import CalibrationError  # noqa: PLC0415
+    from driver.distributed import SweepInterrupted  # noqa: PLC0415
+    from driver.runner import RunInterrupted  # noqa: PLC0415
+
+    stopped = (f"{command} interrupted; run the same command again to resume (finished runs are kept, "
+               "interrupted ones resume from their checkpoints)")
     try:
         yield
     except (ConfigError, RunDirError) as exc:
@@ -469,6 +502,13 @@ def _calibration_errors():
         _fail(str(exc), 3)
     except CalibrationError as exc:
         _fail(str(exc), 1)
+    except RunInterrupted as exc:  # a run in this process (--workers 1)
+        _fail(stopped, exc.exit_code)
+    except SweepInterrupted as stop:  # the Dask client: its running runs were asked to checkpoint
+        cut = f" (cut off without a final checkpoint: {', '.join(stop.cut)})" if stop.cut else ""
+        _fail(stopped + cut, 130)
+    except KeyboardInterrupt:  # between two runs, or before any started
+        _fail(stopped, 130)
 
 
 @app.command()
@@ -488,10 +528,11 @@ def calibrate(material_yaml: Path = typer.Argument(..., help="a material file: t
     from driver.calibration.material import load_material  # noqa: PLC0415
     from driver.calibration.report import TITLES, comparison, reach_notes, rows, write_outputs  # noqa: PLC0415
     from driver.distributed import default_workers  # noqa: PLC0415
-    from driver.plugin_build import cache_base, plugin_library  # noqa: PLC0415
+    from driver.cache import cache_base  # noqa: PLC0415
+    from driver.plugin_build import plugin_library  # noqa: PLC0415
     from driver.rundir import claim_dir  # noqa: PLC0415
 
-    with _calibration_errors():
+    with _calibration_errors("calibrate"):
         mat = load_material(material_yaml)
         target = claim_dir(out if out is not None else Path("runs") / f"calibrate_{mat.name}", ".brittle-calibration",
                            "calibration directory")
@@ -533,9 +574,10 @@ def compare(compare_yaml: Path = typer.Argument(..., help="a compare file: mater
     from driver.compare.compare import run_compare  # noqa: PLC0415
     from driver.compare.schema import load_compare  # noqa: PLC0415
     from driver.distributed import default_workers  # noqa: PLC0415
-    from driver.plugin_build import cache_base, plugin_library  # noqa: PLC0415
+    from driver.cache import cache_base  # noqa: PLC0415
+    from driver.plugin_build import plugin_library  # noqa: PLC0415
 
-    with _calibration_errors():
+    with _calibration_errors("compare"):
         cmp = load_compare(compare_yaml)
         target = out if out is not None else Path("runs") / f"compare_{cmp.name}"
         plugin_library()

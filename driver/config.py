@@ -2,7 +2,8 @@
 
 Every default of the tool lives in the schema: the common sections here (output, execution),
 the `model:` sections in driver/bcm/section.py and driver/bpm/section.py, the `scenario:`
-sections in their units (driver/scenarios/), all joined through driver/registry.py. A config is
+sections in driver/scenarios/ (a unit's own, or one several units share in sections.py), all
+joined through driver/registry.py. A config is
 checked completely before anything runs or is written: unknown keys, wrong types,
 out-of-range values, an unregistered (model, scenario) pair and inconsistent choices are
 refused with the field's path, the value given and what is allowed; defaults that depend on
@@ -11,7 +12,6 @@ other keys are filled in, so config.resolved.yaml holds every value the run used
 
 from __future__ import annotations
 
-import math
 import os
 import re
 import reprlib
@@ -21,12 +21,9 @@ from typing import Annotated, Any, Union
 import yaml
 from pydantic import BaseModel, Field, ValidationError, field_validator, model_validator
 
-from driver.bcm.section import BCMModel, CohesiveInterface, FrictionalContact  # noqa: F401 (re-exported)
-from driver.bpm.section import BPMModel  # noqa: F401 (re-exported)
-from driver.registry import MODELS, SCENARIOS, unit
-from driver.schema import ConfigError, _Strict  # noqa: F401 (re-exported)
-from driver.scenarios.bcm_impact import ImpactScenario  # noqa: F401 (re-exported)
-from driver.scenarios.bpm_shear import ShearScenario  # noqa: F401 (re-exported)
+from driver.bpm.section import BPMModel
+from driver.registry import MODELS, scenario_sections, unit
+from driver.schema import ConfigError, _Strict
 
 
 class Output(_Strict):
@@ -88,9 +85,10 @@ class Execution(_Strict):
         return None if unit == "steps" else value * {"s": 1.0, "min": 60.0, "h": 3600.0}[unit]
 
 
+# the sections a config may hold, from the registry (driver/registry.py; the units are imported here)
+SCENARIOS = scenario_sections()
 MODEL_KINDS = tuple(MODELS)
 SCENARIO_KINDS = tuple(SCENARIOS)
-# the sections a config may hold, from the registry (driver/registry.py)
 ModelSection = Annotated[Union[tuple(MODELS.values())], Field(discriminator="kind")]
 ScenarioSection = Annotated[Union[tuple(SCENARIOS.values())], Field(discriminator="kind")]
 
@@ -102,9 +100,10 @@ class RunConfig(_Strict):
                       description="run name: a plain file name (letters, digits, _ . -; starts with a letter, "
                                   "digit or _, so never . or ..)")
     seed: int = Field(1, ge=1, le=2**31 - 1, description="seeds the packing/tessellation and orientations")
+    # without model: and scenario:, a BPM shear run
     model: ModelSection = Field(default_factory=BPMModel,
                                 description="the model and its parameters; model.kind chooses the section")
-    scenario: ScenarioSection = Field(default_factory=ShearScenario,
+    scenario: ScenarioSection = Field(default_factory=SCENARIOS["shear"],
                                       description="the scenario and its parameters; scenario.kind chooses the "
                                                   "section, and (model.kind, scenario.kind) must be a registered pair")
     output: Output = Field(default_factory=Output, description="where the run goes and what it writes")
@@ -147,25 +146,38 @@ def _describe_allowed(model_cls: type[BaseModel] | None) -> str:
     return "allowed keys: " + ", ".join(model_cls.model_fields)
 
 
-def _model_at(loc: tuple[Any, ...], data: Any) -> type[BaseModel] | None:
-    """The pydantic class that owns the mapping at `loc` (for listing allowed keys)."""
-    cls: type[BaseModel] | None = RunConfig
-    for key in loc:
-        if cls is None or not isinstance(key, str):
-            return None
-        if key not in cls.model_fields:
-            # a discriminated-union tag such as 'bpm' appears in loc: resolve it
-            return None
+def _tag(cls: type[BaseModel]) -> Any:
+    """The `kind` a section of a discriminated union answers to (None: not such a section)."""
+    field = cls.model_fields.get("kind")
+    return field.default if field is not None else None
+
+
+def _located(loc: tuple[Any, ...], root: type[BaseModel], data: Any) -> tuple[tuple[Any, ...], type[BaseModel] | None]:
+    """An error's location as the input file spells it (the tag pydantic puts after a
+    discriminated union, `model.bcm.interface`, left out: `model.interface`), and the pydantic
+    class that owns the mapping there (for listing its keys; None below a list or a plain value).
+    Walked from `root`, the class of the whole file."""
+    shown: list[Any] = []
+    cls: type[BaseModel] | None = root
+    i = 0
+    while i < len(loc):
+        key = loc[i]
+        shown.append(key)
+        i += 1
+        if cls is None or not isinstance(key, str) or key not in cls.model_fields:
+            cls = None  # a list index, a key of a free mapping, or the unknown key itself
+            continue
         ann = cls.model_fields[key].annotation
         candidates = [a for a in getattr(ann, "__args__", (ann,)) if isinstance(a, type) and issubclass(a, BaseModel)]
-        if not candidates:
-            return None
-        if len(candidates) > 1 and isinstance(data, dict):
-            kind = (data.get(key) or {}).get("kind") if isinstance(data.get(key), dict) else None
-            candidates = [c for c in candidates if c.model_fields.get("kind") and c.model_fields["kind"].default == kind] or candidates
-        cls = candidates[0]
         data = data.get(key) if isinstance(data, dict) else None
-    return cls
+        if len(candidates) > 1:
+            tagged = [c for c in candidates if i < len(loc) and _tag(c) is not None and _tag(c) == loc[i]]
+            if tagged:  # a discriminated union: the next element of loc is the tag, not a key
+                candidates, i = tagged, i + 1
+            elif isinstance(data, dict):
+                candidates = [c for c in candidates if _tag(c) == data.get("kind")] or candidates
+        cls = candidates[0] if candidates else None
+    return tuple(shown), cls
 
 
 #: Longest `(got ...)` value and field path shown in a message.
@@ -189,15 +201,19 @@ def short_repr(value: Any, limit: int = SHOWN_CHARS) -> str:
     return clip(_repr.repr(value), limit)
 
 
-def format_validation_error(exc: ValidationError, source: str, raw: Any) -> str:
+def format_validation_error(exc: ValidationError, source: str, raw: Any, root: type[BaseModel] | None = None) -> str:
+    """The problems of a refused input file, one line each: where (as the file spells it), what
+    is wrong, the value given, and for an unknown key the keys allowed there. root: the class
+    of the whole file (default: RunConfig; a material or compare file passes its own)."""
+    root = RunConfig if root is None else root
     errors = exc.errors()
     lines = [f"{source}: invalid configuration ({len(errors)} problem(s))"]
     for err in errors[:SHOWN_PROBLEMS]:
-        loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and p in MODEL_KINDS + SCENARIO_KINDS))
+        loc, _ = _located(tuple(err["loc"]), root, raw)
         path = clip(".".join(str(p) for p in loc)) or "<top level>"
         msg = err["msg"].removeprefix("Value error, ")
         if err["type"] == "extra_forbidden":
-            owner = _model_at(loc[:-1], raw)
+            _, owner = _located(tuple(err["loc"][:-1]), root, raw)
             msg = f"unknown key '{clip(str(loc[-1]))}'; {_describe_allowed(owner)}"
         elif err["type"] == "finite_number":
             msg = "must be a finite number (.inf and .nan are not allowed)"
@@ -344,7 +360,3 @@ def resolved_yaml(cfg: RunConfig) -> str:
     """The config with every default filled in, as YAML (what the run actually used)."""
     return yaml.safe_dump(cfg.model_dump(mode="json"), sort_keys=False)
 
-
-def steps_for_strain(strain: float, strain_rate: float, timestep: float) -> int:
-    """Number of steps to reach a true strain at a given rate (rounded to the nearest step)."""
-    return int(math.floor(strain / (strain_rate * timestep) + 0.5))

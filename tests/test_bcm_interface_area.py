@@ -90,9 +90,10 @@ def test_min_interface_area_leaves_small_faces_unbonded(tmp_path, plugin_path):
     import json
 
     from driver.bcm.particle import particle_tessellation
-    from driver.config import BCMModel, parse_config
+    from driver.bcm.section import BCMModel
+    from driver.config import parse_config
     from driver.pipeline import execute
-    from driver.plugin_build import cache_base
+    from driver.cache import cache_base
 
     frac = 0.05
     tess = particle_tessellation(BCMModel(n_cells=100), 3, cache_base() / "tessellations")

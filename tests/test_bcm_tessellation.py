@@ -82,7 +82,7 @@ def test_gp30_counts_regularity_and_symmetry():
     shape = S.truncated_pentakis_dodecahedron(2e-3)
     v = shape.vertices
     assert check_polyhedron(v, shape.faces, shape.normals) == (180, 270, 92)
-    sides = shape.face_sides
+    sides = np.array([len(f) for f in shape.faces])  # vertices = sides of each face
     assert Counter(sides.tolist()) == {5: 12, 6: 80}
     assert np.all(sides[:12] == 5)  # planes 0-11 are the pentagons
     # every vertex on exactly three faces
@@ -226,7 +226,7 @@ def test_cells_fill_the_parent(gp_tess):
     assert np.all(tess.volume > 0)
     assert np.all(shape.contains(tess.vertices, tol=1e-12 * 2e-3))
     # faces on parent plane k lie on it and together cover parent face k
-    covered = np.zeros(shape.n_faces)
+    covered = np.zeros(len(shape.faces))
     for a in np.flatnonzero(tess.face_neighbor < 0):
         k = -1 - tess.face_neighbor[a]
         p = tess.vertices[tess.face_loop(a)]
@@ -294,7 +294,7 @@ def test_interfaces_shared_exactly(gp_tess):
 def test_interface_area_bookkeeping(gp_tess):
     _, tess = gp_tess
     internal = tess.face_area[tess.face_neighbor >= 0].sum()
-    assert internal == pytest.approx(2 * tess.total_interface_area, rel=1e-13)
+    assert internal == pytest.approx(2 * tess.iface_area.sum(), rel=1e-13)
     # degenerate contacts: two cells sharing vertices but no interface share at most an edge
     cell_verts = [set(tess.cell_vertex_ids(i).tolist()) for i in range(tess.n_cells)]
     pairs = {tuple(p) for p in tess.iface_cells.tolist()}
@@ -404,7 +404,7 @@ def test_default_1728_cells():
     assert tess.converged and tess.n_cells == 1728
     assert tess.volume.sum() == pytest.approx(shape.volume, rel=1e-9)
     internal = tess.face_area[tess.face_neighbor >= 0].sum()
-    assert internal == pytest.approx(2 * tess.total_interface_area, rel=1e-12)
+    assert internal == pytest.approx(2 * tess.iface_area.sum(), rel=1e-12)
 
 
 def test_erosion_of_a_nearly_vanishing_face_stays_closed():

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from driver.bcm.conservative import CONSERVATIVE_SETUP, impulse, intact_particle
-from driver.bcm.section import MIN_STEPS_PER_PERIOD
-from driver.config import BCMModel, ConfigError, parse_config
-from driver.scenarios.bcm_impact import ImpactScenario
+from driver.bcm.section import MIN_STEPS_PER_PERIOD, BCMModel
+from driver.config import ConfigError, parse_config
+from driver.scenarios.sections import ImpactScenario
 
 
 def _impact(spp: float) -> dict:

@@ -27,7 +27,7 @@ from driver.bpm.particle_section import BPMParticle, BPMUnits
 from driver.config import parse_config
 from driver.engine import Lammps
 from driver.pipeline import execute
-from driver.plugin_build import cache_base
+from driver.cache import cache_base
 from driver.rundir import RunDir
 
 D = 2e-3

@@ -13,7 +13,8 @@ import pandas as pd
 import pytest
 
 from analysis.toughness import feddersen_factor, tip_distances, toughness
-from driver.bpm.mode1 import cut_sample, segment_meets_ellipse
+from driver.bpm.cuts import segment_meets_ellipse
+from driver.bpm.mode1 import cut_sample
 from driver.bpm.network import Network, delaunay_network
 from driver.bpm.packing import Packing
 from driver.config import parse_config

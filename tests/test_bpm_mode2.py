@@ -15,7 +15,7 @@ import pytest
 
 from analysis.mode2 import (band_offsets, collinear_factor, mode2_toughness, reference_positions,
                             tip_distances)
-from driver.bpm.mode1 import inside_ellipse, segment_meets_ellipse
+from driver.bpm.cuts import inside_ellipse, segment_meets_ellipse
 from driver.bpm.mode2 import band_offset, band_types, cut_periodic_void, unbreakable_gamma
 from driver.bpm.network import Network, delaunay_network
 from driver.bpm.packing import Packing

@@ -14,7 +14,8 @@ import pandas as pd
 import pytest
 import yaml
 
-from driver.bpm.moduli import BOND_STIFFNESS, affine_moduli, phases
+from driver.bpm.moduli import BOND_STIFFNESS, affine_moduli
+from driver.moduli_protocol import phases
 
 
 def square_lattice(n: int):

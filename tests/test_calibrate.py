@@ -1,18 +1,26 @@
 """`driver calibrate` (driver/calibration/): the inversion of a curve (reached, out of reach with
 the nearest reachable value, never clipped silently), the material file's validation, and in
 real LAMMPS the BPM round trip on small curves: calibrate, run the tests at the chosen
-parameters, recover E and nu within 5 % and G_c within 10 %; the second call reads the cache."""
+parameters, recover E and nu within 5 % and G_c within 10 %; the second call reads the cache.
+Ctrl-C while a curve is measured stops `driver calibrate` and `driver compare` (the same path)
+with one line and exit code 130, as `driver run` and `driver sweep`."""
 
 from __future__ import annotations
 
 import json
 import math
+import os
+import signal
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from driver.cache import cache_base
 from driver.calibration import curves as cv
 from driver.calibration.material import MaterialFile, Target, load_material
 from driver.calibration.solve import BpmUnits, bpm_lambda_c, invert, through_zero_slope
@@ -86,6 +94,19 @@ def test_material_names_a_model_and_known_curves(tmp_path):
                                       "curves: {bpm_modul: {seeds: 1}}\n"))
     with pytest.raises(ConfigError, match="unknown key 'rho'"):
         load_material(write(tmp_path, "material: {rho: 1, E: 1, nu: 0.2, G_c: 1}\nbpm: {particles_across: 10}\n"))
+
+
+def test_material_file_unknown_keys_list_the_material_files_own_keys(tmp_path):
+    """Unknown keys of a material file are named with the keys allowed where they are (not a
+    run config's, and not an empty list under `material:`)."""
+    (tmp_path / "m.yaml").write_text("name: m\nmaterial: {density: 1, E: 1, nu: 0.2, G_c: 1, colour: red}\n"
+                                     "bcm: {diameter: 2.0e-3, shap: cube}\noutput: {}\n")
+    with pytest.raises(ConfigError) as info:
+        load_material(tmp_path / "m.yaml")
+    assert sorted(str(info.value).splitlines()[1:]) == sorted([
+        "  material.colour: unknown key 'colour'; allowed keys: density, E, nu, G_c, K_IC",
+        "  bcm.shap: unknown key 'shap'; allowed keys: shape, diameter, diameter_kind, n_cells, cell_size",
+        "  output: unknown key 'output'; allowed keys: name, material, bcm, bpm, curves"])
 
 
 def test_toughness_conversions():
@@ -176,3 +197,85 @@ def test_bcm_round_trip(tmp_path, monkeypatch, plugin_path):
     assert 0.4 < p["kt_over_kn"] < 0.8 and p["kt"] == pytest.approx(p["kt_over_kn"] * p["kn"], rel=1e-3)
     for key, tol in (("E", 0.05), ("nu", 0.05), ("G_c", 0.10)):
         assert abs(cal["verify"][key]["relative_error"]) < tol, (key, cal["verify"][key])
+
+
+# ------------------------------------------------------------------------------ Ctrl-C (LAMMPS)
+#: BPM only (the first curve is bpm_moduli), three runs of ~250 disks at a fifth of the default
+#: rate, each running LAMMPS for several seconds.
+SLOW_BPM = """name: slow2d
+material: {density: 2500, E: 7.0e10, nu: 0.2, G_c: 8.0}
+bpm: {dimension: 2, diameter: 2.0e-3, particles_across: 16}
+curves:
+  bpm_moduli: {base: {model.L: 12, scenario.strain_rate: 2.0e-5}, axes: {model.k_A: [0, 2, 4]}, seeds: 1}
+"""
+#: A compare file whose first curve (the BCM block's moduli) runs a 64-cell block for a while.
+SLOW_COMPARE_MATERIAL = """name: slowcmp
+material: {density: 6000, E: 2.21e11, nu: 0.05, G_c: 3.3}
+bcm: {diameter: 2.0e-3, n_cells: 200}
+curves:
+  bcm_moduli: {base: {scenario.block.n_cells: 64, scenario.block.crossings: 40}, axes: {model.interface.kt: [5.0e6]},
+               seeds: 1}
+"""
+SLOW_COMPARE = """name: slowcmp
+material: m.yaml
+grid: {velocity: [2.0], seeds: 1}
+bpm: {particles_across: 7}
+workers: 1
+"""
+
+
+def interrupt_while_a_curve_runs(args: list[str], cwd: Path) -> tuple[int, str, list[dict]]:
+    """`driver ARGS` in cwd with a cache of its own (holding the built plugins), sent SIGINT once
+    a run of a calibration curve runs LAMMPS; (exit code, stderr, the curve runs' status.json)."""
+    cache = cwd / "cache"
+    cache.mkdir()
+    os.symlink(cache_base() / "plugins", cache / "plugins")  # the plugin_path fixture's build
+
+    def statuses() -> list[dict]:
+        out = []
+        for path in cache.glob("calibration/*/runs/*/status.json"):
+            try:
+                out.append(json.loads(path.read_text()))
+            except (OSError, ValueError):  # being written
+                pass
+        return out
+
+    proc = subprocess.Popen([sys.executable, "-m", "driver.cli", *args], cwd=cwd, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env={**os.environ, "BRITTLE_CACHE": str(cache)})
+    deadline = time.time() + 300
+    while time.time() < deadline and not any(s.get("state") == "running" and s.get("phase") == "lammps"
+                                             for s in statuses()):
+        assert proc.poll() is None, proc.communicate()[1][-3000:]
+        time.sleep(0.05)
+    time.sleep(0.5)  # into the run's first chunks
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=300)
+    return proc.returncode, err, statuses()
+
+
+def assert_one_line_stop(code: int, err: str, command: str, runs: list[dict]) -> None:
+    assert code == 130, (code, err[-3000:])
+    assert "Traceback" not in err and "Interrupted" not in err, err[-3000:]
+    last = [ln for ln in err.splitlines() if ln.strip()][-1]
+    assert last.startswith(f"error: {command} interrupted; run the same command again to resume"), last
+    assert any(r["state"] == "interrupted" and r.get("checkpoint_step") for r in runs), runs
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_calibrate_on_dask_with_one_line(tmp_path, plugin_path):
+    """Two Dask workers measure the moduli curve; Ctrl-C: the running runs write a checkpoint and
+    stop, and the command says so in one line (no traceback ending in SweepInterrupted)."""
+    (tmp_path / "m.yaml").write_text(SLOW_BPM)
+    code, err, runs = interrupt_while_a_curve_runs(["calibrate", "m.yaml", "--out", "cal", "--workers", "2"],
+                                                   tmp_path)
+    assert_one_line_stop(code, err, "calibrate", runs)
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_compare_in_process_with_one_line(tmp_path, plugin_path):
+    """`driver compare` (--workers 1: the runs in its own process) stopped while its first curve
+    is measured: one line, exit code 130 (no traceback ending in RunInterrupted)."""
+    (tmp_path / "m.yaml").write_text(SLOW_COMPARE_MATERIAL)
+    (tmp_path / "c.yaml").write_text(SLOW_COMPARE)
+    code, err, runs = interrupt_while_a_curve_runs(["compare", "c.yaml", "--out", "cmp"], tmp_path)
+    assert_one_line_stop(code, err, "compare", runs)

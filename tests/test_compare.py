@@ -170,6 +170,24 @@ def test_compare_file_refusals_and_resolutions(tmp_path):
         material_of(load_compare(write(tmp_path, "c6.yaml", ok.replace("m.yaml", "nope.yaml"))), tmp_path / "c6.yaml")
 
 
+def test_compare_file_unknown_keys_list_the_compare_files_own_keys(tmp_path):
+    """An unknown key is named where the file has it, with the keys allowed there: the compare
+    file's (not a run config's), and those of its sections (bcm, bpm: not taken for the model
+    kinds a run config's messages leave out)."""
+    write(tmp_path, "m.yaml", MATERIAL)
+    ok = "name: c\nmaterial: m.yaml\ngrid: {velocity: [1, 2], seeds: 1}\n"
+    with pytest.raises(ConfigError) as info:
+        load_compare(write(tmp_path, "c.yaml", ok + "output: {dir: x}\nbcm: {n_cellz: 200}\nbpm: {lambda: 1.01}\n"))
+    lines = str(info.value).splitlines()[1:]
+    assert sorted(lines) == sorted([
+        "  output: unknown key 'output'; allowed keys: name, material, test, grid, bcm, bpm, scenario, base, curves, "
+        "breakup_fraction, z_agree, workers",
+        "  bcm.n_cellz: unknown key 'n_cellz'; allowed keys: n_cells, cell_size",
+        "  bpm.lambda: unknown key 'lambda'; allowed keys: particles_across, particle_size, theta_c_deg, lambda_c"])
+    with pytest.raises(ConfigError, match=r"grid.step: unknown key 'step'; allowed keys: velocity, omega, G_c, seeds$"):
+        load_compare(write(tmp_path, "c2.yaml", ok.replace("seeds: 1}", "seeds: 1, step: 2}")))
+
+
 def test_a_calibration_json_as_the_material(tmp_path):
     """driver calibrate's calibration.json: its material, and its BCM result reused while the
     BCM resolution and curves stay the same (a changed n_cells calibrates again)."""
@@ -217,7 +235,7 @@ def test_tiny_grid_writes_tables_plots_report_and_resumes(tmp_path, monkeypatch,
     """Two velocities, one seed, about 200 cells and 220 particles: calibration (small curves),
     4 runs, the tidy and side-by-side tables, the plots and the report; the second call finds
     every run finished and the curves cached."""
-    from driver.plugin_build import cache_base  # noqa: PLC0415
+    from driver.cache import cache_base  # noqa: PLC0415
 
     plugins = cache_base() / "plugins"  # the fixture's build, shared with the test's cache
     monkeypatch.setenv("BRITTLE_CACHE", str(tmp_path / "cache"))

@@ -9,7 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from driver.config import ConfigError, load_config, parse_config, steps_for_strain
+from driver.config import ConfigError, load_config, parse_config
+from driver.schedule import steps_for_strain
 
 GOOD = """
 name: t

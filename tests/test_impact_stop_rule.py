@@ -14,9 +14,10 @@ import pytest
 
 from analysis.impact import read_impact_thermo
 from driver.bcm.particle import contact_timestep, particle_tessellation
-from driver.config import BCMModel, parse_config
+from driver.bcm.section import BCMModel
+from driver.config import parse_config
 from driver.pipeline import execute
-from driver.plugin_build import cache_base
+from driver.cache import cache_base
 from driver.schedule import chunk_steps, settle_windows
 from driver.session import SessionError
 

@@ -38,3 +38,18 @@ def test_report_markdown_and_html(tmp_path):
 
 def test_fmt():
     assert fmt(3.14159265) == "3.142" and fmt(1.5e-7) == "1.5e-07" and fmt(True) == "True" and fmt(7) == "7"
+
+
+def test_a_flag_not_raised_shows_no_value_not_none(tmp_path):
+    """A summary's flag that is None (not raised: the shear's tau_final_flag, the impact's
+    mass_tau when no fit is made) shows the table's no-value dash, in values and in tables,
+    Markdown and HTML alike."""
+    rep = Report("flags")
+    rep.values({"tau_final": 1.706, "tau_final_flag": None, "rule": "the last 20%"}, "summary")
+    rep.table(pd.DataFrame({"step": [0, 100], "tau_flag": [None, "too few grains"]}), "frames")
+    md, page = write_report(rep, tmp_path)
+    text, html = md.read_text(), page.read_text()
+    assert "| tau_final_flag | – |" in text and "| 0 | – |" in text and "| 100 | too few grains |" in text
+    assert "<td>tau_final_flag</td><td>–</td>" in html and "<td>0</td><td>–</td>" in html
+    assert "None" not in text and "None" not in html
+    assert fmt(None) == "–"

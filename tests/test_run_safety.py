@@ -6,8 +6,10 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -15,7 +17,8 @@ import yaml
 from typer.testing import CliRunner
 
 from driver.cli import app
-from driver.rundir import LOCK, MARKER, RunDir, RunDirError, check_location, read_status
+from driver.rundir import LOCK, MARKER, SWEEP_MARKER, RunDir, RunDirError, check_location, claim_dir, read_status
+from driver.sweep_lock import sweep_lock
 
 TINY = {"name": "tiny", "seed": 5, "model": {"kind": "bpm", "dimension": 2, "L": 8},
         "scenario": {"kind": "shear", "strain_rate": 0.02, "max_strain": 0.05, "measure_strains": [0.05],
@@ -140,6 +143,54 @@ def test_second_run_into_busy_directory_fails_naming_the_holder(tmp_path):
     finally:
         holder.release()
     assert read_status(out)["state"] == "running"  # the holder's status was not touched
+
+
+def test_a_sweep_into_a_directory_another_sweep_holds_is_refused_naming_it(tmp_path):
+    """The sweep lock: while a sweep holds its directory, `driver sweep` into it is refused at
+    once (exit 2), naming the holder's pid and command, and writes nothing; released, it is free."""
+    out = claim_dir(tmp_path / "sw", SWEEP_MARKER, "sweep directory")
+    config = write_config(tmp_path)
+    with sweep_lock(out, ["driver", "sweep", "first.yaml"]):
+        res = CliRunner().invoke(app, ["sweep", str(config), "--set", "model.k_A=1,2", "--out", str(out)])
+        assert res.exit_code == 2, res.output
+        assert "busy, a sweep is running there" in res.output and f"pid {os.getpid()}" in res.output
+        assert "driver sweep first.yaml" in res.output
+        with pytest.raises(RunDirError, match="busy"):
+            with sweep_lock(out, ["driver", "sweep", "second.yaml"]):
+                pass
+    assert sorted(p.name for p in out.iterdir()) == sorted([SWEEP_MARKER, ".brittle-sweep.lock"])
+    with sweep_lock(out, ["driver", "sweep", "again.yaml"]):  # released when the holder ended
+        pass
+
+
+@pytest.mark.slow
+def test_two_sweeps_of_one_file_into_one_directory_do_not_run_side_by_side(tmp_path, plugin_path):
+    """Observed: a second `driver sweep` of the same file into the same directory ran beside the
+    first, each reported the other's runs as failed (busy), both exited 1 and both rewrote the
+    set tables. Now the second is refused at once naming the first, which finishes untouched."""
+    config = write_config(tmp_path, model={"L": 16}, scenario={"strain_rate": 0.001, "max_strain": 0.5,
+                                                               "measure_strains": [0.5]})
+    out = tmp_path / "sw"
+    args = ["sweep", str(config), "--set", "seed=1,2", "--out", str(out), "--workers", "1"]
+    first = subprocess.Popen([sys.executable, "-c", "from driver.cli import main; main()", *args],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.time() + 300
+        while time.time() < deadline and (read_status(out / "seed1") or {}).get("phase") != "lammps":
+            assert first.poll() is None, first.communicate()[1][-3000:]
+            time.sleep(0.05)
+        second = cli(*args)
+        assert second.returncode == 2, second.stderr[-3000:]
+        assert "busy, a sweep is running there" in second.stderr and f"pid {first.pid}" in second.stderr
+        _, err = first.communicate(timeout=600)
+    finally:
+        if first.poll() is None:
+            first.send_signal(signal.SIGINT)
+            first.communicate(timeout=120)
+    assert first.returncode == 0 and "failed" not in err, err[-3000:]
+    assert read_status(out / "seed1")["state"] == read_status(out / "seed2")["state"] == "finished"
+    lines = [json.loads(ln) for ln in (out / "sweep_log.jsonl").read_text().splitlines()]
+    assert [ln["outcome"] for ln in lines] == ["complete"]  # one sweep wrote the tables
 
 
 # ------------------------------------------------------------------ sweeps and sets

@@ -16,10 +16,10 @@ import pandas as pd
 import pytest
 import yaml
 
-from analysis.powerlaw import sample_power_law
-from analysis.runset import RunSetError, find_runs
+from analysis.runset import RunSetError, survey_runs
 from analysis.statistics import mass_distribution
 from driver.sets import analyse_set
+from powerlaw_samples import sample_power_law
 
 TAU, ALPHA, GAMMA, PHI, NU_ALPHA = 1.8, 1.0, 1.5, 0.7, 0.5
 STRAINS = [0.1, 0.2, 0.4, 0.8]
@@ -228,7 +228,7 @@ def test_sets_of_several_kinds_are_analysed_per_kind(tmp_path, size_set):
     """A shear sweep and an impact run named together: each (model, scenario) group gets its
     own analysis in its folder, and the top report lists the groups."""
     impact = fake_impact_run(tmp_path / "imp", 3.0, 1)
-    n_shear = len(find_runs([size_set]))
+    n_shear = len(survey_runs([size_set])[0])  # its finished runs
     out = tmp_path / "o"
     result = analyse_set([size_set, impact], out, n_bootstrap=0)
     assert set(result["groups"]) == {"bpm_shear", "bcm_impact"}
@@ -247,7 +247,7 @@ def test_sets_refused_with_reasons(tmp_path):
     fake_impact_run(unfinished / "a", 3.0, 1)
     (unfinished / "a" / "status.json").write_text(json.dumps({"state": "running"}))
     with pytest.raises(RunSetError, match="no finished runs.*not finished: running"):
-        find_runs([unfinished])
+        analyse_set([unfinished], tmp_path / "o1")
     proc = subprocess.run([sys.executable, "-m", "driver.cli", "scaling", str(unfinished), "--out",
                            str(tmp_path / "o2")], capture_output=True, text=True)
     assert proc.returncode == 2 and "no finished runs" in proc.stderr

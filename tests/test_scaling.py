@@ -7,10 +7,9 @@ each fit must land within its stated uncertainty of the truth.
 from __future__ import annotations
 
 import numpy as np
-import pandas as pd
 import pytest
 
-from analysis.scaling import (Curve, collapse_cost, curves_from_table, finite_rate_rescale, finite_size_rescale,
+from analysis.scaling import (Curve, collapse_cost, finite_rate_rescale, finite_size_rescale,
                               fit_collapse, fit_finite_rate, fit_finite_size, fit_growth, fit_moment_collapse,
                               fit_threshold_power, locate_threshold, moment_curves, moment_rescale, omega_0, omega_1,
                               threshold_power)
@@ -120,14 +119,6 @@ def test_second_moment_collapse():
     fit = fit_moment_collapse(moment_curves(L, edot, m2, 0.03), D, p0=(1.0, 1.0), n_bootstrap=40)
     assert abs(fit.params["alpha"] - ALPHA) < 2 * fit.sigma["alpha"]
     assert abs(fit.params["nu"] - NU) < 2 * fit.sigma["nu"]
-
-
-def test_curves_from_table():
-    t = pd.DataFrame({"L": [10, 10, 10, 20, 20], "edot": [1e-3] * 5, "m_mean": [3, 5, 8, 3, 5],
-                      "N": [4.0, 1.0, 0.0, 8.0, 2.0], "count": [16, 4, 0, 64, 16]})
-    curves = curves_from_table(t, by=["L", "edot"])
-    assert [c.params for c in curves] == [{"L": 10.0, "edot": 1e-3}, {"L": 20.0, "edot": 1e-3}]
-    assert curves[0].x.tolist() == [3, 5] and np.allclose(curves[0].sigma_lny, [0.25, 0.5])  # empty bin dropped
 
 
 def test_growth_exponent():

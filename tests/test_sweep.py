@@ -10,25 +10,32 @@ import pytest
 import yaml
 
 from driver.config import ConfigError
-from driver.sweep import expand, parse_assignment
+from driver.sweep import load_sweep, parse_assignment
 
 BASE = {"name": "sw", "seed": 2, "model": {"kind": "bpm", "dimension": 2, "L": 8},
         "scenario": {"kind": "shear", "strain_rate": 0.02, "max_strain": 0.1, "measure_strains": [0.1],
                      "thermo_every": 100}}
 
 
+def expand(tmp_path, *assignments: str):
+    """The runs of `driver sweep b.yaml --set A --set B ...` into tmp_path/sweep."""
+    base = tmp_path / "b.yaml"
+    base.write_text(yaml.safe_dump(BASE))
+    return load_sweep(base, list(assignments), out=tmp_path / "sweep").runs
+
+
 def test_parse_and_expand(tmp_path):
     assert parse_assignment("scenario.strain_rate=0.01,0.02") == ("scenario.strain_rate", [0.01, 0.02])
-    runs = expand(BASE, [parse_assignment("model.k_A=1,2"), parse_assignment("seed=3,4")], tmp_path, "b.yaml")
+    runs = expand(tmp_path, "model.k_A=1,2", "seed=3,4")
     assert len(runs) == 4
     assert {(v["model.k_A"], v["seed"]) for v, _ in runs} == {(1, 3), (1, 4), (2, 3), (2, 4)}
-    assert all(c.run_dir().parent == tmp_path for _, c in runs)
+    assert all(c.run_dir().parent == tmp_path / "sweep" for _, c in runs)
     assert runs[0][1].model.k_A == 1 and runs[0][1].seed == 3
 
 
 def test_bad_value_refused_before_running(tmp_path):
     with pytest.raises(ConfigError, match="lambda_c"):
-        expand(BASE, [parse_assignment("model.lambda_c=1.05,0.5")], tmp_path, "b.yaml")
+        expand(tmp_path, "model.lambda_c=1.05,0.5")
     with pytest.raises(ConfigError):
         parse_assignment("model.k_A")
 

@@ -1,8 +1,11 @@
 """Sweep files (`driver sweep sweep.yaml`): axes, zip groups, ranges, seeds, base, names, dry
-run and its cost estimate. Nothing here runs a simulation."""
+run and its cost estimate; the sweep's table and progress where they are not written to a
+terminal; and, in real LAMMPS, sweeps on a local Dask cluster (a failed run recorded, an
+interrupted sweep resumed)."""
 
 from __future__ import annotations
 
+import io
 import json
 import os
 from pathlib import Path
@@ -10,9 +13,10 @@ from pathlib import Path
 import pandas as pd
 import pytest
 import yaml
+from rich.console import Console
 from typer.testing import CliRunner
 
-from driver.cli import app
+from driver.cli import app, print_runs
 from driver.config import ConfigError, resolved_yaml
 from driver.estimate import estimate
 from driver.sweep import load_sweep, plan, short_keys, value_list
@@ -266,6 +270,13 @@ def test_sweep_on_a_local_dask_cluster_records_a_failed_run(tmp_path, plugin_pat
     assert sorted(n for n, st in status.items() if st["state"] == "finished") == ["n_cells16", "n_cells20",
                                                                                   "n_cells24"]
     assert status["n_cells2"]["state"] == "failed" and "LammpsError" in status["n_cells2"]["error"]
+    # written to pipes, the progress and the table are lines (not a live bar, not a squeezed grid)
+    assert "sweep: 4/4 done, 0 running, 1 failed, 0 pending" in proc.stderr, proc.stderr[-3000:]
+    assert "━" not in proc.stderr
+    header, *rows = [ln.split("\t") for ln in proc.stdout.splitlines()]
+    assert "state" in header and "run_dir" in header and "…" not in proc.stdout and "┃" not in proc.stdout
+    assert sorted(dict(zip(header, r))["run_dir"] for r in rows) == [str(out / n) for n in
+                                                                      ("n_cells16", "n_cells20", "n_cells24")]
     table = pd.read_csv(out / "sweep.csv").set_index("model.n_cells")
     assert table.loc[2, "state"] == "failed" and "bcm/griffith" in table.loc[2, "error"]
     assert (table.loc[[16, 20, 24], "state"] == "finished").all() and table.loc[[16, 20, 24], "D_w"].notna().all()
@@ -334,6 +345,26 @@ def test_interrupting_a_dask_sweep_and_running_it_again_resumes_it(tmp_path, plu
         assert len(resumed) == 1 and resumed[0]["from_step"] > 0
     table = pd.read_csv(out / "sweep.csv")
     assert sorted(table.state) == ["finished"] * 4
+
+
+def test_the_runs_table_is_lines_where_it_is_not_written_to_a_terminal():
+    """Many columns and long values: to a file or a pipe, a header line and one tab-separated
+    line per run with every value whole; on a terminal, the table."""
+    runs = pd.DataFrame([{"seed": s, "run_dir": f"/a/long/path/to/the/sweep/run_seed{s}", "state": "finished",
+                          **{f"measure_{k}": 0.123456789 * k for k in range(25)},
+                          "rule": "records with strain in (0.8, 1], the last 20% of the strain reached"}
+                         for s in (1, 2)])
+    shown = list(runs.columns)
+    piped = io.StringIO()
+    print_runs(runs, shown, Console(file=piped, width=120))
+    lines = piped.getvalue().splitlines()
+    assert lines[0].split("\t") == shown and len(lines) == 3
+    assert lines[2].split("\t")[:3] == ["2", "/a/long/path/to/the/sweep/run_seed2", "finished"]
+    assert lines[2].split("\t")[-2:] == ["2.963", "records with strain in (0.8, 1], the last 20% of the strain reached"]
+    assert "…" not in piped.getvalue() and "┃" not in piped.getvalue()
+    terminal = io.StringIO()
+    print_runs(runs, ["seed", "state"], Console(file=terminal, width=120, force_terminal=True))
+    assert "┃" in terminal.getvalue()
 
 
 # ------------------------------------------------------------------------- aggregation

@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from driver import estimate as est
+from driver.size_model import bcm_interfaces
 from driver.config import MAX_CONFIG_BYTES, ConfigError, RunConfig, load_config, parse_config
 
 HEAD = "name: t\nmodel: {kind: bpm}\nscenario:\n  kind: shear\n"
@@ -144,7 +145,7 @@ def test_bpm_counts_follow_packing_and_network_rules():
 
 @pytest.mark.parametrize("n_cells,interfaces", [(300, 1716), (1728, 10854), (8000, 52652)])
 def test_bcm_interfaces_match_measured_tessellations(n_cells, interfaces):
-    assert abs(est.bcm_interfaces(n_cells) - interfaces) < 0.02 * interfaces
+    assert abs(bcm_interfaces(n_cells) - interfaces) < 0.02 * interfaces
 
 
 def test_bcm_steps_bound_the_measured_run():

@@ -95,15 +95,14 @@ class BlockTessellation:
 
     Cells (n = n_cells), absolute coordinates: ``seeds`` (n, 3) generators, wrapped into the
     box; ``volume`` (n,); ``centroid`` (n, 3) of the cell polyhedron around its seed (not
-    wrapped: up to a cell size outside the box; see ``wrapped_centroid``, ``centroid_image``);
+    wrapped: up to a cell size outside the box; see ``wrapped_centroid``);
     ``inertia`` (n, 3, 3) about the centroid; ``principal_moments`` (n, 3) ascending;
     ``principal_axes`` (n, 3, 3), columns, a proper rotation R with ``x_lab = R x_body``;
     ``quaternion`` (n, 4) (w, x, y, z) of R. Unit density.
 
     Cell vertices: ``vertices`` (v, 3) absolute, grouped by cell: cell i owns rows
     ``cell_vertex_ptr[i]:cell_vertex_ptr[i+1]`` (its own copy: a vertex shared by cells
-    appears once per cell). ``cell_polyhedron(i)`` and ``body_cells()`` give them with local
-    face indices, in the lab and body frames.
+    appears once per cell). ``cell_polyhedron(i)`` gives them with local face indices.
 
     Cell faces (one row per face per cell; every interface appears twice, once from each side),
     grouped by cell (rows ``cell_face_ptr[i]:cell_face_ptr[i+1]``), ordered by neighbour and
@@ -185,16 +184,6 @@ class BlockTessellation:
         return len(self.iface_area)
 
     @property
-    def total_interface_area(self) -> float:
-        """A_0 = sum of interface areas (SPEC 1.2)."""
-        return float(self.iface_area.sum())
-
-    @property
-    def centroid_image(self) -> np.ndarray:
-        """(n, 3) int: ``centroid = wrapped_centroid + centroid_image * lengths`` (LAMMPS image flags)."""
-        return np.floor(self.centroid / self.lengths).astype(np.int64)
-
-    @property
     def wrapped_centroid(self) -> np.ndarray:
         """(n, 3) centroids wrapped into the box."""
         return wrap(self.centroid, self.lengths)
@@ -213,16 +202,6 @@ class BlockTessellation:
         rows = range(self.cell_face_ptr[i], self.cell_face_ptr[i + 1])
         return (self.vertices[start:self.cell_vertex_ptr[i + 1]],
                 [self.face_loop(a) - start for a in rows])
-
-    def body_cells(self) -> tuple[list[np.ndarray], list[list[np.ndarray]]]:
-        """Every cell in its body frame (origin at the centroid, principal axes), as
-        ``runfiles.cells.write_cells`` takes them: vertices ``R^T (v - c)`` and face loops."""
-        verts, faces = [], []
-        for i in range(self.n_cells):
-            v, f = self.cell_polyhedron(i)
-            verts.append((v - self.centroid[i]) @ self.principal_axes[i])
-            faces.append(f)
-        return verts, faces
 
     def faces_per_cell(self) -> np.ndarray:
         """Number of faces (= interfaces, counting a self-interface twice) of each cell (n,)."""
@@ -591,9 +570,9 @@ def cached_periodic_cvt(lengths, n_cells: int, seed: int, tol: float = 2e-3, max
                         min_face_area_rel: float = 1e-10) -> BlockTessellation:
     """``periodic_cvt(...)``, read from ``cache_dir/block_<key>.npz`` when present, computed
     and written there otherwise (key: ``block_key``). Default ``cache_dir``:
-    ``driver.plugin_build.cache_base() / "blocks"``."""
+    ``driver.cache.cache_base() / "blocks"``."""
     if cache_dir is None:
-        from driver.plugin_build import cache_base  # the project's one cache location
+        from driver.cache import cache_base  # the project's one cache location
         cache_dir = cache_base() / "blocks"
     lengths = np.asarray(lengths, dtype=float).reshape(3)
     key = block_key(lengths, n_cells, seed, tol, max_iter, min_face_area_rel)

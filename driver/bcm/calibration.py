@@ -18,8 +18,8 @@ every stiffness by a factor s scales dt and T by 1/sqrt(s) and leaves the number
 every phase unchanged: the dynamics are exactly similar and B, G scale by s to round-off.
 
 moduli (the interfaces made unbreakable, G_c = UNBREAKABLE_GC: the moduli of the intact
-block): the phases of driver/bpm/moduli.py (isotropic compression at true strain rate
-edot, simple shear of the tilts xy, xz, yz at edot, then all again at edot / 2), each from
+block): the phases of the moduli protocol, driver/moduli_protocol.py (isotropic compression at
+true strain rate edot, simple shear of the tilts xy, xz, yz at edot, then all again at edot / 2), each from
 the undeformed block (the start's restart file read back: positions, orientations, box,
 interface reference state), edot = max_strain / (3 crossings T): the fast compression phase
 lasts ``block.crossings`` crossing times (its shear phases three times that).
@@ -41,6 +41,7 @@ import numpy as np
 from driver.bcm import styles
 from driver.bcm.block import BlockTessellation, cached_periodic_cvt
 from driver.bcm.tessellation import Cell, erode
+from driver.moduli_protocol import phases, record_every, resume_phase, write_phase_files
 
 #: Cell-props fix shared by the fresh start and every restart (plugins/src/bcm_rigid.h).
 CELL_PROPS = "fix             cellprops all property/atom d2_bcm_quat 4 d2_bcm_inertia 3 d2_bcm_angmom 3 ghost yes"
@@ -200,7 +201,7 @@ def block_section(cfg):
 
 
 def _build(cfg, rd, unbonded_of=None) -> tuple[BlockTessellation, BlockFacts]:
-    from driver.plugin_build import cache_base  # noqa: PLC0415
+    from driver.cache import cache_base  # noqa: PLC0415
 
     blk = block_section(cfg)
     tess = block_of(cfg.model, blk, cfg.seed, cache_base() / "blocks")
@@ -215,7 +216,6 @@ def moduli_rate(max_strain: float, crossings: float, crossing_time: float) -> fl
 
 def run_moduli(cfg, rd, plugin_path: Path) -> tuple[dict, object]:
     """Build the block, write the phases, inputs and schedule of a moduli run."""
-    from driver.bpm.moduli import MIN_RECORDS, phase_file, phases, resume_phase  # noqa: PLC0415
     from driver.schedule import chunk_steps, segments, write_session  # noqa: PLC0415
     from runfiles.atomic import atomic_write_json, atomic_write_text  # noqa: PLC0415
 
@@ -223,9 +223,8 @@ def run_moduli(cfg, rd, plugin_path: Path) -> tuple[dict, object]:
     tess, facts = _build(cfg, rd)
     rate = moduli_rate(sc.max_strain, blk.crossings, facts.crossing_time)
     plan = phases(3, rate, sc.max_strain, facts.timestep)
-    every = max(1, min(sc.thermo_every, min(p.steps for p in plan) // MIN_RECORDS))
-    for p in plan:
-        atomic_write_text(rd.root / f"phase_{p.index}.lammps", phase_file(p, 3, facts.timestep))
+    every = record_every(sc.thermo_every, plan)
+    write_phase_files(rd.root, plan, 3, facts.timestep)
     styles = _styles(cfg.model, facts.r_m, UNBREAKABLE_GC)
     common = dict(cfg=cfg, plugin_path=plugin_path, facts=facts, every=every)
     # the start's restart holds no fix deform: each phase defines its own after reading it back

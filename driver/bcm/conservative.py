@@ -45,7 +45,7 @@ def intact_particle(work: Path, model, seed: int, rng: np.random.Generator, gap:
     `setup`, the format keys of CONSERVATIVE_SETUP but dt (the impact's input settings)."""
     from driver.bcm.lammps_files import write_particle  # noqa: PLC0415
     from driver.bcm.particle import build_particle, contact_timestep, particle_tessellation  # noqa: PLC0415
-    from driver.plugin_build import cache_base  # noqa: PLC0415
+    from driver.cache import cache_base  # noqa: PLC0415
 
     tess = particle_tessellation(model, seed, cache_base() / "tessellations")
     part = build_particle(tess, model.density, model.rounding, rng, plane_z=0.0, gap=gap, orient=orient)

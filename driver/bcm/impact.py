@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -14,16 +15,18 @@ from analysis.tables import save_table
 from driver.bcm import styles
 from driver.bcm.cellstats import cell_statistics, plot_cell_stats
 from driver.bcm.lammps_files import write_particle
-from runfiles.cells import write_cells
 from driver.bcm.particle import build_particle, contact_timestep, particle_tessellation
-from driver.config import RunConfig
-from driver.plugin_build import cache_base
-from runfiles.atomic import atomic_write_json
-from driver.rundir import RunDir
+from driver.cache import cache_base
 from driver.runner import ProgressSpec
 from driver.schedule import chunk_steps, settle, settle_windows, write_session
 from driver.templates import render
+from runfiles.atomic import atomic_write_json
+from runfiles.cells import write_cells
 from runfiles.records import CELLS_DUMP, IMPACT_RECORD, INTERFACES_DUMP
+
+if TYPE_CHECKING:  # for readers and checkers only
+    from driver.config import RunConfig
+    from driver.rundir import RunDir
 
 # the plane has "loaded" the particle once it has given back this fraction of the incoming momentum
 LOADED_FRACTION = 0.5

@@ -266,15 +266,6 @@ class ConvexShape:
         return np.all(p @ self.normals.T <= self.offsets + tol, axis=-1)
 
     @property
-    def n_faces(self) -> int:
-        return len(self.faces)
-
-    @property
-    def face_sides(self) -> np.ndarray:
-        """Number of vertices (= sides) of each face."""
-        return np.array([len(f) for f in self.faces])
-
-    @property
     def edges(self) -> np.ndarray:
         """Undirected edges ``(E, 2)``, ``i < j``, each once."""
         e = np.concatenate([np.c_[f, np.roll(f, -1)] for f in self.faces])
@@ -403,12 +394,6 @@ def _gp30_unit() -> tuple[tuple[float, float, float], ConvexShape]:
     return tuple(float(t) for t in x), _shape_from_halfspaces(normals, offsets, {})
 
 
-def gp30_parameters() -> dict[str, float]:
-    """The solved GP(3,0) construction parameters (pentagon plane offset = 1)."""
-    (theta, h6, h60), _ = _gp30_unit()
-    return {"theta": theta, "h_pentagon": 1.0, "h_hexagon": h6, "h_other": h60}
-
-
 def truncated_pentakis_dodecahedron(diameter: float = 2e-3,
                                     diameter_kind: DiameterKind = "circumscribed") -> ConvexShape:
     """The Goldberg polyhedron GP(3,0) (SPEC 1.1): 92 faces, 180 vertices, 270 edges.
@@ -441,7 +426,6 @@ def truncated_pentakis_dodecahedron(diameter: float = 2e-3,
     This is a truncated pentakis dodecahedron: the 60 planes alone meet in fives above every
     icosahedron vertex and in sixes above every dodecahedron vertex (the pentakis
     dodecahedron); the pentagon and hexagon planes truncate those vertices.
-    ``gp30_parameters()`` returns the solved values.
     """
     _, unit = _gp30_unit()
     shape = _scaled(unit, diameter, diameter_kind)

@@ -49,7 +49,7 @@ import numpy as np
 from scipy.spatial import Delaunay, Voronoi
 
 from driver.bcm.polyhedra import (ConvexShape, build_shape, chebyshev_center, halfspace_polyhedron,
-                               merge_close_points, polygon_vector_area, polyhedron_mass_properties,
+                               merge_close_points, polyhedron_mass_properties,
                                principal_axes, rotation_to_quaternion, tetra_mass_properties)
 from runfiles.atomic import atomic_save
 
@@ -94,10 +94,6 @@ class Cell:
     principal_moments: np.ndarray
     principal_axes: np.ndarray
     quaternion: np.ndarray
-
-    @property
-    def face_areas(self) -> np.ndarray:
-        return np.array([np.linalg.norm(polygon_vector_area(self.vertices[f])) for f in self.faces])
 
 
 @dataclass(eq=False)
@@ -179,11 +175,6 @@ class Tessellation:
     @property
     def n_interfaces(self) -> int:
         return len(self.iface_area)
-
-    @property
-    def total_interface_area(self) -> float:
-        """A_0 = sum of interface areas (SPEC 1.2)."""
-        return float(self.iface_area.sum())
 
     def face_loop(self, face: int) -> np.ndarray:
         return self.face_vertices[self.face_ptr[face]:self.face_ptr[face + 1]]

@@ -30,7 +30,7 @@ import numpy as np
 
 from driver.bcm.particle import parent_shape
 from driver.bcm.polyhedra import ConvexShape
-from driver.bpm.mode1 import keep_subnetwork
+from driver.bpm.cuts import keep_subnetwork
 from driver.bpm.network import Network
 from driver.bpm.packing import Packing
 

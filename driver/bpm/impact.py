@@ -28,17 +28,18 @@ from pathlib import Path
 
 import numpy as np
 
-import driver
 from driver.bcm.placement import random_rotation
 from driver.bpm.clipped import box_side, clip_packing, parent_in_a, voronoi_cells
 from driver.bpm.datafile import write_references
+from driver.bpm.input_blocks import SYSTEM_RESUME, comm_cutoff, common_values, periodic_dumps, styles, write_dumps
 from driver.bpm.network import Network, delaunay_network, repulsion_at_break
 from driver.bpm.packing import cached_packing
-from driver.plugin_build import cache_base
+from driver.cache import cache_base
+from driver.runner import ProgressSpec
 from driver.schedule import chunk_steps, settle, settle_windows, write_session
 from driver.templates import render
 from runfiles.atomic import atomic_save, atomic_write_json
-from runfiles.records import BONDS_DUMP, BPM_IMPACT_RECORD, atoms_dump
+from runfiles.records import BPM_IMPACT_RECORD
 
 # the plane has "loaded" the particle once it has given back this fraction of the incoming
 # momentum (the BCM impact's rule, driver/bcm/impact.py)
@@ -173,13 +174,10 @@ atom_modify     map array
 newton          on off
 special_bonds   lj 0 1 1 coul 1 1 1
 read_data       system.data"""
-SYSTEM_RESUME = "read_restart    ${checkpoint}"
 
 
 def _dump_commands(name: str) -> str:
-    atoms = atoms_dump(3)
-    return (f"write_dump      all custom dumps/atoms.{name}.lammpstrj {atoms.args()} modify sort id {atoms.modify()}\n"
-            f"write_dump      all local dumps/bonds.{name}.lammpstrj {BONDS_DUMP.args()} modify {BONDS_DUMP.modify()}")
+    return write_dumps(f"dumps/atoms.{name}.lammpstrj", f"dumps/bonds.{name}.lammpstrj", 3)
 
 
 def render_inputs(cfg, plugin_path: Path, system: dict) -> tuple[str, str, dict]:
@@ -193,27 +191,18 @@ def render_inputs(cfg, plugin_path: Path, system: dict) -> tuple[str, str, dict]
     v0 = system["velocity_lj"]
     periodic = "compute         bl all property/local batom1 batom2 btype"
     if sc.dump_every > 0:
-        atoms = atoms_dump(3)
-        periodic += (f"\ndump            atoms all custom {sc.dump_every} dumps/atoms.*.lammpstrj {atoms.args()}\n"
-                     f"dump_modify     atoms sort id {atoms.modify()}\n"
-                     f"dump            bonds all local {sc.dump_every} dumps/bonds.*.lammpstrj {BONDS_DUMP.args()}\n"
-                     f"dump_modify     bonds {BONDS_DUMP.modify()}")
-    comm_cutoff = 2.0 * m.lambda_c * system["max_r0"] + m.skin
-    common = dict(
-        package_version=driver.__version__, config_name=cfg.name, plugin_path=plugin_path,
+        periodic += "\n" + periodic_dumps(3, sc.dump_every)
+    # one particle type: a single repulsion pair, of cut-off DIAMETER
+    common = common_values(
+        cfg, plugin_path, comm_cutoff(m, system["max_r0"], DIAMETER), sc.thermo_every, BPM_IMPACT_RECORD,
         a_m=f"{un['a']:.6g}", m_kg=f"{un['m']:.6g}", u_J=f"{un['u']:.6g}", tau_s=f"{tau:.17g}",
-        comm_cutoff=f"{comm_cutoff:.6g}", skin=m.skin, timestep=f"{dt:.12g}",
-        steps_per_period=f"{sc.steps_per_period:g}", kn=f"{law['kn']:.12g}", kt=f"{law['kt']:.12g}",
-        eta_n=f"{law['eta_n']:.12g}", mu=f"{law['mu']:.12g}", thermo_every=sc.thermo_every,
-        plane_fix=plane_fix(law), periodic_dumps=periodic, record_print=BPM_IMPACT_RECORD.print_text(),
-        record_title=BPM_IMPACT_RECORD.title(), window_steps=window, max_windows=max_windows,
-        ke_tolerance=sc.ke_tolerance)
-    styles = (f"pair_style      cr/repulsion\npair_coeff      1 1 1.0 {DIAMETER!r} {m.gamma:.12g}\n"
-              f"bond_style      breakable/cr\nbond_coeff      1 {m.lambda_c} {m.gamma}\n"
-              f"angle_style     breakable/cr\nangle_coeff     1 {m.k_A} {m.theta_c_deg} {m.lambda_c}")
+        timestep=f"{dt:.12g}", steps_per_period=f"{sc.steps_per_period:g}", kn=f"{law['kn']:.12g}",
+        kt=f"{law['kt']:.12g}", eta_n=f"{law['eta_n']:.12g}", mu=f"{law['mu']:.12g}", plane_fix=plane_fix(law),
+        periodic_dumps=periodic, window_steps=window, max_windows=max_windows, ke_tolerance=sc.ke_tolerance)
     setup = render(
         "bpm_impact.in", role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).",
-        system=SYSTEM_FRESH, styles=styles, velocity=f"velocity        all set 0.0 0.0 {-v0!r} units box",
+        system=SYSTEM_FRESH, styles=styles(m, f"pair_coeff      1 1 1.0 {DIAMETER!r} {m.gamma:.12g}"),
+        velocity=f"velocity        all set 0.0 0.0 {-v0!r} units box",
         record_target="file thermo.dat", step0=0,
         start=("run             0\n" + _dump_commands("start") +
                "\nvariable        nb_prev equal ${nb}\nvariable        ke_prev equal ${kin}"
@@ -261,8 +250,7 @@ def run_impact(cfg, rd, plugin_path: Path):
     return system, progress_spec(cfg, system)
 
 
-def progress_spec(cfg, system: dict):
-    from driver.runner import ProgressSpec  # noqa: PLC0415
-
+def progress_spec(cfg, system: dict) -> ProgressSpec:
+    """The progress fields of a BPM impact: the time and the bonds broken."""
     return ProgressSpec(file="thermo.dat", total_steps=system["max_steps"], label=cfg.name,
                         columns={name: BPM_IMPACT_RECORD.column(name) for name in ("time", "bonds_broken")})

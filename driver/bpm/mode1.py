@@ -23,45 +23,22 @@ sigma = (F_bottom,y - F_top,y) / (2 W T), W = L the sample width; T the slab thi
 
 from __future__ import annotations
 
-import math
+import time
 
 import numpy as np
 
+from driver.bpm.cuts import inside_ellipse, keep_subnetwork, segment_meets_ellipse
+from driver.bpm.datafile import write_data
+from driver.bpm.input_blocks import (SYSTEM_FRESH, SYSTEM_RESUME, comm_cutoff, common_values, pair_coeff_lines,
+                                     styles)
 from driver.bpm.network import Network
 from driver.bpm.packing import Packing
-
-
-def _ellipse_frame(points: np.ndarray, centre: np.ndarray, semi: np.ndarray, angle: float) -> np.ndarray:
-    """Points (N, >= 2) in the ellipse's frame scaled by its semi-axes, where the ellipse is the
-    unit disk: rotated by -angle about the centre (angle: the major axis from +x, radians,
-    counter-clockwise), then divided by the semi-axes. angle = 0 skips the rotation, so an
-    axis-aligned ellipse gives exactly the floats it always gave."""
-    q = np.asarray(points, float)[:, :2] - centre
-    if angle:
-        c, s = math.cos(angle), math.sin(angle)
-        q = np.stack([c * q[:, 0] + s * q[:, 1], -s * q[:, 0] + c * q[:, 1]], axis=1)
-    return q / semi
-
-
-def inside_ellipse(points: np.ndarray, centre: np.ndarray, semi: np.ndarray, angle: float = 0.0) -> np.ndarray:
-    """Whether each point (N, >= 2) lies strictly inside the ellipse of semi-axes `semi` (major,
-    minor) around `centre`, its first axis at `angle` (radians) from +x."""
-    q = _ellipse_frame(points, centre, semi, angle)
-    return np.einsum("ij,ij->i", q, q) < 1.0
-
-
-def segment_meets_ellipse(p0: np.ndarray, p1: np.ndarray, centre: np.ndarray, semi: np.ndarray,
-                          angle: float = 0.0) -> np.ndarray:
-    """Whether each segment p0 -> p1 ((N, 2) each) meets the closed ellipse of semi-axes `semi`
-    around `centre`, its first axis at `angle` (radians) from +x: in the ellipse's frame scaled by
-    the semi-axes (an affine map, so segments stay segments) the ellipse is the unit disk, and
-    the segment's closest point to the origin is at t* = clamp(-q0.d / d.d, 0, 1)."""
-    q0 = _ellipse_frame(p0, centre, semi, angle)
-    d = _ellipse_frame(p1, centre, semi, angle) - q0
-    dd = np.einsum("ij,ij->i", d, d)
-    t = np.clip(-np.einsum("ij,ij->i", q0, d) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
-    closest = q0 + t[:, None] * d
-    return np.einsum("ij,ij->i", closest, closest) <= 1.0
+from driver.bpm.slab import fracture_sample
+from driver.runner import ProgressSpec
+from driver.schedule import chunk_steps, segments, total_steps, write_session
+from driver.templates import render
+from runfiles.atomic import atomic_write_json
+from runfiles.records import MODE1_RECORD
 
 
 def cut_sample(packing: Packing, net: Network, void_axes: tuple[float, float] | None
@@ -89,51 +66,13 @@ def cut_sample(packing: Packing, net: Network, void_axes: tuple[float, float] | 
     return sample, network, removed
 
 
-def keep_subnetwork(packing: Packing, net: Network, keep_atom: np.ndarray, keep_bond: np.ndarray
-                    ) -> tuple[Packing, Network, np.ndarray]:
-    """The packing and network reduced to the atoms `keep_atom` and the bonds `keep_bond` (both
-    ends of a kept bond must be kept atoms), renumbered in order, with the angles whose two arms
-    are kept bonds (SPEC 2.1: an angle exists only on two intact bonds); and which angles were kept."""
-    b, n = net.bonds, packing.n
-    kept = b[keep_bond, 0] * n + b[keep_bond, 1]  # bonds are stored with i < j
-
-    def arm(i: np.ndarray, j: np.ndarray) -> np.ndarray:
-        return np.isin(np.minimum(i, j) * n + np.maximum(i, j), kept)
-
-    a = net.angles.reshape(-1, 3)
-    keep_angle = arm(a[:, 0], a[:, 1]) & arm(a[:, 1], a[:, 2])
-    new_index = np.cumsum(keep_atom) - 1  # monotone: sorted bonds and angles stay sorted
-    x = packing.positions
-    sample = Packing(positions=x[keep_atom], radii=packing.radii[keep_atom], types=packing.types[keep_atom],
-                     box=packing.box, dimension=packing.dimension, relaxation=packing.relaxation)
-    network = Network(bonds=new_index[b[keep_bond]], r0=net.r0[keep_bond], angles=new_index[a[keep_angle]],
-                      theta0=net.theta0[keep_angle], n_atoms=int(keep_atom.sum()))
-    return sample, network, keep_angle
-
-
 def pull_velocity(strain_rate: float, L: float) -> float:
     """Speed of each grip: the grips separate at 2 v = edot L (nominal strain rate edot)."""
     return 0.5 * strain_rate * L
 
 
-def total_steps(max_strain: float, strain_rate: float, timestep: float) -> int:
-    """Steps to the nominal strain max_strain at edot."""
-    return int(math.ceil(max_strain / (strain_rate * timestep)))
-
-
-def run_mode1(cfg, rd, plugin_path) -> tuple[dict, object]:
+def run_mode1(cfg, rd, plugin_path) -> tuple[dict, ProgressSpec]:
     """Build the sample, write the inputs and schedule; returns (system facts, progress)."""
-    import time  # noqa: PLC0415
-
-    import driver  # noqa: PLC0415
-    from driver.bpm.datafile import write_data  # noqa: PLC0415
-    from driver.bpm.shear import SYSTEM_FRESH, SYSTEM_RESUME, pair_coeff_lines  # noqa: PLC0415
-    from driver.bpm.slab import fracture_sample  # noqa: PLC0415
-    from driver.schedule import chunk_steps, segments, write_session  # noqa: PLC0415
-    from driver.templates import render  # noqa: PLC0415
-    from runfiles.atomic import atomic_write_json  # noqa: PLC0415
-    from runfiles.records import MODE1_RECORD  # noqa: PLC0415
-
     t0 = time.perf_counter()
     m, sc = cfg.model, cfg.scenario
     # the unit's check (driver/scenarios/bpm_calibrate.py) has refused a sample without the void
@@ -144,24 +83,17 @@ def run_mode1(cfg, rd, plugin_path) -> tuple[dict, object]:
     write_data(rd.root / "system.data", sample, network)
     lo, hi = (np.asarray(b, float) for b in packing.box)
     centre = 0.5 * (lo + hi)
-    types = {int(t): float(2 * sample.radii[sample.types == t][0]) for t in np.unique(sample.types)}
+    types = sample.type_diameters()
     pair_lines, max_abar = pair_coeff_lines(types, m.gamma)
-    comm_cutoff = max(2.0 * m.lambda_c * float(np.max(network.r0)), max_abar) + m.skin
     v = pull_velocity(sc.strain_rate, m.L)
     steps = total_steps(sc.max_pull_strain, sc.strain_rate, m.timestep)
     y_top, y_bottom = hi[1] - sc.grip_width, lo[1] + sc.grip_width
     width = float(hi[0] - lo[0])
     # the cross-section the grips pull on: W T in 3D, W (per unit length) in 2D
     thickness = float(hi[2] - lo[2]) if m.dimension == 3 else 1.0
-    common = dict(
-        package_version=driver.__version__, config_name=cfg.name, plugin_path=plugin_path,
-        comm_cutoff=f"{comm_cutoff:.6g}", skin=m.skin, timestep=m.timestep, thermo_every=sc.thermo_every,
-        enforce2d="fix             planar all enforce2d" if m.dimension == 2 else "", velocity=f"{v:.12g}",
-        width=f"{width:.12g}", area=f"{width * thickness:.12g}", record_print=MODE1_RECORD.print_text(),
-        record_title=MODE1_RECORD.title())
-    styles = (f"pair_style      cr/repulsion\n{pair_lines}\n\n"
-              f"bond_style      breakable/cr\nbond_coeff      1 {m.lambda_c} {m.gamma}\n"
-              f"angle_style     breakable/cr\nangle_coeff     1 {m.k_A} {m.theta_c_deg} {m.lambda_c}")
+    common = common_values(cfg, plugin_path, comm_cutoff(m, float(np.max(network.r0)), max_abar), sc.thermo_every,
+                           MODE1_RECORD, velocity=f"{v:.12g}", width=f"{width:.12g}",
+                           area=f"{width * thickness:.12g}")
     groups = (f"region          top_grip block INF INF {y_top:.12g} INF INF INF\n"
               f"region          bottom_grip block INF INF INF {y_bottom:.12g} INF INF\n"
               "group           top region top_grip\ngroup           bottom region bottom_grip\n"
@@ -169,7 +101,7 @@ def run_mode1(cfg, rd, plugin_path) -> tuple[dict, object]:
     setup = render("bpm_mode1.in", role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).",
                    system=("# free sample: shrink-wrapped in x and y, periodic z (2D requires it; 3D: the thin slab)\n"
                            + SYSTEM_FRESH.format(dimension=m.dimension, boundary="s s p")),
-                   styles=styles, groups=groups,
+                   styles=styles(m, pair_lines), groups=groups,
                    record_target="file thermo.dat", start="run             0", **common)
     resume = render("bpm_mode1.in", role="Start from a checkpoint (resume.lammps: -var checkpoint FILE).",
                     system=SYSTEM_RESUME, styles="# styles and coefficients: from the checkpoint",
@@ -192,10 +124,8 @@ def run_mode1(cfg, rd, plugin_path) -> tuple[dict, object]:
     return system, progress_spec(cfg, system)
 
 
-def progress_spec(cfg, system: dict):
-    from driver.runner import ProgressSpec  # noqa: PLC0415
-    from runfiles.records import MODE1_RECORD  # noqa: PLC0415
-
+def progress_spec(cfg, system: dict) -> ProgressSpec:
+    """The progress fields of a mode-I run: the stress and the bonds broken."""
     return ProgressSpec(file="thermo.dat", total_steps=system["total_steps"], label=cfg.name,
                         columns={"stress": MODE1_RECORD.column("stress"),
                                  "broken": MODE1_RECORD.column("bonds_broken")})

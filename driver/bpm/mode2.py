@@ -10,7 +10,7 @@ kept periodic in all three directions. The void: an ellipse of full axes
 +x, halfway between the tensile (x) and compressive (y) directions; the particles whose centre
 lies inside it are removed, and every bond whose segment (minimum image) meets the ellipse is
 deleted, with the angles that have it as an arm (SPEC 2.1: an angle exists only on two intact
-bonds). The geometry is mode1's (driver/bpm/mode1.py) with the ellipse rotated. In 3D every test
+bonds). The geometry is mode1's (driver/bpm/cuts.py) with the ellipse rotated. In 3D every test
 is on the (x, y) projection (positions, bond segments, midpoints): the void is an elliptic
 cylinder along z through the slab, and the band below a slab through it, so that the sample,
 and the crack it grows, are the same in every z plane (a through-thickness crack whose front
@@ -56,12 +56,21 @@ is tau = (sigma_xx - sigma_yy) / 2 = (p_yy - p_xx) / 2 (analysis/mode2.py gives 
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
-from driver.bpm.mode1 import inside_ellipse, keep_subnetwork, segment_meets_ellipse
+from driver.bpm.cuts import inside_ellipse, keep_subnetwork, segment_meets_ellipse
+from driver.bpm.datafile import write_data
+from driver.bpm.input_blocks import SYSTEM_FRESH, SYSTEM_RESUME, comm_cutoff, common_values, pair_coeff_lines
 from driver.bpm.network import Network
 from driver.bpm.packing import Packing
+from driver.bpm.slab import fracture_sample
+from driver.runner import ProgressSpec
+from driver.schedule import chunk_steps, segments, total_steps, write_session
+from driver.templates import render
+from runfiles.atomic import atomic_write_json
+from runfiles.records import MODE2_RECORD
 
 #: The void's major axis from +x (radians): halfway between the tensile x and compressive y axes.
 VOID_ANGLE = math.pi / 4.0
@@ -150,24 +159,8 @@ def style_lines(m, pair_lines: str) -> str:
             f"angle_coeff     2 {m.k_A} {UNBREAKABLE_THETA_DEG} {UNBREAKABLE_LAMBDA}")
 
 
-def total_steps(max_strain: float, strain_rate: float, timestep: float) -> int:
-    """Steps to the true strain max_strain at edot."""
-    return int(math.ceil(max_strain / (strain_rate * timestep)))
-
-
-def run_mode2(cfg, rd, plugin_path) -> tuple[dict, object]:
+def run_mode2(cfg, rd, plugin_path) -> tuple[dict, ProgressSpec]:
     """Build the sample, write the inputs and schedule; returns (system facts, progress)."""
-    import time  # noqa: PLC0415
-
-    import driver  # noqa: PLC0415
-    from driver.bpm.datafile import write_data  # noqa: PLC0415
-    from driver.bpm.shear import SYSTEM_FRESH, SYSTEM_RESUME, pair_coeff_lines  # noqa: PLC0415
-    from driver.bpm.slab import fracture_sample  # noqa: PLC0415
-    from driver.schedule import chunk_steps, segments, write_session  # noqa: PLC0415
-    from driver.templates import render  # noqa: PLC0415
-    from runfiles.atomic import atomic_write_json  # noqa: PLC0415
-    from runfiles.records import MODE2_RECORD  # noqa: PLC0415
-
     t0 = time.perf_counter()
     m, sc = cfg.model, cfg.scenario
     # the unit's check (driver/scenarios/bpm_calibrate.py) has refused a sample without the void;
@@ -178,16 +171,12 @@ def run_mode2(cfg, rd, plugin_path) -> tuple[dict, object]:
     write_data(rd.root / "system.data", sample, network, bond_type=btypes, angle_type=atypes)
     lo, hi = (np.asarray(b, float) for b in packing.box)
     centre = 0.5 * (lo + hi)
-    types = {int(t): float(2 * sample.radii[sample.types == t][0]) for t in np.unique(sample.types)}
+    types = sample.type_diameters()
     pair_lines, max_abar = pair_coeff_lines(types, m.gamma)
-    # ghosts reach both arms of a band angle; the type-2 bonds never stretch that far
-    comm_cutoff = max(2.0 * m.lambda_c * float(np.max(network.r0)), max_abar) + m.skin
     steps = total_steps(sc.max_shear_strain, sc.strain_rate, m.timestep)
-    common = dict(
-        package_version=driver.__version__, config_name=cfg.name, plugin_path=plugin_path,
-        comm_cutoff=f"{comm_cutoff:.6g}", skin=m.skin, timestep=m.timestep, thermo_every=sc.thermo_every,
-        enforce2d="fix             planar all enforce2d" if m.dimension == 2 else "", strain_rate=f"{sc.strain_rate:.12g}",
-        record_print=MODE2_RECORD.print_text(), record_title=MODE2_RECORD.title())
+    # ghosts reach both arms of a band angle (comm_cutoff); the type-2 bonds never stretch that far
+    common = common_values(cfg, plugin_path, comm_cutoff(m, float(np.max(network.r0)), max_abar), sc.thermo_every,
+                           MODE2_RECORD, strain_rate=f"{sc.strain_rate:.12g}")
     setup = render("bpm_mode2.in", role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).",
                    system=SYSTEM_FRESH.format(dimension=m.dimension, boundary="p p p"),
                    styles=style_lines(m, pair_lines), record_target="file thermo.dat", start="run             0",
@@ -214,10 +203,8 @@ def run_mode2(cfg, rd, plugin_path) -> tuple[dict, object]:
     return system, progress_spec(cfg, system)
 
 
-def progress_spec(cfg, system: dict):
-    from driver.runner import ProgressSpec  # noqa: PLC0415
-    from runfiles.records import MODE2_RECORD  # noqa: PLC0415
-
+def progress_spec(cfg, system: dict) -> ProgressSpec:
+    """The progress fields of a mode-II run: the shear stress and the bonds broken."""
     return ProgressSpec(file="thermo.dat", total_steps=system["total_steps"], label=cfg.name,
                         columns={"tau": MODE2_RECORD.column("tau"),
                                  "broken": MODE2_RECORD.column("bonds_broken")})

@@ -47,7 +47,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from driver.bpm.section import DEFAULT_PHI, PACKING_SCALE
 from driver.engine import Lammps
@@ -106,22 +105,9 @@ class Packing:
             occupied = 4.0 / 3.0 * np.pi * np.sum(self.radii**3)
         return float(occupied / np.prod(self.lengths))
 
-    def max_overlap(self) -> float:
-        """Largest overlap of a contact relative to its abar = r_i + r_j: max(1 - r / abar), >= 0."""
-        dim = self.dimension
-        lo = self.box[0][:dim]
-        L = self.lengths
-        x = np.mod(self.positions[:, :dim] - lo, L)
-        x[x >= L] = 0.0  # mod can return L for tiny negative values
-        tree = cKDTree(x, boxsize=L)
-        pairs = tree.query_pairs(2.0 * float(self.radii.max()), output_type="ndarray")
-        if len(pairs) == 0:
-            return 0.0
-        d = x[pairs[:, 1]] - x[pairs[:, 0]]
-        d -= L * np.round(d / L)
-        r = np.linalg.norm(d, axis=1)
-        abar = self.radii[pairs[:, 0]] + self.radii[pairs[:, 1]]
-        return float(max(0.0, np.max(1.0 - r / abar)))
+    def type_diameters(self) -> dict[int, float]:
+        """Diameter of each particle type, {type: diameter} (a type's particles share one radius)."""
+        return {int(t): float(2 * self.radii[self.types == t][0]) for t in np.unique(self.types)}
 
 
 def particle_count(dimension: int, L: float, phi: float, thickness: float | None = None,

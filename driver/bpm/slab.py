@@ -15,6 +15,8 @@ from __future__ import annotations
 
 from driver.bpm.network import MIN_BOX_DIAMETERS, Network, delaunay_network
 from driver.bpm.packing import DIAMETER_3D, Packing, cached_packing
+from driver.bpm.solid import packing_and_network
+from driver.cache import cache_base
 
 #: Thinnest slab, in a: the network's shortest box edge (3D diameters are all a).
 MIN_THICKNESS = MIN_BOX_DIAMETERS * DIAMETER_3D
@@ -24,8 +26,6 @@ def periodic_slab(cfg, thickness: float) -> tuple[Packing, Network]:
     """The periodic L x L x thickness packing of a 3D run's model (its seed, packing fraction,
     preparation model.packing and bond cut) and its network. Raises ValueError in 2D or below
     MIN_THICKNESS."""
-    from driver.plugin_build import cache_base  # noqa: PLC0415
-
     m = cfg.model
     if m.dimension != 3:
         raise ValueError("a periodic slab is a 3D sample")
@@ -38,9 +38,7 @@ def periodic_slab(cfg, thickness: float) -> tuple[Packing, Network]:
 
 def fracture_sample(cfg, thickness: float | None) -> tuple[Packing, Network]:
     """The periodic solid a fracture test cuts its sample from: the run's packing and network in
-    2D (driver/bpm/shear.py), the slab of `thickness` in 3D."""
+    2D (driver/bpm/solid.py), the slab of `thickness` in 3D."""
     if cfg.model.dimension == 2:
-        from driver.bpm.shear import packing_and_network  # noqa: PLC0415
-
         return packing_and_network(cfg)
     return periodic_slab(cfg, float(thickness))

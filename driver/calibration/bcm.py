@@ -23,7 +23,7 @@ from rich.console import Console
 
 from driver.calibration import curves as cv
 from driver.calibration import solve
-from driver.calibration.calibrate import _col, _curve_record, _errors, _with, panel
+from driver.calibration.common import curve_record, means, panel, round_trip_errors, with_changes
 from driver.calibration.material import MaterialFile
 
 #: Reference interface normal stiffness of the moduli curve, N/m (SPEC 1.3 default).
@@ -63,13 +63,13 @@ def calibrate_bcm(mat: MaterialFile, cache: Path, workers: int, console: Console
     h = res.h()
     moduli = cv.measure(cv.changed(bcm_moduli(), mat.curves.get("bcm_moduli")), cache, workers, console)
     t = moduli.table
-    e = _col(t, "E") * t.cell_size.to_numpy(float) / t.kn.to_numpy(float)  # E h / k_n, dimensionless
-    inv_r, elastic = solve.bcm_elastic(tgt.nu, tgt.E, h, t.kt_over_kn.to_numpy(float), _col(t, "nu"), e)
+    e = means(t, "E") * t.cell_size.to_numpy(float) / t.kn.to_numpy(float)  # E h / k_n, dimensionless
+    inv_r, elastic = solve.bcm_elastic(tgt.nu, tgt.E, h, t.kt_over_kn.to_numpy(float), means(t, "nu"), e)
     G_target, K_target = tgt.toughness(3)
     frac = cv.measure(cv.changed(bcm_fracture(elastic["kn"], elastic["kt"], h, G_target / 2.0),
                                  mat.curves.get("bcm_fracture")), cache, workers, console)
     f = frac.table
-    per_area = 2.0 * _col(f, "G_released")  # W / A, energy per unit crack area (module docstring)
+    per_area = 2.0 * means(f, "G_released")  # W / A, energy per unit crack area (module docstring)
     slope, slope_se = solve.through_zero_slope(f.G_c.to_numpy(float), per_area)
     G_iface = G_target / slope
     inv_g = solve.Inverse(G_iface, G_target, G_target, True, "")
@@ -85,8 +85,8 @@ def calibrate_bcm(mat: MaterialFile, cache: Path, workers: int, console: Console
                      "K_IC": math.sqrt(G_target * E_model / (1.0 - nu_model ** 2))},
         "target": {"density": tgt.density, "E": tgt.E, "nu": tgt.nu, "K_IC": K_target, "G_c": G_target},
         "reach": {"nu": inv_r.as_dict()},
-        "curves": {c.spec.name: _curve_record(c) for c in (moduli, frac)},
-        "_curves": {"nu": panel(t.kt_over_kn, _col(t, "nu"), inv_r, "$k_t/k_n$", r"$\nu$"),
+        "curves": {c.spec.name: curve_record(c) for c in (moduli, frac)},
+        "_curves": {"nu": panel(t.kt_over_kn, means(t, "nu"), inv_r, "$k_t/k_n$", r"$\nu$"),
                     "fracture": panel(f.G_c, per_area, inv_g, r"interface $G_c$ (J/m$^2$)",
                                       r"$W/A$ (J/m$^2$)")},
     }
@@ -99,9 +99,9 @@ def verify_bcm(mat: MaterialFile, result: dict[str, Any], directory: Path, worke
     p, h = result["parameters"], result["parameters"]["cell_size_m"]
     moduli = cv.changed(bcm_moduli(), mat.curves.get("bcm_moduli")).sweep["base"]
     frac = cv.changed(bcm_fracture(p["kn"], p["kt"], h, p["G_c"]), mat.curves.get("bcm_fracture")).sweep["base"]
-    moduli = _with(moduli, {"model.interface.kn": p["kn"], "model.interface.kt": p["kt"],
+    moduli = with_changes(moduli, {"model.interface.kn": p["kn"], "model.interface.kt": p["kt"],
                             "scenario.block.cell_size": cv.rounded(h)})
-    frac = _with(frac, {"model.interface.G_c": p["G_c"]})
+    frac = with_changes(frac, {"model.interface.G_c": p["G_c"]})
     s = cv.run_configs({"bcm_moduli": moduli, "bcm_fracture": frac}, directory, workers, console)
-    return _errors(result["target"], {"E": s["bcm_moduli"]["E"], "nu": s["bcm_moduli"]["nu"],
+    return round_trip_errors(result["target"], {"E": s["bcm_moduli"]["E"], "nu": s["bcm_moduli"]["nu"],
                                       "G_c": 2.0 * s["bcm_fracture"]["G_released"]})

@@ -157,7 +157,7 @@ def read_input(path: str | Path, cls, keys: str):
     try:
         out = cls.model_validate(data)
     except ValidationError as exc:
-        raise ConfigError(format_validation_error(exc, source, data)) from None
+        raise ConfigError(format_validation_error(exc, source, data, cls)) from None
     from driver.calibration.curves import CURVES  # noqa: PLC0415
 
     unknown = sorted(set(out.curves) - set(CURVES))

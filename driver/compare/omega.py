@@ -17,7 +17,7 @@ from driver.config import RunConfig
 
 def particle_area_mass(cfg: RunConfig) -> tuple[float, float]:
     """(A_0 in m^2, M in kg) of an impact run's particle, built as its run builds it."""
-    from driver.plugin_build import cache_base  # noqa: PLC0415
+    from driver.cache import cache_base  # noqa: PLC0415
 
     if cfg.model.kind == "bcm":
         from driver.bcm.impact import bonded_interfaces  # noqa: PLC0415

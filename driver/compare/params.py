@@ -6,7 +6,7 @@ energy per unit crack area of the block is linear through zero in the interface 
 scaling; calibrate_bcm fits its slope s), so every G_c of the grid is reached with the same
 curve: G_c(interface) = G_c / s. One fracture curve, whatever the grid.
 
-BPM (driver/calibration/calibrate.py calibrate_bpm, in 3D): k_A from nu and the LJ units from
+BPM (driver/calibration/bpm.py calibrate_bpm, in 3D): k_A from nu and the LJ units from
 E and the density on the 3D moduli curve, lambda_c from the 3D mode-I curve measured at that
 k_A. Every G_c of the grid inverts the same mode-I curve at its own K_IC = sqrt(G_c E') (E' =
 E / (1 - nu^2), the target's): one curve, whatever the grid. `bpm.lambda_c` of the compare file
@@ -51,8 +51,8 @@ def calibrate_bcm(mat: MaterialFile, cache: Path, workers: int, console: Console
 
 
 def calibrate_bpm(mat: MaterialFile, cache: Path, workers: int, console: Console) -> dict[str, Any]:
-    """The 3D BPM's calibration (driver/calibration/calibrate.py): k_A, units, lambda_c."""
-    from driver.calibration.calibrate import calibrate_bpm as run  # noqa: PLC0415
+    """The 3D BPM's calibration (driver/calibration/bpm.py): k_A, units, lambda_c."""
+    from driver.calibration.bpm import calibrate_bpm as run  # noqa: PLC0415
 
     out = run(mat, cache, workers, console)
     out.pop("_curves", None)

@@ -167,7 +167,7 @@ def material_of(cmp: CompareFile, compare_path: Path) -> tuple[MaterialFile, dic
         out = MaterialFile.model_validate(data)
     except ValidationError as exc:
         raise ConfigError(format_validation_error(exc, f"{compare_path} (material {where} with the compare "
-                                                       f"file's resolutions)", data)) from None
+                                                       f"file's resolutions)", data, MaterialFile)) from None
     reuse = None
     bcm_curves = lambda m: {k: v for k, v in m.curves.items() if k.startswith("bcm_")}  # noqa: E731
     if calibration is not None and calibration.get("bcm") and out.bcm == mat.bcm and bcm_curves(out) == bcm_curves(mat):

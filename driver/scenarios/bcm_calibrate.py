@@ -17,9 +17,9 @@ from typing import Literal
 from pydantic import Field, field_validator
 
 from driver.bcm.section import check_steps_per_period
-from driver.registry import Scenario
+from driver.scenarios.api import Scenario
+from driver.scenarios.sections import CalibrateScenario
 from driver.schema import _Strict
-from driver.scenarios.bpm_calibrate import CalibrateScenario
 
 #: Keys of the `calibrate` section that only a BPM run reads (a BCM run refuses them when set).
 BPM_ONLY = ("strain_rate", "void", "void_axes", "grip_width", "max_pull_strain", "B_reference", "G_reference",
@@ -79,7 +79,7 @@ def _progress(cfg, system):
 def _estimate(cfg, ranks):
     import math  # noqa: PLC0415
 
-    from driver.estimate import BCM_SECONDS_PER_CELL, SizeEstimate, bcm_interfaces  # noqa: PLC0415
+    from driver.size_model import BCM_SECONDS_PER_CELL, SizeEstimate, bcm_interfaces  # noqa: PLC0415
 
     blk, m = cfg.scenario.block, cfg.model
     n = blk.n_cells

@@ -1,41 +1,14 @@
-"""BCM particle impact on a rigid plane (SPEC 1.4): the `impact` scenario section and the unit
-of the (bcm, impact) pair. The system and input are built by driver/bcm/impact.py, the run
-analysed by analysis/impact.py, a set by analysis/runset.py (imported when used: a config is
-validated without them)."""
+"""BCM particle impact on a rigid plane (SPEC 1.4): the unit of the (bcm, impact) pair. Its
+section is the shared `impact` one (driver/scenarios/sections.py, ImpactScenario). The system
+and input are built by driver/bcm/impact.py, the run analysed by analysis/impact.py, a set by
+analysis/runset.py (imported when used: a config is validated without them)."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Literal
 
-from pydantic import Field, field_validator
-
-from driver.bcm.section import check_steps_per_period
-from driver.registry import Scenario
-from driver.schema import _Strict
-
-
-class ImpactScenario(_Strict):
-    """One particle hits a rigid plane (SPEC 1.4)."""
-
-    kind: Literal["impact"] = Field("impact", description="impact: one particle hits a rigid plane")
-    velocity: float = Field(4.5, gt=0.0, le=100.0, description="impact velocity v_0 normal to the plane, m/s")
-    gap: float = Field(1e-3, ge=0.0, lt=1.0, description="initial gap to the plane, fraction of the diameter")
-    # below 12 refused (check_steps_per_period). 50 by the time-step study (bench/timestep_study.py,
-    # docs/models/bcm-timestep.md): the largest value whose run energy balance stays below 1e-4 with a
-    # margin of 2 in every case measured (a 100-cell particle at 10 m/s: 1.1e-4 at 30, 8.6e-5 at
-    # 40, 4.1e-5 at 50), the outcome within the 100-step reference's seed-to-seed spread
-    steps_per_period: float = Field(50.0, gt=0.0, description="time step = shortest contact period / this")
-    max_time: float = Field(5e-4, gt=0.0, description="hard stop on simulated time, s")
-    settle_window: float = Field(5e-6, gt=0.0, description="window over which the outcome must not change, s")
-    ke_tolerance: float = Field(1e-3, gt=0.0, lt=1.0,
-                                description="settled when kinetic energy changes by less than this fraction "
-                                            "over a window with no break and the plane unloaded")
-    thermo_every: int = Field(10, ge=1, description="steps between energy records: 10 samples a 2 µs contact "
-                                                   "at 50 points or more for time steps up to 4e-9 s")
-    dump_every: int = Field(0, ge=0, description="steps between cell dumps; 0 = start and end only")
-
-    _stable = field_validator("steps_per_period")(check_steps_per_period)
+from driver.scenarios.api import Scenario
+from driver.scenarios.sections import ImpactScenario
 
 
 def _build(cfg, rd, plugin):
@@ -51,7 +24,7 @@ def _progress(cfg, system):
 
 
 def _estimate(cfg, ranks):
-    from driver.estimate import bcm_impact  # noqa: PLC0415
+    from driver.size_model import bcm_impact  # noqa: PLC0415
 
     return bcm_impact(cfg, ranks)
 

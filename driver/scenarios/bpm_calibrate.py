@@ -1,75 +1,21 @@
-"""BPM calibration tests (SPEC 2.3): the `calibrate` scenario section and the unit of the
-(bpm, calibrate) pair. Test `moduli`: B, G, E and nu of the network (driver/bpm/moduli.py
-builds and deforms it, analysis/moduli.py fits); a set of such runs over k_A gives the
-calibration curves. Test `mode1`: K_IC from the peak stress of a free sample with an elliptic
-void pulled apart (driver/bpm/mode1.py builds it, analysis/toughness.py measures). Test `mode2`:
-K_IIC from the peak shear stress of a periodic sample with an elliptic void at 45 degrees under
-pure shear, breakable bonds only in a band along the void (driver/bpm/mode2.py builds it,
-analysis/mode2.py measures). Test `crack_speed`: the mode-I pull (2D, or the 3D slab), measured
-for its crack fronts from the break log, their steady speed and its ratio to the Rayleigh speed of
-the network from B_reference and G_reference (analysis/crack.py; a mode1 run reports the same
-when those are given)."""
+"""BPM calibration tests (SPEC 2.3): the unit of the (bpm, calibrate) pair; its section is the
+shared `calibrate` one (driver/scenarios/sections.py, CalibrateScenario). Test `moduli`: B, G, E
+and nu of the network (driver/bpm/moduli.py builds and deforms it, analysis/moduli.py fits); a
+set of such runs over k_A gives the calibration curves. Test `mode1`: K_IC from the peak stress
+of a free sample with an elliptic void pulled apart (driver/bpm/mode1.py builds it,
+analysis/toughness.py measures). Test `mode2`: K_IIC from the peak shear stress of a periodic
+sample with an elliptic void at 45 degrees under pure shear, breakable bonds only in a band
+along the void (driver/bpm/mode2.py builds it, analysis/mode2.py measures). Test `crack_speed`:
+the mode-I pull (2D, or the 3D slab), measured for its crack fronts from the break log, their
+steady speed and its ratio to the Rayleigh speed of the network from B_reference and G_reference
+(analysis/crack.py; a mode1 run reports the same when those are given)."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Literal
 
-from pydantic import Field
-
-from driver.registry import Scenario
-from driver.schema import _Strict
-
-
-class CalibrateScenario(_Strict):
-    """A calibration test of the model's material (SPEC 2.3)."""
-
-    kind: Literal["calibrate"] = Field("calibrate", description="calibrate: a calibration test, chosen by `test`")
-    test: Literal["moduli", "mode1", "mode2", "crack_speed"] = Field(
-        "moduli", description="moduli: B, G, E, nu by compression and simple shear at strain_rate, then at half of "
-                              "it (the rate check); mode1: K_IC of a free sample with an elliptic void, pulled "
-                              "apart; mode2: K_IIC of a periodic sample with the void at 45 degrees, pure shear; "
-                              "crack_speed: the mode1 pull, for the crack's speed against the Rayleigh speed "
-                              "(needs B_reference, G_reference)")
-    strain_rate: float = Field(1e-4, gt=0.0, le=0.1, description="moduli: true strain rate of the compression, shear "
-                                                                 "rate of the shear phases; mode1: nominal strain "
-                                                                 "rate of the pull (grip separation speed / L); "
-                                                                 "mode2: true strain rate of the pure shear (x "
-                                                                 "at +rate, y at -rate); units 1/tau")
-    max_strain: float = Field(0.005, gt=0.0, le=0.02, description="largest volumetric (compression) or shear "
-                                                                  "strain of a phase; the fit range")
-    void: bool = Field(True, description="mode1, mode2: cut the elliptic void (false is refused: the toughness is "
-                                         "measured at its tips)")
-    void_axes: tuple[float, float] = Field((20.0, 2.0), description="mode1, mode2: full axes of the elliptic void, "
-                                                                     "major then minor, units of a (mode1: major "
-                                                                     "along x, the pull along y; mode2: major at 45 "
-                                                                     "degrees from x)")
-    grip_width: float = Field(2.0, gt=0.0, description="mode1: width of the top and bottom strips moved as grips, "
-                                                        "units of a")
-    thickness: float = Field(
-        5.0, ge=4.0, le=1000.0,
-        description="mode1, mode2, 3D: thickness T of the slab, periodic along z, the void a cylinder through it "
-                    "(SPEC 2.3), units of a; at least 4 a (driver/bpm/slab.py); not used in 2D")
-    max_pull_strain: float = Field(0.05, gt=0.0, le=0.5, description="mode1: nominal strain (grip displacement / "
-                                                                      "L) at which the pull ends")
-    B_reference: float | None = Field(None, gt=0.0, description="mode1: bulk modulus of the material (from a moduli "
-                                                                "run), with G_reference for the Rayleigh speed the "
-                                                                "crack speed is compared with")
-    G_reference: float | None = Field(None, gt=0.0, description="mode1: shear modulus of the material (from a "
-                                                                "moduli run); mode2: with it, the peak is flagged "
-                                                                "when it comes within 5 shear-wave crossings")
-    band_width: float = Field(4.0, gt=0.0, description="mode2: full width of the band of breakable bonds (bond "
-                                                        "midpoints within band_width / 2 of the void's 45-degree "
-                                                        "line, across the periodic box), units of a")
-    max_shear_strain: float = Field(0.05, gt=0.0, le=0.5, description="mode2: true strain of the pure shear at "
-                                                                       "which the run ends")
-    K_IC_reference: float | None = Field(None, gt=0.0, description="mode2: K_IC of the material (from a mode1 run "
-                                                                   "with the same k_A, lambda_c, theta_c), for "
-                                                                   "K_IIC / K_IC; none: not reported")
-    E_reference: float | None = Field(None, gt=0.0, description="mode1: Young's modulus of the material (from a "
-                                                                "moduli run), for K_IC / E; none: not reported")
-    thermo_every: int = Field(50, ge=1, description="steps between stress records")
-    dump_every: Literal[0] = Field(0, description="no periodic dumps in a calibration test")
+from driver.scenarios.api import Scenario
+from driver.scenarios.sections import CalibrateScenario
 
 
 def protocol(test: str | None) -> str:
@@ -102,18 +48,15 @@ def _progress(cfg, system):
 
 
 def _estimate(cfg, ranks):
-    from driver.bpm.moduli import phases  # noqa: PLC0415
-    from driver.estimate import bpm_size  # noqa: PLC0415
+    from driver.moduli_protocol import phases  # noqa: PLC0415
+    from driver.schedule import total_steps  # noqa: PLC0415
+    from driver.size_model import bpm_size  # noqa: PLC0415
 
     sc, m = cfg.scenario, cfg.model
     if protocol(sc.test) == "mode1":
-        from driver.bpm.mode1 import total_steps  # noqa: PLC0415
-
         return bpm_size(cfg, ranks, total_steps(sc.max_pull_strain, sc.strain_rate, m.timestep),
                         sc.thickness if m.dimension == 3 else None)
     if sc.test == "mode2":
-        from driver.bpm.mode2 import total_steps  # noqa: PLC0415
-
         return bpm_size(cfg, ranks, total_steps(sc.max_shear_strain, sc.strain_rate, m.timestep),
                         sc.thickness if m.dimension == 3 else None)
     return bpm_size(cfg, ranks, phases(m.dimension, sc.strain_rate, sc.max_strain, m.timestep)[-1].end)

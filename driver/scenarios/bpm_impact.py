@@ -1,17 +1,18 @@
 """BPM particle impact on a rigid plane (SPEC 1.4, 3): the unit of the (bpm, impact) pair.
 
-The scenario section is the BCM impact's (ImpactScenario: velocity, gap, times in SI, the same
-settle rule); the particle is model.particle (driver/bpm/particle_section.py: parent shape and
-size, SI units, plane contact, G_c). Built by driver/bpm/impact.py, analysed by
-analysis/bpm_impact.py, a set by analysis/runset.py (as the BCM impact's)."""
+The scenario section is the shared `impact` one (driver/scenarios/sections.py, ImpactScenario:
+velocity, gap, times in SI, the same settle rule as the BCM's); the particle is model.particle
+(driver/bpm/particle_section.py: parent shape and size, SI units, plane contact, G_c). Built by
+driver/bpm/impact.py, analysed by analysis/bpm_impact.py, a set by analysis/runset.py (as the
+BCM impact's)."""
 
 from __future__ import annotations
 
 import math
 from pathlib import Path
 
-from driver.registry import Scenario
-from driver.scenarios.bcm_impact import ImpactScenario
+from driver.scenarios.api import Scenario
+from driver.scenarios.sections import ImpactScenario
 
 
 def _build(cfg, rd, plugin):
@@ -37,7 +38,7 @@ def _particles(cfg) -> int:
 
 def _estimate(cfg, ranks):
     from driver.bpm.impact import lj_units, plane_law  # noqa: PLC0415
-    from driver.estimate import (BPM_ANGLES_PER_PARTICLE, BPM_BONDS_PER_PARTICLE, BPM_MEMORY_BASE,  # noqa: PLC0415
+    from driver.size_model import (BPM_ANGLES_PER_PARTICLE, BPM_BONDS_PER_PARTICLE, BPM_MEMORY_BASE,  # noqa: PLC0415
                                  BPM_MEMORY_PER_PARTICLE, BPM_SECONDS_PER_PARTICLE, SizeEstimate, _ranks_memory)
 
     p, sc, m = cfg.model.particle, cfg.scenario, cfg.model

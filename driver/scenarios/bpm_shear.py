@@ -10,7 +10,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from driver.registry import Scenario
+from driver.scenarios.api import Scenario
 from driver.schema import _Strict
 
 #: Most steps a shear run may take.
@@ -53,7 +53,7 @@ def _progress(cfg, system):
 
 
 def _estimate(cfg, ranks):
-    from driver.estimate import bpm_shear  # noqa: PLC0415
+    from driver.size_model import bpm_shear  # noqa: PLC0415
 
     return bpm_shear(cfg, ranks)
 

@@ -1,0 +1,88 @@
+"""The scenario sections several units share (a config holds one section per scenario kind):
+`impact` (the BCM and BPM impacts, driver/scenarios/bcm_impact.py and bpm_impact.py) and
+`calibrate` (the BPM calibration tests, driver/scenarios/bpm_calibrate.py; the BCM block's
+tests extend it, driver/scenarios/bcm_calibrate.py). Here, below the units, so that no unit
+imports a sibling unit for its section."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field, field_validator
+
+from driver.bcm.section import check_steps_per_period
+from driver.schema import _Strict
+
+
+class ImpactScenario(_Strict):
+    """One particle hits a rigid plane (SPEC 1.4)."""
+
+    kind: Literal["impact"] = Field("impact", description="impact: one particle hits a rigid plane")
+    velocity: float = Field(4.5, gt=0.0, le=100.0, description="impact velocity v_0 normal to the plane, m/s")
+    gap: float = Field(1e-3, ge=0.0, lt=1.0, description="initial gap to the plane, fraction of the diameter")
+    # below 12 refused (check_steps_per_period). 50 by the time-step study (bench/timestep_study.py,
+    # docs/models/bcm-timestep.md): the largest value whose run energy balance stays below 1e-4 with a
+    # margin of 2 in every case measured (a 100-cell particle at 10 m/s: 1.1e-4 at 30, 8.6e-5 at
+    # 40, 4.1e-5 at 50), the outcome within the 100-step reference's seed-to-seed spread
+    steps_per_period: float = Field(50.0, gt=0.0, description="time step = shortest contact period / this")
+    max_time: float = Field(5e-4, gt=0.0, description="hard stop on simulated time, s")
+    settle_window: float = Field(5e-6, gt=0.0, description="window over which the outcome must not change, s")
+    ke_tolerance: float = Field(1e-3, gt=0.0, lt=1.0,
+                                description="settled when kinetic energy changes by less than this fraction "
+                                            "over a window with no break and the plane unloaded")
+    thermo_every: int = Field(10, ge=1, description="steps between energy records: 10 samples a 2 µs contact "
+                                                   "at 50 points or more for time steps up to 4e-9 s")
+    dump_every: int = Field(0, ge=0, description="steps between cell dumps; 0 = start and end only")
+
+    _stable = field_validator("steps_per_period")(check_steps_per_period)
+
+
+class CalibrateScenario(_Strict):
+    """A calibration test of the model's material (SPEC 2.3)."""
+
+    kind: Literal["calibrate"] = Field("calibrate", description="calibrate: a calibration test, chosen by `test`")
+    test: Literal["moduli", "mode1", "mode2", "crack_speed"] = Field(
+        "moduli", description="moduli: B, G, E, nu by compression and simple shear at strain_rate, then at half of "
+                              "it (the rate check); mode1: K_IC of a free sample with an elliptic void, pulled "
+                              "apart; mode2: K_IIC of a periodic sample with the void at 45 degrees, pure shear; "
+                              "crack_speed: the mode1 pull, for the crack's speed against the Rayleigh speed "
+                              "(needs B_reference, G_reference)")
+    strain_rate: float = Field(1e-4, gt=0.0, le=0.1, description="moduli: true strain rate of the compression, shear "
+                                                                 "rate of the shear phases; mode1: nominal strain "
+                                                                 "rate of the pull (grip separation speed / L); "
+                                                                 "mode2: true strain rate of the pure shear (x "
+                                                                 "at +rate, y at -rate); units 1/tau")
+    max_strain: float = Field(0.005, gt=0.0, le=0.02, description="largest volumetric (compression) or shear "
+                                                                  "strain of a phase; the fit range")
+    void: bool = Field(True, description="mode1, mode2: cut the elliptic void (false is refused: the toughness is "
+                                         "measured at its tips)")
+    void_axes: tuple[float, float] = Field((20.0, 2.0), description="mode1, mode2: full axes of the elliptic void, "
+                                                                     "major then minor, units of a (mode1: major "
+                                                                     "along x, the pull along y; mode2: major at 45 "
+                                                                     "degrees from x)")
+    grip_width: float = Field(2.0, gt=0.0, description="mode1: width of the top and bottom strips moved as grips, "
+                                                        "units of a")
+    thickness: float = Field(
+        5.0, ge=4.0, le=1000.0,
+        description="mode1, mode2, 3D: thickness T of the slab, periodic along z, the void a cylinder through it "
+                    "(SPEC 2.3), units of a; at least 4 a (driver/bpm/slab.py); not used in 2D")
+    max_pull_strain: float = Field(0.05, gt=0.0, le=0.5, description="mode1: nominal strain (grip displacement / "
+                                                                      "L) at which the pull ends")
+    B_reference: float | None = Field(None, gt=0.0, description="mode1: bulk modulus of the material (from a moduli "
+                                                                "run), with G_reference for the Rayleigh speed the "
+                                                                "crack speed is compared with")
+    G_reference: float | None = Field(None, gt=0.0, description="mode1: shear modulus of the material (from a "
+                                                                "moduli run); mode2: with it, the peak is flagged "
+                                                                "when it comes within 5 shear-wave crossings")
+    band_width: float = Field(4.0, gt=0.0, description="mode2: full width of the band of breakable bonds (bond "
+                                                        "midpoints within band_width / 2 of the void's 45-degree "
+                                                        "line, across the periodic box), units of a")
+    max_shear_strain: float = Field(0.05, gt=0.0, le=0.5, description="mode2: true strain of the pure shear at "
+                                                                       "which the run ends")
+    K_IC_reference: float | None = Field(None, gt=0.0, description="mode2: K_IC of the material (from a mode1 run "
+                                                                   "with the same k_A, lambda_c, theta_c), for "
+                                                                   "K_IIC / K_IC; none: not reported")
+    E_reference: float | None = Field(None, gt=0.0, description="mode1: Young's modulus of the material (from a "
+                                                                "moduli run), for K_IC / E; none: not reported")
+    thermo_every: int = Field(50, ge=1, description="steps between stress records")
+    dump_every: Literal[0] = Field(0, description="no periodic dumps in a calibration test")
