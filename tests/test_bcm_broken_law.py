@@ -18,6 +18,7 @@ its energy accounting closed when nothing damps.
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -331,3 +332,34 @@ def test_impact_energy_balance_with_every_option(tmp_path, plugin_path, option):
     execute(parse_config(cfg), np_ranks=1, show_progress=False)
     summary = check_balance(tmp_path / "r")
     assert summary["broken_interfaces"] > 100
+
+
+# ------------------------------------------------------------ the 1728-cell example's damage
+
+#: D_w of examples/bcm_impact.yaml (seed 1) at omega 0.3 and 2 before the issue-23 defaults
+#: (issue 23, Tests: the defaults must keep D_w(omega) within 15 % of these)
+DAMAGE_BEFORE = {0.3: 0.027, 2.0: 0.29}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("omega", sorted(DAMAGE_BEFORE))
+def test_damage_of_the_1728_cell_example_stays_where_it_was(tmp_path, plugin_path, omega):
+    """The 1728-cell example under the defaults, at its omega's velocity (seed 1), stopped at
+    15 us (the breaking is over by about 7 us): D_w within 15 % of DAMAGE_BEFORE."""
+    from pathlib import Path
+
+    import yaml
+
+    from driver.compare.omega import particle_area_mass, velocity_for_omega
+    from driver.config import load_config, parse_config
+    from driver.pipeline import execute
+
+    example = Path(__file__).resolve().parent.parent / "examples" / "bcm_impact.yaml"
+    area, mass = particle_area_mass(load_config(example))
+    data = yaml.safe_load(example.read_text())
+    data["scenario"].update(velocity=velocity_for_omega(omega, area, mass, 1.0), max_time=1.5e-5)
+    data["output"] = {"dir": str(tmp_path / "r"), "plots": False}
+    execute(parse_config(data), np_ranks=1, show_progress=False)
+    summary = json.loads((tmp_path / "r" / "results" / "summary.json").read_text())
+    assert summary["omega"] == pytest.approx(omega, rel=1e-6)
+    assert summary["D_w"] == pytest.approx(DAMAGE_BEFORE[omega], rel=0.15)

@@ -26,10 +26,11 @@ from driver.pipeline import analyse_run, execute, load_resolved
 from driver.bcm.conservative import CONSERVATIVE_SETUP, impulse, intact_particle
 
 
-def impact_config(out: Path, n_cells: int, velocity: float, max_time: float, seed: int, **scenario) -> dict:
+def impact_config(out: Path, n_cells: int, velocity: float, max_time: float, seed: int, model: dict | None = None,
+                  **scenario) -> dict:
     return {
         "name": "impact", "seed": seed,
-        "model": {"kind": "bcm", "n_cells": n_cells, "interface": {"G_c": 1.0}},
+        "model": {"kind": "bcm", "n_cells": n_cells, "interface": {"G_c": 1.0}, **(model or {})},
         "scenario": {"kind": "impact", "velocity": velocity, "max_time": max_time, **scenario},
         "output": {"dir": str(out), "plots": False},
     }
@@ -87,9 +88,11 @@ def test_energy_balance_small_impact(small_impact):
 
 def test_energy_balance_with_cell_contacts(tmp_path, plugin_path):
     """At 10 m/s fragments touch each other within 1e-5 s: the cell-cell contacts' damping and
-    friction enter the balance."""
+    friction enter the balance. (With the contact's e_n on broken interfaces, the law before
+    issue 23: their heavy damping lets parted cells meet again in this run; with the default
+    interface damping none do within 1e-5 s.)"""
     out = tmp_path / "v10"
-    run_impact(out, n_cells=100, velocity=10.0, max_time=1e-5, seed=1)
+    run_impact(out, n_cells=100, velocity=10.0, max_time=1e-5, seed=1, model={"broken": {"damping": "contact"}})
     check_balance(out)
     last = read_impact_thermo(out / "thermo.dat").iloc[-1]
     assert last.W_contact_damp > 0 and last.W_contact_friction > 0

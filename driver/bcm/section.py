@@ -55,9 +55,13 @@ class BrokenInterface(_Strict):
                                "whole interface, split over its N_p points; SPEC 1.2 read literally), `interface` = the "
                                "intact interface's own (a closed crack as stiff as the material it cut: forces and "
                                "energy continuous at the break)")
+    # interface by default (issue 23): the intact interface's dashpot carries on through the break,
+    # as its elastic force does (the shift below); with the contact's e_n the damping force of a
+    # closed point would jump ~10^4-fold at the break (alpha 3e-4 -> 0.91, sqrt(k_c/k_p) ~ 3)
     damping: Literal["contact", "interface"] = Field(
-        "contact", description="e_n of a closed point: `contact` = model.contact.en2, `interface` = "
-                               "model.interface.en2")
+        "interface", description="e_n of a closed point: `interface` = model.interface.en2 (the default: the "
+                                 "damping force continuous through the break, like the elastic one), `contact` = "
+                                 "model.contact.en2 (SPEC 1.2 read literally: the damping force jumps at the break)")
     shear_at_break: Literal["carried", "released"] = Field(
         "carried", description="the tangential spring of a point closed at the break: `carried` into the contact "
                                "(its force kept, then the Coulomb cap: the part above mu f_n lost at once), or "
