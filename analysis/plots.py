@@ -329,7 +329,7 @@ def plot_losses(series: dict[str, tuple[pd.DataFrame, pd.DataFrame]], path: Path
     from analysis.interface_losses import TIME_CHANNELS  # noqa: PLC0415
 
     labels = list(series)
-    fig, axes = plt.subplots(len(labels), 4, figsize=(18.0, 3.6 * len(labels)), dpi=130, squeeze=False)
+    fig, axes = plt.subplots(len(labels), 4, figsize=(18.0, 3.6 * len(labels)), dpi=100, squeeze=False)
     styles = ["-", "--", ":", "-.", (0, (5, 1)), (0, (3, 1, 1, 1)), (0, (1, 2))]
     for row, label in zip(axes, labels):
         ts, depth = series[label]

@@ -28,7 +28,7 @@ from pathlib import Path
 import pandas as pd
 import yaml
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the checkout's driver and analysis
 from analysis.report import _md_table  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -61,19 +61,41 @@ CHANNELS = ["interface_friction", "switch", "interface_damping", "wall_damping",
             "wall_npoints", "contact_damping", "contact_friction"]
 
 
-def velocities() -> dict[tuple[int, float], float]:
-    """v_0 per (seed, omega) for the base particle (the variants do not change A_0 or M)."""
-    sys.path.insert(0, str(ROOT))
+#: the resolution study (issue 23, point 4): the defaults at these cells, omegas and seeds
+RESOLUTION = {300: ([0.3, 1.0], [1, 2]), 8000: ([0.3, 1.0], [1])}
+
+
+def velocities(n_cells: int = 1728, seeds=SEEDS, omegas=OMEGAS) -> dict[tuple[int, float], float]:
+    """v_0 per (seed, omega) for the base particle of n_cells (the variants do not change A_0 or M)."""
     from driver.compare.omega import particle_area_mass, velocity_for_omega  # noqa: PLC0415
     from driver.config import load_config  # noqa: PLC0415
 
     out = {}
-    for seed in SEEDS:
-        cfg = load_config(BASE).model_copy(update={"seed": seed})
+    for seed in seeds:
+        cfg = load_config(BASE)
+        cfg = cfg.model_copy(update={"seed": seed, "model": cfg.model.model_copy(update={"n_cells": n_cells})})
         area, mass = particle_area_mass(cfg)
-        for w in OMEGAS:
+        for w in omegas:
             out[(seed, w)] = velocity_for_omega(w, area, mass, cfg.model.interface.G_c)
     return out
+
+
+def plan_resolution() -> list[Path]:
+    """runs/bcm_low_energy/cells<N>.yaml: the defaults (as they are now) at N cells, omega and
+    seeds of RESOLUTION, (velocity, seed) zipped."""
+    files = []
+    for n, (omegas, seeds) in RESOLUTION.items():
+        v = velocities(n, seeds, omegas)
+        pairs = [(seed, w) for w in omegas for seed in seeds]
+        sweep = {"base": str(BASE), "zip": [{"scenario.velocity": [round(v[p], 9) for p in pairs],
+                                             "seed": [p[0] for p in pairs], "model.n_cells": [n] * len(pairs)}]}
+        if n > 1728:  # an 8000-cell particle takes longer to settle: stop after the breaking
+            sweep["zip"][0]["scenario.max_time"] = [4e-5] * len(pairs)
+        path = OUT / f"cells{n}.yaml"
+        path.write_text(f"# issue 23, resolution: {n} cells, the defaults; omega {omegas} x seeds {seeds}\n"
+                        + yaml.safe_dump(sweep, sort_keys=False))
+        files.append(path)
+    return files
 
 
 def plan() -> None:
@@ -107,12 +129,13 @@ def read_runs() -> pd.DataFrame:
     import json  # noqa: PLC0415
 
     rows = []
-    for name in VARIANTS:
+    for name in [*VARIANTS, *(f"cells{n}" for n in RESOLUTION)]:
         for run in sorted((OUT / name).glob("*/results/summary.json")):
             s = json.loads(run.read_text())
             cfg = yaml.safe_load((run.parent.parent / "config.resolved.yaml").read_text())
             wk = s["W_k_minus"]
             row = {"variant": name, "run": run.parent.parent.name, "seed": cfg["seed"],
+                   "n_cells": cfg["model"]["n_cells"], "settled": s.get("settled"),
                    "omega_target": min(OMEGAS, key=lambda w: abs(w - s["omega"]))}
             row.update({m: s.get(m) for m in MEASURES})
             row["velocity"] = cfg["scenario"]["velocity"]
@@ -137,10 +160,60 @@ def table() -> None:
     points.insert(0, "n", g.size())
     points = points.reset_index()
     points.to_csv(ROOT / "bench" / "bcm_low_energy.csv", index=False)
+    print(summary_figure())
     show = ["variant", "omega_target", "n", "e_k2_mean", "D_w_mean", "largest_fragment_mass_fraction_mean",
             "n_fragments_multi_cell_mean", "loss_besides_W_f_mean", "loss_interface_friction_mean",
             "loss_switch_mean", "loss_interface_damping_mean", "loss_wall_damping_mean"]
     print(_md_table(points[show]))
+    # the resolution study: the defaults (damping_interface at 1728 cells) at 300, 1728, 8000 cells
+    res = runs[runs.variant.isin(["damping_interface", *(f"cells{n}" for n in RESOLUTION)])
+               & runs.omega_target.isin([0.3, 1.0])]
+    if res.n_cells.nunique() > 1:
+        g = res.groupby(["n_cells", "omega_target"])
+        tab = g[["e_k2", "D_w", "largest_fragment_mass_fraction", "n_fragments_multi_cell", "loss_besides_W_f",
+                 "loss_interface_friction"]].mean()
+        tab.insert(0, "seeds", g.size())
+        tab.insert(1, "settled", g.settled.apply(lambda x: f"{int(x.fillna(False).astype(bool).sum())}/{len(x)}"))
+        print("\nresolution (the defaults):")
+        print(_md_table(tab.reset_index()))
+
+
+def summary_figure() -> Path:
+    """docs/figures/bcm_low_energy_variants.png: e_k^2, D_w, the largest fragment and the loss
+    besides W_f against omega, one line per variant (means over seeds), with what the published
+    model reports (issue 23): e_k^2 above 0.81 below omega 0.3, one piece up to omega about 2."""
+    import matplotlib  # noqa: PLC0415
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt  # noqa: PLC0415
+
+    points = pd.read_csv(ROOT / "bench" / "bcm_low_energy.csv")
+    panels = [("e_k2", "restitution $e_k^2$"), ("D_w", "damage $D_w$"),
+              ("largest_fragment_mass_fraction", "largest fragment / parent mass"),
+              ("loss_besides_W_f", "dissipated besides $W_f$, / $W_k^-$")]
+    fig, axes = plt.subplots(1, 4, figsize=(17, 4.2), dpi=100)
+    styles = ["-", "--", ":", "-.", (0, (5, 1)), (0, (3, 1, 1, 1)), (0, (1, 2)), (0, (6, 2, 1, 2)), (0, (2, 1))]
+    markers = "osD^v<>ph"
+    for ax, (col, label) in zip(axes, panels):
+        for k, (name, grp) in enumerate(points.groupby("variant", sort=False)):
+            grp = grp.sort_values("omega_target")
+            ax.errorbar(grp.omega_target, grp[f"{col}_mean"], yerr=grp[f"{col}_std"].fillna(0), ls=styles[k % 9],
+                        marker=markers[k % 9], ms=4, mfc="white", capsize=2, lw=1,
+                        color="k" if name in ("base", "damping_interface") else str(0.25 + 0.5 * k / 9), label=name)
+        ax.set_xscale("log")
+        ax.set_xlabel(r"damage potential $\omega$")
+        ax.set_ylabel(label)
+    axes[0].fill_between([0.1, 0.3], 0.81, 1.0, color="0.85", zorder=0, label="published: $e_k^2 > 0.81$")
+    axes[2].fill_between([0.1, 2.0], 0.9, 1.0, color="0.85", zorder=0, label="published: one piece")
+    axes[0].legend(fontsize=6, frameon=False)
+    axes[2].legend(fontsize=6, frameon=False, loc="lower left")
+    fig.suptitle("BCM impact below break-up, 1728 cells, G_c = 1 J/m², seeds 1-2: the law of broken interfaces "
+                 "and of the plane (bench/bcm_low_energy.py)", fontsize=9)
+    fig.tight_layout()
+    path = ROOT / "docs" / "figures" / "bcm_low_energy_variants.png"
+    fig.savefig(path)
+    plt.close(fig)
+    return path
 
 
 def run_dirs(variant: str, omega: float) -> list[Path]:
