@@ -199,7 +199,8 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
             # left (flagged) or refuses it (analysis/completeness.py)
             completeness = completeness_of(read_status(run_dir))
             if completeness is RunCompleteness.CUT_SHORT:
-                err.print(f"[yellow]{run_dir} did not finish (status.json): analysing the snapshots it has")
+                err.print(f"[yellow]{run_dir} did not finish (status.json): analysing what it left, flagged as cut "
+                          "short (or refused where it holds no result)")
             try:
                 summary = analyse_run(run_dir, cfg, completeness)
             finally:
