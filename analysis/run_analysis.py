@@ -45,8 +45,8 @@ class RunAnalysis:
     2. The report is removed: it is written last, so a directory without one holds an
        analysis that did not finish.
     3. ``_prepare()``: read what every frame needs (system.json, the record). A subclass that
-       analyses a run cut short sets `cut_short_note` here: what it measures on (the last
-       snapshot, the record up to a step).
+       analyses a run cut short sets `cut_short_note` here, or in `_conclude` when it depends on
+       the frames read: what it measures on (the last snapshot, the record up to a step).
     4. ``_single_frame(frame)`` for each of ``_frames()`` (snapshots, phases, records); an
        analysis of one state only has none and works in `_conclude`.
     5. ``_conclude()``: the measures into ``results.summary``, the tables into
