@@ -86,7 +86,7 @@ def particles_frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
 
 
 def cells_frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
-    from analysis.impact import cell_shapes, fragments_of, read_interfaces  # noqa: PLC0415
+    from analysis.bcm_impact import cell_shapes, fragments_of, read_interfaces  # noqa: PLC0415
     from analysis.fragment_shapes import vertices_in_space  # noqa: PLC0415
 
     cells = read_atom_dump(run_dir / "dumps" / f"cells.{step}.lammpstrj")[-1]

@@ -1,5 +1,6 @@
 """Measures of one BPM particle impact (SPEC 1.5, 3), with the meanings of the BCM's
-(analysis/impact.py, whose functions are reused wherever the meaning is the same).
+(analysis/bcm_impact.py beside it; the model-neutral measures of analysis/impact_measures.py are
+shared wherever the meaning is the same): `BpmImpactAnalysis`.
 
 The run is in LJ units; everything here is converted to SI with system.json's a, m, u, tau.
 
@@ -34,11 +35,11 @@ from analysis.dumps import read_atom_dump, read_local_dump
 from analysis.fragment_shapes import shape_averages, shape_factor, fragment_table
 from analysis.grain_table import grain_table
 from analysis.grains import grain_labels
-from analysis.impact import fragment_counts, fragment_mass_fit, impact_measures, settle_outcome
-from analysis.plots import PlotGuard, plot_energies, plot_mass_pdf, plot_shapes
-from analysis.report import Report, clear_report, provenance_line, write_report
+from analysis.impact_measures import fragment_counts, fragment_mass_fit, impact_measures, settle_outcome
+from analysis.plots import plot_energies, plot_mass_pdf, plot_shapes
+from analysis.report import Report, provenance_line
+from analysis.run_analysis import RunAnalysis
 from analysis.statistics import normalised_mass_distribution
-from analysis.tables import save_table
 from runfiles.records import BPM_IMPACT_RECORD, read_record
 
 
@@ -97,141 +98,149 @@ def particle_fragments(labels, positions, velocities, mass, volumes, diameter, i
     return frags
 
 
-def analyse_bpm_impact(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = False) -> dict:
-    """Measures, tables, figures and report of a finished BPM impact run."""
-    run_dir = Path(run_dir)
-    clear_report(run_dir)
-    model, scen = cfg["model"], cfg["scenario"]
-    part = model["particle"]
-    system = json.loads((run_dir / "system.json").read_text())
-    un = system["units"]
-    a, u = un["a"], un["u"]
-    dumps = run_dir / "dumps"
-    atoms_path, bonds_path = dumps / "atoms.end.lammpstrj", dumps / "bonds.end.lammpstrj"
-    if not atoms_path.exists():
-        raise FileNotFoundError(f"{atoms_path}: the end state of the run is missing (partial analysis of a BPM "
-                                "impact is not available)")
-    atoms = read_atom_dump(atoms_path)[-1]
-    bonds = read_local_dump(bonds_path)[-1].columns
-    intact = np.column_stack([bonds["batom1"], bonds["batom2"]]).astype(np.int64) - 1
-    table = np.loadtxt(run_dir / "bond_areas.txt", ndmin=2)
-    all_bonds, area = table[:, :2].astype(np.int64) - 1, table[:, 2]
-    volumes = np.loadtxt(run_dir / "particle_volumes.txt", ndmin=1) * a ** 3
-    n = len(atoms.ids)
-    broken = broken_bonds(all_bonds, intact, n)
-    thermo = read_bpm_impact_thermo(run_dir / "thermo.dat", un)
-    warnings_: list[str] = []
-    breaks = read_break_log(run_dir / "breaks.dat") if (run_dir / "breaks.dat").exists() else None
-    held = {k: 0.0 for k in ("bond", "angle")}
-    thermo["W_f_held"] = 0.0
-    thermo["broken_area"] = 0.0
-    logged_area = 0.0
-    if breaks is not None and len(breaks):
-        for kind in held:
-            held[kind] = float(breaks.loc[breaks.kind == kind, "energy"].sum()) * u
-        # each broken bond's Voronoi area, from the log's pair of ids
-        bond_rows = breaks[breaks.kind == "bond"]
-        pairs = np.column_stack([bond_rows.id1, bond_rows.id2]).astype(np.int64) - 1
-        areas = pd.Series(area_of_pairs(all_bonds, area, pairs, n) * a ** 2, index=bond_rows.index)
-        logged_area = float(areas.sum())
-        for col, per_event in (("W_f_held", breaks.energy * u), ("broken_area", areas.reindex(breaks.index).fillna(0.0))):
-            cum = per_event.groupby(breaks.step).sum().cumsum()
-            # records at a step hold that step's breaks (the break happens in its force evaluation)
-            idx = np.searchsorted(cum.index.to_numpy(), thermo.step.to_numpy(), side="right") - 1
-            thermo[col] = np.where(idx >= 0, cum.to_numpy()[np.clip(idx, 0, None)], 0.0)
+class BpmImpactAnalysis(RunAnalysis):
+    """Measures, tables, figures and report of a BPM impact run, on its end state. Cut short:
+    refused (the end state is missing and the periodic snapshots are not analysed)."""
 
-    m_p = un["m"]
-    wk_minus = 0.5 * system["mass"] * scen["velocity"] ** 2
-    n_in = system.get("bonds_breaking_in_repulsion", 0)
-    if n_in:
-        # driver/bpm/network.py repulsion_at_break: such a break creates U_NB(lambda_c r0)
-        warnings_.append(
-            f"{n_in} of {system['n_bonds']} bonds break inside the non-bonded repulsion (lambda_c r0 < a: bonded "
-            f"neighbours that overlap in the packing); each such break switches Eq. 1 on and creates up to "
-            f"{system['repulsion_energy_per_break_max']:.3g} u, {system['repulsion_energy_if_all_break_J']:.3g} J "
-            f"if all break ({system['repulsion_energy_if_all_break_J'] / wk_minus:.3g} W_k^-): the energy balance "
-            "cannot close. Use model.packing: lj_minimum (neighbours beyond a) or a larger lambda_c")
-    last = thermo.iloc[-1]
-    w_f_held = held["bond"] + held["angle"]
-    elastic_end = float(last.elastic)
-    chans = {"wall": float(last.W_c_wall), "pair_damping": float(last.W_c_pair_damping),
-             "bond_damping": float(last.W_c_bond_damping)}
-    # plot_energies' columns: fracture as held, dissipation as the measured channels
-    thermo["W_f"] = thermo.W_f_held
-    thermo["dissipated"] = thermo.W_c_wall + thermo.W_c_pair_damping + thermo.W_c_bond_damping
-    thermo["balance_residual"] = (wk_minus - thermo.kinetic - thermo.elastic - thermo.dissipated
-                                  - thermo.W_f_held) / wk_minus
+    refuses_cut_short = ("a BPM impact is measured on its end state, which a run cut short does not have (its "
+                         "periodic snapshots are not analysed): resume it (driver run CONFIG -o DIR --resume)")
 
-    positions = np.asarray(atoms.positions, float) * a
-    velocities = np.asarray(atoms.velocities, float) * a / un["tau"]
-    labels = grain_labels(n, intact)
-    frags = particle_fragments(labels, positions, velocities, m_p, volumes, a, intact)
-    A = float(area[broken].sum()) * a ** 2
-    A0 = float(area.sum()) * a ** 2
-    measures = impact_measures(
-        wk_minus=wk_minus, wk_plus=float(last.kinetic), wk_plus_cm=float(frags.ke_cm.sum()), broken_area=A,
-        total_area=A0, g_c=part["G_c"], elastic_end=elastic_end, w_f_held=w_f_held,
-        dissipated_measured=sum(chans.values()), channels=chans)
-    # impact_measures' balance books W_f = 2 A G_c; here the breaks took W_f_held out of the springs
-    measures["balance_residual"] = float(thermo.balance_residual.iloc[-1])
-    mass_pdf = normalised_mass_distribution(frags.mass.to_numpy())
-    tau_fit = fragment_mass_fit(frags.mass.to_numpy())
-    settled = settle_outcome(run_dir, system, int(last.step))
-    measures.update({
-        "W_f_held_bonds": held["bond"], "W_f_held_angles": held["angle"],
-        "broken_bonds": int(broken.sum()), "bonds_broken_logged": int(last.bonds_broken),
-        "A_logged": logged_area,
-        "angles_broken": int(last.angles_broken), "n_particles": n, "end_time": float(last.time),
-        "timestep_s": system["timestep_s"], "particles_on_plane_end": int(last.wall_contacts),
-        **fragment_counts(frags, system["mass"]), **settled,
-        "stop_rule": (f"stopped after a window of {system['window_steps']} steps with no break, kinetic energy "
-                      f"within {scen['ke_tolerance']:g} and the plane's springs unloaded, or at max_time "
-                      f"{scen['max_time']:g} s"),
-        **{f"shape_{k}": v for k, v in shape_averages(frags).items()},
-        **{f"mass_{k}": v for k, v in tau_fit.items()},
-        **({"warnings": warnings_} if warnings_ else {}),
-    })
-    channels = pd.DataFrame([
-        ("wall", "plane: damping and friction (-work - spring energy)", chans["wall"], True),
-        ("pair_damping", "damping of Eq. 5, non-bonded pairs", chans["pair_damping"], True),
-        ("bond_damping", "damping of Eq. 5, bonds", chans["bond_damping"], True),
-        ("fracture_held", "energy the broken bonds and angles held (break log)", w_f_held, False),
-        ("fracture_2AGc", "2 A G_c (published definition)", measures["W_f"], False),
-        ("kinetic", "kinetic energy W_k^+", float(last.kinetic), False),
-        ("elastic", "elastic energy still stored", elastic_end, False)],
-        columns=["channel", "what", "energy", "part_of_W_c"])
-    channels.insert(3, "over_W_k_minus", channels.energy / wk_minus)
+    def _prepare(self) -> None:
+        run_dir = self.run_dir
+        self.system = json.loads((run_dir / "system.json").read_text())
+        self.units = self.system["units"]
+        dumps = run_dir / "dumps"
+        atoms_path, bonds_path = dumps / "atoms.end.lammpstrj", dumps / "bonds.end.lammpstrj"
+        if not atoms_path.exists():
+            raise FileNotFoundError(f"{atoms_path}: the end state of the run is missing")
+        self.atoms = read_atom_dump(atoms_path)[-1]
+        bonds = read_local_dump(bonds_path)[-1].columns
+        self.intact = np.column_stack([bonds["batom1"], bonds["batom2"]]).astype(np.int64) - 1
+        table = np.loadtxt(run_dir / "bond_areas.txt", ndmin=2)
+        self.all_bonds, self.area = table[:, :2].astype(np.int64) - 1, table[:, 2]
+        self.volumes = np.loadtxt(run_dir / "particle_volumes.txt", ndmin=1) * self.units["a"] ** 3
+        self.thermo = read_bpm_impact_thermo(run_dir / "thermo.dat", self.units)
+        self.breaks = read_break_log(run_dir / "breaks.dat") if (run_dir / "breaks.dat").exists() else None
 
-    res = run_dir / "results"
-    save_table(thermo, res / "energies")
-    save_table(channels, res / "energy_channels")
-    save_table(frags, res / "fragments")
-    save_table(mass_pdf, res / "fragment_masses")
-    title = (f"BPM impact, N = {n}, v0 = {scen['velocity']:g} m/s, k_A = {model['k_A']:g}, "
-             f"lambda_c = {model['lambda_c']:g}")
-    guard = PlotGuard()
-    if plots:
-        pd_ = run_dir / "plots"
-        guard.draw("energies", pd_ / "energies.png", plot_energies, thermo, wk_minus, pd_ / "energies.png", title,
-                   labels={"elastic": "elastic (bonds, angles, repulsion, plane)",
-                           "W_f": "held by broken bonds and angles $W_{f,held}$",
-                           "dissipated": "dissipated (plane, damping)"})
-        label = f"v0 = {scen['velocity']:g} m/s"
-        guard.draw("fragment_masses", pd_ / "fragment_masses.png", plot_mass_pdf, {label: mass_pdf},
-                   pd_ / "fragment_masses.png", title, fits={label: tau_fit})
-        guard.draw("shapes", pd_ / "shapes.png", plot_shapes, frags, pd_ / "shapes.png", title)
-    measures["plots_failed"] = guard.failed
-    rep = Report(f"{cfg['name']}: {title}", provenance_line(run_dir))
-    shown = ("omega", "D_w", "eta", "e_k2", "chi", "W_f", "W_f_held", "W_c_over_W_s", "W_c_wall",
-             "W_c_pair_damping", "W_c_bond_damping", "balance_residual", "n_fragments", "largest_fragment_mass_fraction", "mass_tau",
-             "shape_shape_factor_mean", "end_time", "settled")
-    rep.values({k: measures[k] for k in shown if k in measures}, "SPEC 1.5 measures of the BPM particle (SI)")
-    rep.text(measures["stop_rule"] + f"; time step {system['timestep_s']:.4g} s ({system['timestep_rule']}).")
-    for msg in measures.get("warnings", []):
-        rep.text(f"Warning: {msg}")
-    rep.table(channels, "where W_k^- went (results/energy_channels)")
-    rep.figure(run_dir / "plots" / "energies.png", "energy budget against time, fractions of W_k^-")
-    rep.table(frags[["fragment", "n_cells", "mass", "volume", "a", "b", "c", "elongation", "flatness",
-                     "shape_factor", "v_cm"]], "largest fragments (n_cells = particles)", max_rows=15)
-    write_report(rep, run_dir)
-    return measures
+    def _conclude(self) -> None:
+        model, scen, system, un = self.cfg["model"], self.cfg["scenario"], self.system, self.units
+        part = model["particle"]
+        a, u = un["a"], un["u"]
+        atoms, intact, all_bonds, area, thermo, breaks = (self.atoms, self.intact, self.all_bonds, self.area,
+                                                          self.thermo, self.breaks)
+        n = len(atoms.ids)
+        broken = broken_bonds(all_bonds, intact, n)
+        held = {k: 0.0 for k in ("bond", "angle")}
+        thermo["W_f_held"] = 0.0
+        thermo["broken_area"] = 0.0
+        logged_area = 0.0
+        if breaks is not None and len(breaks):
+            for kind in held:
+                held[kind] = float(breaks.loc[breaks.kind == kind, "energy"].sum()) * u
+            # each broken bond's Voronoi area, from the log's pair of ids
+            bond_rows = breaks[breaks.kind == "bond"]
+            pairs = np.column_stack([bond_rows.id1, bond_rows.id2]).astype(np.int64) - 1
+            areas = pd.Series(area_of_pairs(all_bonds, area, pairs, n) * a ** 2, index=bond_rows.index)
+            logged_area = float(areas.sum())
+            for col, per_event in (("W_f_held", breaks.energy * u),
+                                   ("broken_area", areas.reindex(breaks.index).fillna(0.0))):
+                cum = per_event.groupby(breaks.step).sum().cumsum()
+                # records at a step hold that step's breaks (the break happens in its force evaluation)
+                idx = np.searchsorted(cum.index.to_numpy(), thermo.step.to_numpy(), side="right") - 1
+                thermo[col] = np.where(idx >= 0, cum.to_numpy()[np.clip(idx, 0, None)], 0.0)
+
+        m_p = un["m"]
+        wk_minus = 0.5 * system["mass"] * scen["velocity"] ** 2
+        n_in = system.get("bonds_breaking_in_repulsion", 0)
+        if n_in:
+            # driver/bpm/network.py repulsion_at_break: such a break creates U_NB(lambda_c r0)
+            self.warnings.append(
+                f"{n_in} of {system['n_bonds']} bonds break inside the non-bonded repulsion (lambda_c r0 < a: bonded "
+                f"neighbours that overlap in the packing); each such break switches Eq. 1 on and creates up to "
+                f"{system['repulsion_energy_per_break_max']:.3g} u, {system['repulsion_energy_if_all_break_J']:.3g} J "
+                f"if all break ({system['repulsion_energy_if_all_break_J'] / wk_minus:.3g} W_k^-): the energy balance "
+                "cannot close. Use model.packing: lj_minimum (neighbours beyond a) or a larger lambda_c")
+        last = thermo.iloc[-1]
+        w_f_held = held["bond"] + held["angle"]
+        elastic_end = float(last.elastic)
+        chans = {"wall": float(last.W_c_wall), "pair_damping": float(last.W_c_pair_damping),
+                 "bond_damping": float(last.W_c_bond_damping)}
+        # plot_energies' columns: fracture as held, dissipation as the measured channels
+        thermo["W_f"] = thermo.W_f_held
+        thermo["dissipated"] = thermo.W_c_wall + thermo.W_c_pair_damping + thermo.W_c_bond_damping
+        thermo["balance_residual"] = (wk_minus - thermo.kinetic - thermo.elastic - thermo.dissipated
+                                      - thermo.W_f_held) / wk_minus
+
+        positions = np.asarray(atoms.positions, float) * a
+        velocities = np.asarray(atoms.velocities, float) * a / un["tau"]
+        labels = grain_labels(n, intact)
+        frags = particle_fragments(labels, positions, velocities, m_p, self.volumes, a, intact)
+        A = float(area[broken].sum()) * a ** 2
+        A0 = float(area.sum()) * a ** 2
+        measures = impact_measures(
+            wk_minus=wk_minus, wk_plus=float(last.kinetic), wk_plus_cm=float(frags.ke_cm.sum()), broken_area=A,
+            total_area=A0, g_c=part["G_c"], elastic_end=elastic_end, w_f_held=w_f_held,
+            dissipated_measured=sum(chans.values()), channels=chans)
+        # impact_measures' balance books W_f = 2 A G_c; here the breaks took W_f_held out of the springs
+        measures["balance_residual"] = float(thermo.balance_residual.iloc[-1])
+        mass_pdf = normalised_mass_distribution(frags.mass.to_numpy())
+        tau_fit = fragment_mass_fit(frags.mass.to_numpy())
+        settled = settle_outcome(self.run_dir, system, int(last.step))
+        measures.update({
+            "W_f_held_bonds": held["bond"], "W_f_held_angles": held["angle"],
+            "broken_bonds": int(broken.sum()), "bonds_broken_logged": int(last.bonds_broken),
+            "A_logged": logged_area,
+            "angles_broken": int(last.angles_broken), "n_particles": n, "end_time": float(last.time),
+            "timestep_s": system["timestep_s"], "particles_on_plane_end": int(last.wall_contacts),
+            **fragment_counts(frags, system["mass"]), **settled,
+            "stop_rule": (f"stopped after a window of {system['window_steps']} steps with no break, kinetic energy "
+                          f"within {scen['ke_tolerance']:g} and the plane's springs unloaded, or at max_time "
+                          f"{scen['max_time']:g} s"),
+            **{f"shape_{k}": v for k, v in shape_averages(frags).items()},
+            **{f"mass_{k}": v for k, v in tau_fit.items()},
+        })
+        channels = pd.DataFrame([
+            ("wall", "plane: damping and friction (-work - spring energy)", chans["wall"], True),
+            ("pair_damping", "damping of Eq. 5, non-bonded pairs", chans["pair_damping"], True),
+            ("bond_damping", "damping of Eq. 5, bonds", chans["bond_damping"], True),
+            ("fracture_held", "energy the broken bonds and angles held (break log)", w_f_held, False),
+            ("fracture_2AGc", "2 A G_c (published definition)", measures["W_f"], False),
+            ("kinetic", "kinetic energy W_k^+", float(last.kinetic), False),
+            ("elastic", "elastic energy still stored", elastic_end, False)],
+            columns=["channel", "what", "energy", "part_of_W_c"])
+        channels.insert(3, "over_W_k_minus", channels.energy / wk_minus)
+
+        self.results.summary = measures
+        self.results.tables.update(energies=thermo, energy_channels=channels, fragments=frags,
+                                   fragment_masses=mass_pdf)
+        self.title = (f"BPM impact, N = {n}, v0 = {scen['velocity']:g} m/s, k_A = {model['k_A']:g}, "
+                      f"lambda_c = {model['lambda_c']:g}")
+        self.wk_minus, self.mass_pdf, self.tau_fit, self.frags, self.channels = (wk_minus, mass_pdf, tau_fit, frags,
+                                                                                 channels)
+
+    def _plot(self) -> None:
+        title = self.title
+        self.draw("energies", plot_energies, self.thermo, self.wk_minus, self.png("energies"), title,
+                  labels={"elastic": "elastic (bonds, angles, repulsion, plane)",
+                          "W_f": "held by broken bonds and angles $W_{f,held}$",
+                          "dissipated": "dissipated (plane, damping)"})
+        label = f"v0 = {self.cfg['scenario']['velocity']:g} m/s"
+        self.draw("fragment_masses", plot_mass_pdf, {label: self.mass_pdf}, self.png("fragment_masses"), title,
+                  fits={label: self.tau_fit})
+        self.draw("shapes", plot_shapes, self.frags, self.png("shapes"), title)
+
+    def _report(self) -> Report:
+        measures, system = self.results.summary, self.system
+        rep = Report(f"{self.cfg['name']}: {self.title}", provenance_line(self.run_dir))
+        shown = ("omega", "D_w", "eta", "e_k2", "chi", "W_f", "W_f_held", "W_c_over_W_s", "W_c_wall",
+                 "W_c_pair_damping", "W_c_bond_damping", "balance_residual", "n_fragments",
+                 "largest_fragment_mass_fraction", "mass_tau", "shape_shape_factor_mean", "end_time", "settled")
+        rep.values({k: measures[k] for k in shown if k in measures}, "SPEC 1.5 measures of the BPM particle (SI)")
+        rep.text(measures["stop_rule"] + f"; time step {system['timestep_s']:.4g} s ({system['timestep_rule']}).")
+        for msg in self.warnings:
+            rep.text(f"Warning: {msg}")
+        rep.table(self.channels, "where W_k^- went (results/energy_channels)")
+        rep.figure(self.png("energies"), "energy budget against time, fractions of W_k^-")
+        rep.table(self.frags[["fragment", "n_cells", "mass", "volume", "a", "b", "c", "elongation", "flatness",
+                              "shape_factor", "v_cm"]], "largest fragments (n_cells = particles)", max_rows=15)
+        return rep

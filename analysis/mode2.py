@@ -19,7 +19,7 @@ crack whose front runs along z, the same in every z plane: a plane-strain proble
 stresses of a plane elastic problem loaded by tractions (the remote tau here, the crack faces
 free) do not depend on the elastic constants (Michell), so plane strain and plane stress have
 the same stress field and the same K_II for the same remote tau: the factor and formula hold
-unchanged, with tau the stress per unit volume (3D pressure tensor). As in mode I (analysis/toughness.py), the void's finite tip
+unchanged, with tau the stress per unit volume (3D pressure tensor). As in mode I (analysis/mode1.py), the void's finite tip
 radius b^2 / c makes the measured K_IIC an upper bound of a sharp crack's. tau_c is the largest
 tau of the record: tau = (sigma_xx - sigma_yy) / 2, the remote stress of the periodic cell
 (pressure tensor over the box area, void included) resolved on the 45-degree planes.
@@ -40,19 +40,10 @@ import numpy as np
 import pandas as pd
 
 from analysis.breaks import read_break_log
-from analysis.plots import PlotGuard
-from analysis.report import Report, clear_report, provenance_line, write_report
-from analysis.tables import save_table
+from analysis.report import Report, provenance_line
+from analysis.run_analysis import RunAnalysis
+from analysis.toughness import FAILED_FRACTION, FIRST_BREAKS, MIN_CROSSINGS, peak_and_end, toughness_set
 from runfiles.records import MODE2_RECORD, read_record
-
-#: The sample has failed when the mean tau over the last quarter of the records after the peak
-#: is below this fraction of the peak (as analysis/toughness.py asks of a mode-I pull).
-FAILED_FRACTION = 0.5
-#: Breaks whose distance from the nearest tip is reported (the first ones, by step).
-FIRST_BREAKS = 10
-#: Fewest times a shear wave crosses the sample before the peak (as analysis/toughness.py asks
-#: of a mode-I pull): a faster shear loads the void by waves, not quasi-statically.
-MIN_CROSSINGS = 5.0
 
 
 def collinear_factor(c: float, period: float) -> float:
@@ -95,77 +86,83 @@ def band_offsets(points: np.ndarray, centre: np.ndarray, L: float) -> np.ndarray
     return np.abs(s - h * np.round(s / h))
 
 
-def analyse_mode2(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = False) -> dict:
+class Mode2Analysis(RunAnalysis):
     """Summary, results/mode2 (the record), figure plots/mode2.png and report of a mode2 run.
-    partial: analysed all the same (a run cut short after the peak still has it)."""
-    run_dir = Path(run_dir)
-    system = json.loads((run_dir / "system.json").read_text())
-    record = read_record(run_dir / "thermo.dat", MODE2_RECORD.names)
-    save_table(record, run_dir / "results" / "mode2")
-    c = float(system["void_semi_axes"][0])
-    period = float(system["crack_period"])
-    L = float(system["box_length"])
-    centre = np.asarray(system["void_centre"], float)
-    k = int(record.tau.idxmax())
-    peak = record.iloc[k]
-    tau_c = float(peak.tau)
-    K = mode2_toughness(tau_c, c, period)
-    after = record.tau.iloc[k + 1:]
-    final = float(after.tail(max(1, len(after) // 4)).mean()) if len(after) else tau_c
-    failed = bool(len(after) >= 2 and final < FAILED_FRACTION * tau_c)
-    flags = [] if failed else [f"no failure: tau at the end ({final:.4g}) is not below {FAILED_FRACTION:g} of its "
-                               f"peak ({tau_c:.4g}); shear further (scenario.max_shear_strain)"]
-    summary: dict = {"theta_c_deg": cfg["model"]["theta_c_deg"], "lambda_c": cfg["model"]["lambda_c"],
-                     "k_A": cfg["model"]["k_A"], "tau_c": tau_c, "peak_step": int(peak.step),
-                     "peak_strain": float(peak.strain), "geometry_factor": collinear_factor(c, period),
-                     "crack_half_length": c, "crack_period": period, "band_width": float(system["band_width"]),
-                     "K_IIC": K, "final_mean_tau": final, "failed": failed}
-    K_IC = cfg["scenario"].get("K_IC_reference")
-    if K_IC:
-        summary.update(K_IC_reference=float(K_IC), K_IIC_over_K_IC=K / float(K_IC))
-    G = cfg["scenario"].get("G_reference")
-    if G:
-        # shear-wave speed sqrt(G / rho), rho the number density of the sample (m = 1): per area
-        # in 2D, per volume of the slab (thickness T) in 3D
-        T = float(system.get("thickness", 1.0))
-        rho = system["n_particles"] / ((L * L - math.pi * c * float(system["void_semi_axes"][1])) * T)
-        crossings = float(peak.time) / (L / math.sqrt(float(G) / rho))
-        summary["shear_wave_crossings_to_peak"] = crossings
-        if crossings < MIN_CROSSINGS:
-            flags.append(f"rate: the peak comes after {crossings:.2g} shear-wave crossings of the sample (< "
-                         f"{MIN_CROSSINGS:g}): the void is loaded by waves; shear more slowly")
-    log = run_dir / "breaks.dat"
-    if log.exists():
-        bonds = read_break_log(log)
-        bonds = bonds[bonds.kind == "bond"].sort_values("step", kind="stable")
-        if len(bonds):
-            ref = reference_positions(bonds, centre, float(system["strain_rate"]))
-            first = ref[:FIRST_BREAKS]
-            d = tip_distances(first, centre, c, float(system["void_angle_deg"]), L)
-            summary.update(first_break_step=int(bonds.step.iloc[0]), first_breaks=len(first),
-                           first_breaks_max_tip_distance=float(d.max()),
-                           first_breaks_median_tip_distance=float(np.median(d)),
-                           bonds_broken_before_peak=int((bonds.step <= peak.step).sum()),
-                           bonds_broken=len(bonds),
-                           broken_max_band_offset=float(band_offsets(ref, centre, L).max()))
-    summary.update(flags=flags, flagged=bool(flags))
-    guard = PlotGuard()
-    png = run_dir / "plots" / "mode2.png"
-    if plots:
-        guard.draw("mode2", png, plot_shear, record, k, png)
-    summary["plots_failed"] = guard.failed
-    clear_report(run_dir)
-    rep = Report(f"BPM mode-II toughness: {cfg['name']}", provenance_line(run_dir))
-    rep.values({k_: v for k_, v in summary.items() if not isinstance(v, (list, dict))}, "toughness (LJ units)")
-    for f in flags:
-        rep.text(f"FLAG: {f}")
-    if plots and not guard.failed:
-        rep.figure(png, "shear stress on the 45-degree planes against strain, peak marked")
-    write_report(rep, run_dir)
-    return summary
+    Cut short: measured on the record it left (a run cut short after the peak still has it),
+    flagged."""
+
+    def _prepare(self) -> None:
+        self.system = json.loads((self.run_dir / "system.json").read_text())
+        self.record = read_record(self.run_dir / "thermo.dat", MODE2_RECORD.names)
+        if self.cut_short:
+            self.cut_short_note = (f"the run did not finish: measured on its record up to step "
+                                   f"{int(self.record.step.iloc[-1])}, before the end of the shear")
+
+    def _conclude(self) -> None:
+        cfg, system, record = self.cfg, self.system, self.record
+        self.results.tables["mode2"] = record
+        c = float(system["void_semi_axes"][0])
+        period = float(system["crack_period"])
+        L = float(system["box_length"])
+        centre = np.asarray(system["void_centre"], float)
+        k, tau_c, final, failed = peak_and_end(record.tau)
+        peak = record.iloc[k]
+        K = mode2_toughness(tau_c, c, period)
+        flags = [] if failed else [f"no failure: tau at the end ({final:.4g}) is not below {FAILED_FRACTION:g} of its "
+                                   f"peak ({tau_c:.4g}); shear further (scenario.max_shear_strain)"]
+        summary: dict = {"theta_c_deg": cfg["model"]["theta_c_deg"], "lambda_c": cfg["model"]["lambda_c"],
+                         "k_A": cfg["model"]["k_A"], "tau_c": tau_c, "peak_step": int(peak.step),
+                         "peak_strain": float(peak.strain), "geometry_factor": collinear_factor(c, period),
+                         "crack_half_length": c, "crack_period": period, "band_width": float(system["band_width"]),
+                         "K_IIC": K, "final_mean_tau": final, "failed": failed}
+        K_IC = cfg["scenario"].get("K_IC_reference")
+        if K_IC:
+            summary.update(K_IC_reference=float(K_IC), K_IIC_over_K_IC=K / float(K_IC))
+        G = cfg["scenario"].get("G_reference")
+        if G:
+            # shear-wave speed sqrt(G / rho), rho the number density of the sample (m = 1): per area
+            # in 2D, per volume of the slab (thickness T) in 3D
+            T = float(system.get("thickness", 1.0))
+            rho = system["n_particles"] / ((L * L - math.pi * c * float(system["void_semi_axes"][1])) * T)
+            crossings = float(peak.time) / (L / math.sqrt(float(G) / rho))
+            summary["shear_wave_crossings_to_peak"] = crossings
+            if crossings < MIN_CROSSINGS:
+                flags.append(f"rate: the peak comes after {crossings:.2g} shear-wave crossings of the sample (< "
+                             f"{MIN_CROSSINGS:g}): the void is loaded by waves; shear more slowly")
+        log = self.run_dir / "breaks.dat"
+        if log.exists():
+            bonds = read_break_log(log)
+            bonds = bonds[bonds.kind == "bond"].sort_values("step", kind="stable")
+            if len(bonds):
+                ref = reference_positions(bonds, centre, float(system["strain_rate"]))
+                first = ref[:FIRST_BREAKS]
+                d = tip_distances(first, centre, c, float(system["void_angle_deg"]), L)
+                summary.update(first_break_step=int(bonds.step.iloc[0]), first_breaks=len(first),
+                               first_breaks_max_tip_distance=float(d.max()),
+                               first_breaks_median_tip_distance=float(np.median(d)),
+                               bonds_broken_before_peak=int((bonds.step <= peak.step).sum()),
+                               bonds_broken=len(bonds),
+                               broken_max_band_offset=float(band_offsets(ref, centre, L).max()))
+        summary.update(flags=flags, flagged=bool(flags))
+        self.results.summary = summary
+        self.peak = k
+
+    def _plot(self) -> None:
+        self.draw("mode2", plot_shear, self.record, self.peak, self.png("mode2"))
+
+    def _report(self) -> Report:
+        summary = self.results.summary
+        rep = Report(f"BPM mode-II toughness: {self.cfg['name']}", provenance_line(self.run_dir))
+        rep.values({k_: v for k_, v in summary.items() if not isinstance(v, (list, dict))}, "toughness (LJ units)")
+        for f in summary["flags"]:
+            rep.text(f"FLAG: {f}")
+        if self.plots and not self.guard.failed:
+            rep.figure(self.png("mode2"), "shear stress on the 45-degree planes against strain, peak marked")
+        return rep
 
 
 def plot_shear(record: pd.DataFrame, peak: int, path: Path) -> None:
+    """tau against the pure-shear strain, the peak (row `peak`) marked."""
     import matplotlib.pyplot as plt  # noqa: PLC0415
     from runfiles.atomic import atomic_save  # noqa: PLC0415
 
@@ -182,8 +179,6 @@ def plot_shear(record: pd.DataFrame, peak: int, path: Path) -> None:
 def analyse_mode2_set(runs: list[dict], out: Path, plots: bool = True, left_out: list[dict] | None = None) -> dict:
     """K_IIC (and K_IIC / K_IC where K_IC_reference was given) against theta_c
     (analysis/toughness.py toughness_set)."""
-    from analysis.toughness import toughness_set  # noqa: PLC0415
-
     return toughness_set(runs, out, plots, left_out, "theta_c_deg", ("tau_c", "K_IIC", "K_IIC_over_K_IC"),
                          "K_IIC_over_K_IC", "K_IIC", r"$\theta_c$ (degrees)", (r"$K_{IIC}$", r"$K_{IIC}/K_{IC}$"),
                          "mode-II toughness")

@@ -29,6 +29,7 @@ import pandas as pd
 
 from analysis.plots import PlotGuard
 from analysis.report import Report, clear_report, provenance_line, write_report
+from analysis.run_analysis import RunAnalysis
 from analysis.tables import save_table
 from runfiles.records import MODULI_RECORD, read_record
 
@@ -108,55 +109,60 @@ def moduli_flags(crossings: float, rate_dev: float, fast: float, slow: float, br
     return flags
 
 
-def analyse_moduli(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = False) -> dict:
-    """Tables (results/moduli_phases), figure (plots/moduli.png), report and summary of a
-    moduli run. partial: refused (a moduli run is short; run it again)."""
-    run_dir = Path(run_dir)
-    if partial:
-        raise ValueError("a moduli run that did not finish has no moduli: run it again")
-    dim = int(cfg["model"]["dimension"])
-    system = json.loads((run_dir / "system.json").read_text())
-    record = read_record(run_dir / "thermo.dat", MODULI_RECORD.names)
-    fits = phase_fits(record, system["phases"], dim)
-    save_table(fits, run_dir / "results" / "moduli_phases")
-    rates = sorted(set(fits.rate))
-    slow, fast = rates[0], rates[-1]
-    B, B_se, G, G_se = moduli_of(fits, slow)
-    B_fast, _, G_fast, _ = moduli_of(fits, fast)
-    E, nu = elastic_constants(B, G, dim)
-    rate_dev = max(abs(B_fast - B) / abs(B), abs(G_fast - G) / abs(G))
-    flags = []
-    rho = system["n_particles"] / float(record.vol.iloc[0])
-    c_l = math.sqrt((B + (G if dim == 2 else 4 * G / 3)) / rho)
-    length = float(record.vol.iloc[0]) ** (1 / dim)
-    shortest = min(ph["steps"] for ph in system["phases"]) * float(cfg["model"]["timestep"])
-    crossings = shortest / (length / c_l)
-    flags += moduli_flags(crossings, rate_dev, fast, slow, int(fits.bonds_broken.sum()), "bonds",
-                          "deform more slowly")
-    summary = {"k_A": cfg["model"]["k_A"], "B": B, "B_se": B_se, "G": G, "G_se": G_se, "E": E, "nu": nu,
-               "B_at_rate": B_fast, "G_at_rate": G_fast, "rate_deviation": rate_dev,
-               "number_density": rho, "sound_speed": c_l, "sound_crossings": crossings,
-               "B_affine": system["B_affine"], "G_affine": system["G_affine"],
-               "B_over_affine": B / system["B_affine"], "G_over_affine": G / system["G_affine"],
-               "flags": flags, "flagged": bool(flags)}
-    guard = PlotGuard()
-    if plots:
-        guard.draw("moduli", run_dir / "plots" / "moduli.png", plot_phases, record, system["phases"], fits, dim,
-                   run_dir / "plots" / "moduli.png")
-    summary["plots_failed"] = guard.failed
-    clear_report(run_dir)
-    rep = Report(f"BPM moduli: {cfg['name']}", provenance_line(run_dir))
-    rep.values({k: v for k, v in summary.items() if not isinstance(v, (list, dict))}, "moduli (LJ units)")
-    for f in flags:
-        rep.text(f"FLAG: {f}")
-    rep.table(fits, "one fit per phase (stress against strain over the fit window)")
-    if plots and not guard.failed:
-        rep.figure(run_dir / "plots" / "moduli.png", "stress against strain per phase, with the fitted lines")
-    write_report(rep, run_dir)
-    return summary
+class ModuliAnalysis(RunAnalysis):
+    """Tables (results/moduli_phases), figure (plots/moduli.png), report and summary of a BPM
+    moduli run. Cut short: refused (its phases are incomplete; a moduli run is short)."""
+
+    refuses_cut_short = "a moduli run that did not finish has no moduli: run it again"
+
+    def _prepare(self) -> None:
+        self.dim = int(self.cfg["model"]["dimension"])
+        self.system = json.loads((self.run_dir / "system.json").read_text())
+        self.record = read_record(self.run_dir / "thermo.dat", MODULI_RECORD.names)
+
+    def _conclude(self) -> None:
+        cfg, dim, system, record = self.cfg, self.dim, self.system, self.record
+        fits = phase_fits(record, system["phases"], dim)
+        self.results.tables["moduli_phases"] = fits
+        rates = sorted(set(fits.rate))
+        slow, fast = rates[0], rates[-1]
+        B, B_se, G, G_se = moduli_of(fits, slow)
+        B_fast, _, G_fast, _ = moduli_of(fits, fast)
+        E, nu = elastic_constants(B, G, dim)
+        rate_dev = max(abs(B_fast - B) / abs(B), abs(G_fast - G) / abs(G))
+        rho = system["n_particles"] / float(record.vol.iloc[0])
+        c_l = math.sqrt((B + (G if dim == 2 else 4 * G / 3)) / rho)
+        length = float(record.vol.iloc[0]) ** (1 / dim)
+        shortest = min(ph["steps"] for ph in system["phases"]) * float(cfg["model"]["timestep"])
+        crossings = shortest / (length / c_l)
+        flags = moduli_flags(crossings, rate_dev, fast, slow, int(fits.bonds_broken.sum()), "bonds",
+                             "deform more slowly")
+        self.results.summary = {
+            "k_A": cfg["model"]["k_A"], "B": B, "B_se": B_se, "G": G, "G_se": G_se, "E": E, "nu": nu,
+            "B_at_rate": B_fast, "G_at_rate": G_fast, "rate_deviation": rate_dev,
+            "number_density": rho, "sound_speed": c_l, "sound_crossings": crossings,
+            "B_affine": system["B_affine"], "G_affine": system["G_affine"],
+            "B_over_affine": B / system["B_affine"], "G_over_affine": G / system["G_affine"],
+            "flags": flags, "flagged": bool(flags)}
+        self.fits = fits
+
+    def _plot(self) -> None:
+        self.draw("moduli", plot_phases, self.record, self.system["phases"], self.fits, self.dim, self.png("moduli"))
+
+    def _report(self) -> Report:
+        summary = self.results.summary
+        rep = Report(f"BPM moduli: {self.cfg['name']}", provenance_line(self.run_dir))
+        rep.values({k: v for k, v in summary.items() if not isinstance(v, (list, dict))}, "moduli (LJ units)")
+        for f in summary["flags"]:
+            rep.text(f"FLAG: {f}")
+        rep.table(self.fits, "one fit per phase (stress against strain over the fit window)")
+        if self.plots and not self.guard.failed:
+            rep.figure(self.png("moduli"), "stress against strain per phase, with the fitted lines")
+        return rep
 
 
 def plot_phases(record: pd.DataFrame, phases: list[dict], fits: pd.DataFrame, dimension: int, path: Path) -> None:
+    """Stress against strain per phase (compression, shears), with each phase's fitted line."""
     import matplotlib.pyplot as plt  # noqa: PLC0415
     from runfiles.atomic import atomic_save  # noqa: PLC0415
 
@@ -213,6 +219,7 @@ def analyse_moduli_set(runs: list[dict], out: Path, plots: bool = True, left_out
 
 
 def plot_moduli_vs_ka(points: pd.DataFrame, path: Path) -> None:
+    """B and G (with their affine estimates) and nu against k_A over a set."""
     import matplotlib.pyplot as plt  # noqa: PLC0415
     from runfiles.atomic import atomic_save  # noqa: PLC0415
 

@@ -38,6 +38,11 @@ class Report:
     def text(self, text: str) -> None:
         self.blocks.append(("text", text))
 
+    def lead(self, text: str) -> None:
+        """A paragraph right under the title, before every other block (what a reader must
+        know first, such as a run cut short)."""
+        self.blocks.insert(0, ("text", text))
+
     def values(self, values: dict[str, Any], caption: str = "") -> None:
         """A two-column table of named figures."""
         self.blocks.append(("table", pd.DataFrame({"quantity": list(values), "value": list(values.values())}), caption))

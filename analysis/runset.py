@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from analysis.impact import ENERGY_CHANNELS
+from analysis.bcm_impact import ENERGY_CHANNELS
 from analysis.plots import PlotGuard, plot_curves, plot_energy_split, plot_histograms, plot_mass_pdf, plot_measures
 from analysis.report import Report, write_report
 from analysis.scaling import (BREAKUP_FRACTION, Curve, Threshold, breakup_definitions, finite_rate_rescale,
@@ -407,7 +407,7 @@ MEASURES = ["omega", "D_w", "eta", "eta_released", "e_k2", "chi", "W_c_over_W_s"
             "n_fragments", "n_fragments_multi_cell", "largest_fragment_mass_fraction", "second_fragment_mass_fraction",
             "mass_tau", "shape_shape_factor_mean", "balance_residual"]
 # the energy split of SPEC 1.5's W_k^- per run, as fractions of W_k^-: the dissipation channels
-# (analysis.impact.ENERGY_CHANNELS), fracture (W_f as booked and as released), the rebound and
+# (analysis.bcm_impact.ENERGY_CHANNELS), fracture (W_f as booked and as released), the rebound and
 # the elastic energy left; (column, summary key, label)
 ENERGY_SPLIT = [(f"split_{name}", f"W_c_{name}", what) for name, _, what in ENERGY_CHANNELS] + [
     ("split_fracture", "W_f", "fracture W_f = 2 A G_c"),

@@ -1,24 +1,28 @@
-"""Measures of a BPM shear run (SPEC 2.5) from its run directory: tables, summary, plots."""
+"""Measures of a BPM shear run (SPEC 2.5) from its run directory: tables, summary, plots, report
+(`ShearAnalysis`)."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 import pandas as pd
 
+from analysis.completeness import RunRefused
 from analysis.dumps import AtomFrame, DumpError, LocalFrame, bond_pairs, read_atom_dump, read_local_dump
 from analysis.grain_table import frame_grains
 from analysis.pictures import render_particles_2d, render_particles_3d
-from analysis.plots import PlotGuard, plot_nm, plot_stress
+from analysis.plots import plot_nm, plot_stress
 from analysis.powerlaw import MIN_FIT_GRAINS, exponent_flag, grains_fitted
-from analysis.report import Report, clear_report, provenance_line, write_report
+from analysis.report import Report, provenance_line
+from analysis.run_analysis import RunAnalysis
 from analysis.statistics import SMALL_GRAIN_CUT, fit_grain_tau, frame_measures, mass_distribution
 from analysis.stress import N_BLOCKS, STRESS_WINDOW, inertial_number, stress_measures, stress_windows
-from analysis.tables import save_table
 from analysis.tracking import lineage_table
 from runfiles.records import SHEAR_RECORD, read_record
+
 
 def read_thermo(path: Path) -> pd.DataFrame:
     """The `fix print` record of a shear run (one row per record, columns by the file's title;
@@ -26,105 +30,121 @@ def read_thermo(path: Path) -> pd.DataFrame:
     return read_record(path, SHEAR_RECORD.names)
 
 
-def analyse_shear(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = False) -> dict:
-    """Tables, plots and summary figures of a finished shear run; returns the summary dict.
+class ShearAnalysis(RunAnalysis):
+    """Tables, plots, summary and report of a shear run: the stress series and its windows,
+    then per snapshot (one frame each) the grains, N(M), its power-law fit and the frame's
+    measures, and the grains' lineage between snapshots.
 
-    cfg is the resolved config as a plain mapping (config.resolved.yaml). partial=True (a run
-    that did not finish) analyses the snapshots before the first missing or truncated one and
-    lists what was left out under "warnings" in the summary.
-    """
-    run_dir = Path(run_dir)
-    clear_report(run_dir)  # written last: no report = the analysis did not finish
-    model, scen = cfg["model"], cfg["scenario"]
-    dim = int(model["dimension"])
-    system = json.loads((run_dir / "system.json").read_text())
-    snaps = json.loads((run_dir / "snapshots.json").read_text())
-    n_atoms = int(system["n_particles"])
-    cut = SMALL_GRAIN_CUT[dim]
-    thresholds = tuple(t for t in cfg["output"].get("count_above", ()) if t != cut)
+    Cut short: the snapshots before the first missing or truncated one are analysed, what was
+    left out is listed in the warnings, and the summary is flagged; refused when not even the
+    first snapshot can be read."""
 
-    # Stress series.
-    stress = stress_measures(read_thermo(run_dir / "thermo.dat"), dim)
-    stress["density"] = n_atoms / stress["vol"]  # all masses m = 1
-    stress["I"] = inertial_number(scen["strain_rate"], system["mean_diameter"], stress["density"], stress["P"])
+    summary_tail = ("plots_failed", "warnings")  # the order shear summaries have always had
 
-    # Grains at each snapshot: labels, one row per grain, N(M), one row per frame.
-    grain_rows, nm_rows, frame_rows, fit_rows, all_labels = [], [], [], [], []
-    warnings_: list[str] = []
-    for k, snap in enumerate(snaps):
-        try:
-            atoms = read_atom_dump(run_dir / snap["atoms"])[-1]
-            bonds = read_local_dump(run_dir / snap["bonds"])[-1]
-        except (FileNotFoundError, DumpError) as exc:
-            if not partial or k == 0:
-                raise
-            warnings_.append(f"snapshots from strain {snap['strain']:g} on left out: {exc}")
-            snaps = snaps[:k]
-            break
-        labels, table = grains_of_frame(atoms, bonds, n_atoms, dim)
+    def _prepare(self) -> None:
+        model = self.cfg["model"]
+        self.dim = int(model["dimension"])
+        self.system = json.loads((self.run_dir / "system.json").read_text())
+        self.snaps = json.loads((self.run_dir / "snapshots.json").read_text())
+        self.n_atoms = int(self.system["n_particles"])
+        self.cut = SMALL_GRAIN_CUT[self.dim]
+        self.thresholds = tuple(t for t in self.cfg["output"].get("count_above", ()) if t != self.cut)
+        # Stress series.
+        stress = stress_measures(read_thermo(self.run_dir / "thermo.dat"), self.dim)
+        stress["density"] = self.n_atoms / stress["vol"]  # all masses m = 1
+        stress["I"] = inertial_number(self.cfg["scenario"]["strain_rate"], self.system["mean_diameter"],
+                                      stress["density"], stress["P"])
+        self.stress = stress
+        self.grain_rows, self.nm_rows, self.frame_rows, self.fit_rows, self.all_labels = [], [], [], [], []
+
+    def _frames(self) -> Iterator[tuple[dict, AtomFrame, LocalFrame]]:
+        """(snapshot, atoms, bonds) of each snapshot in order; a run cut short stops at the first
+        one it cannot read (and self.snaps is cut there)."""
+        snaps = self.snaps
+        for k, snap in enumerate(snaps):
+            try:
+                atoms = read_atom_dump(self.run_dir / snap["atoms"])[-1]
+                bonds = read_local_dump(self.run_dir / snap["bonds"])[-1]
+            except (FileNotFoundError, DumpError) as exc:
+                if not self.cut_short:
+                    raise
+                if k == 0:
+                    raise RunRefused(f"the run did not finish and its first snapshot cannot be read ({exc}): "
+                                     "nothing to analyse") from exc
+                self.warnings.append(f"snapshots from strain {snap['strain']:g} on left out: {exc}")
+                self.snaps = snaps[:k]
+                return
+            yield snap, atoms, bonds
+
+    def _single_frame(self, frame: tuple[dict, AtomFrame, LocalFrame]) -> None:
+        """Grains at one snapshot: labels, one row per grain, N(M), its fit, one row per frame."""
+        snap, atoms, bonds = frame
+        cut = self.cut
+        labels, table = grains_of_frame(atoms, bonds, self.n_atoms, self.dim)
         masses = table["mass"].to_numpy()
         table.insert(0, "step", snap["step"])
         table.insert(0, "strain", snap["strain"])
-        grain_rows.append(table)
-        all_labels.append(labels)
+        self.grain_rows.append(table)
+        self.all_labels.append(labels)
         nm = mass_distribution(masses, m_min=cut)
-        fit_rows.append(_fit_tau(masses, table["percolating"].to_numpy(), cut, snap))
+        self.fit_rows.append(_fit_tau(masses, table["percolating"].to_numpy(), cut, snap))
         nm.insert(0, "strain", snap["strain"])
-        nm_rows.append(nm)
-        frame_rows.append({"strain": snap["strain"], "step": snap["step"], "intact_bonds": int(bonds_intact(bonds).sum()),
-                           **frame_measures(masses, table["percolating"], cut, thresholds)})
-    grains = pd.concat(grain_rows, ignore_index=True)
-    nm_all = pd.concat(nm_rows, ignore_index=True)
-    frames = pd.DataFrame(frame_rows)
-    fits = pd.DataFrame(fit_rows)
-    tracking = lineage_table(all_labels)
-    strain_of = dict(enumerate(s["strain"] for s in snaps))
-    tracking.insert(1, "strain_parent", tracking["frame"].map(lambda k: strain_of[k - 1]))
-    tracking.insert(2, "strain_child", tracking["frame"].map(strain_of))
+        self.nm_rows.append(nm)
+        self.frame_rows.append({"strain": snap["strain"], "step": snap["step"],
+                                "intact_bonds": int(bonds_intact(bonds).sum()),
+                                **frame_measures(masses, table["percolating"], cut, self.thresholds)})
 
-    # mu, P and sqrt(J2) averaged over strain windows, the last one the summary's (steady flow)
-    windows = stress_windows(stress)
-    final_window = windows.iloc[-1] if len(windows) else None
+    def _conclude(self) -> None:
+        model, scen, snaps, stress = self.cfg["model"], self.cfg["scenario"], self.snaps, self.stress
+        cut, fit_rows, frame_rows = self.cut, self.fit_rows, self.frame_rows
+        grains = pd.concat(self.grain_rows, ignore_index=True)
+        nm_all = pd.concat(self.nm_rows, ignore_index=True)
+        frames = pd.DataFrame(frame_rows)
+        fits = pd.DataFrame(fit_rows)
+        tracking = lineage_table(self.all_labels)
+        strain_of = dict(enumerate(s["strain"] for s in snaps))
+        tracking.insert(1, "strain_parent", tracking["frame"].map(lambda k: strain_of[k - 1]))
+        tracking.insert(2, "strain_child", tracking["frame"].map(strain_of))
 
-    res = run_dir / "results"
-    save_table(stress, res / "stress")
-    save_table(windows, res / "stress_windows")
-    save_table(grains, res / "grains")
-    save_table(nm_all, res / "nm")
-    save_table(frames, res / "frames")
-    save_table(fits, res / "nm_fits")
-    save_table(tracking, res / "tracking")
-    title = f"BPM {dim}D, L = {model['L']:g}, edot = {scen['strain_rate']:g}, k_A = {model['k_A']:g}"
-    guard = PlotGuard()  # a figure that fails is listed in plots_failed; the analysis goes on
-    if plots:
-        plot_dir = run_dir / "plots"
+        # mu, P and sqrt(J2) averaged over strain windows, the last one the summary's (steady flow)
+        windows = stress_windows(stress)
+        final_window = windows.iloc[-1] if len(windows) else None
+        self.results.tables.update(stress=stress, stress_windows=windows, grains=grains, nm=nm_all, frames=frames,
+                                   nm_fits=fits, tracking=tracking)
+        self.title = f"BPM {self.dim}D, L = {model['L']:g}, edot = {scen['strain_rate']:g}, k_A = {model['k_A']:g}"
+        self.nm_all, self.frames, self.fits = nm_all, frames, fits
+
+        last = stress.iloc[-1]
+        if self.cut_short:
+            self.cut_short_note = (f"the run did not finish: measured on its snapshots up to strain "
+                                   f"{snaps[-1]['strain']:g} and its stress record up to strain {float(last.strain):g}")
+        self.results.summary = {
+            "n_particles": self.n_atoms,
+            "bonds_per_particle": self.system["bonds_per_particle"],
+            "angles_per_particle": self.system["angles_per_particle"],
+            "final_strain": float(last.strain),
+            "bonds_broken": int(last.bonds_broken),
+            "angles_broken": int(last.angles_broken),
+            "grains_at_strain": {f"{r['strain']:g}": r["n_grains"] for r in frame_rows},
+            f"grains_M>={cut}_at_strain": {f"{r['strain']:g}": r[f"n_grains_M>={cut}"] for r in frame_rows},
+            **_window_summary(final_window),
+            # one instantaneous record, for reference only: mu_mean is the measure
+            "mu_last_record": float(last.mu) if np.isfinite(last.mu) else None,
+            "tau_final": fit_rows[-1]["tau"], "tau_final_sigma": fit_rows[-1]["sigma"],
+            "tau_final_flag": fit_rows[-1]["tau_flag"],
+        }
+
+    def _plot(self) -> None:
+        title, last_fit = self.title, self.fit_rows[-1]
         # a flagged fit is no result: no slope drawn through the data
-        guard.draw("nm", plot_dir / "nm.png", plot_nm, nm_all[nm_all.strain > 0], plot_dir / "nm.png", title,
-                   fit=None if fit_rows[-1]["tau_flag"] else fit_rows[-1])
-        guard.draw("stress", plot_dir / "stress.png", plot_stress, stress, plot_dir / "stress.png", title)
-        guard.draw("grains", plot_dir / "grains.png", _picture, run_dir, snaps[-1], all_labels[-1], dim, system,
-                   f"{title}, strain {snaps[-1]['strain']:g}")
+        self.draw("nm", plot_nm, self.nm_all[self.nm_all.strain > 0], self.png("nm"), title,
+                  fit=None if last_fit["tau_flag"] else last_fit)
+        self.draw("stress", plot_stress, self.stress, self.png("stress"), title)
+        self.draw("grains", _picture, self.run_dir, self.snaps[-1], self.all_labels[-1], self.dim, self.system,
+                  f"{title}, strain {self.snaps[-1]['strain']:g}")
 
-    last = stress.iloc[-1]
-    summary = {
-        "n_particles": n_atoms,
-        "bonds_per_particle": system["bonds_per_particle"],
-        "angles_per_particle": system["angles_per_particle"],
-        "final_strain": float(last.strain),
-        "bonds_broken": int(last.bonds_broken),
-        "angles_broken": int(last.angles_broken),
-        "grains_at_strain": {f"{r['strain']:g}": r["n_grains"] for r in frame_rows},
-        f"grains_M>={cut}_at_strain": {f"{r['strain']:g}": r[f"n_grains_M>={cut}"] for r in frame_rows},
-        **_window_summary(final_window),
-        # one instantaneous record, for reference only: mu_mean is the measure
-        "mu_last_record": float(last.mu) if np.isfinite(last.mu) else None,
-        "tau_final": fit_rows[-1]["tau"], "tau_final_sigma": fit_rows[-1]["sigma"],
-        "tau_final_flag": fit_rows[-1]["tau_flag"],
-        "plots_failed": guard.failed,
-        **({"warnings": warnings_} if warnings_ else {}),
-    }
-    write_report(shear_report(run_dir, cfg, summary, frames, fits, title), run_dir)
-    return summary
+    def _report(self) -> Report:
+        return shear_report(self.run_dir, self.cfg, self.results.summary, self.frames, self.fits, self.title)
 
 
 def _window_summary(window) -> dict:

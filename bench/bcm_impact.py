@@ -106,7 +106,7 @@ def probe_memory(config: str, n_cells: int, steps: int) -> dict:
         peak = float(re.findall(r"PEAK ([\d.]+)", proc.stdout)[-1])
         # the analysis of what the session left (its last snapshot, as `driver post` of a run cut
         # short), in a fresh process, with and without figures
-        analysis = {plots: _probe("--probe-analysis", str(rd.root), "partial", plots)["analysis_mib"]
+        analysis = {plots: _probe("--probe-analysis", str(rd.root), "cut_short", plots)["analysis_mib"]
                     for plots in ("plots", "noplots")}
         return {"cells": n_cells, "interfaces": system["n_interfaces"], "lammps_process_mib": peak,
                 "lammps_allocation_mb": _lammps_allocation(rd.root / "log.lammps"), "build_mib": build_peak,
@@ -129,21 +129,23 @@ def probe_run(config: str, out: str) -> dict:
             "lammps_allocation_mb": _lammps_allocation(run / "log.lammps")}
 
 
-def probe_analysis(run_dir: str, partial: str = "finished", plots: str = "plots") -> dict:
+def probe_analysis(run_dir: str, completeness: str = "finished", plots: str = "plots") -> dict:
     """The analysis of a run alone, in a fresh process: its peak, and the peak of the same
-    imports with no analysis (the floor the libraries set)."""
+    imports with no analysis (the floor the libraries set). completeness: finished or cut_short
+    (analysis/completeness.py)."""
+    from analysis.completeness import RunCompleteness  # noqa: PLC0415
     from driver.pipeline import analyse_run, load_resolved  # noqa: PLC0415
 
     cfg = load_resolved(Path(run_dir))
     cfg["output"]["plots"] = plots == "plots"
-    analyse_run(Path(run_dir), cfg, partial=partial == "partial")
+    analyse_run(Path(run_dir), cfg, RunCompleteness(completeness))
     return {"analysis_mib": _self_peak_mib()}
 
 
 def probe_imports() -> dict:
     """Peak of a process that imports what the impact analysis imports and does nothing."""
     import analysis.breaks  # noqa: F401, PLC0415
-    import analysis.impact  # noqa: F401, PLC0415
+    import analysis.bcm_impact  # noqa: F401, PLC0415
     import driver.pipeline  # noqa: F401, PLC0415
 
     return {"imports_mib": _self_peak_mib()}
@@ -155,7 +157,7 @@ def phase_bounds(run: Path) -> dict[str, tuple[int, int]]:
     free flight ends at the last record before the plane's first contact (wall_contacts > 0),
     contact and fracture at the last break of breaks.dat, the settled tail at the end."""
     from analysis.breaks import read_break_log  # noqa: PLC0415
-    from analysis.impact import read_impact_thermo  # noqa: PLC0415
+    from analysis.bcm_impact import read_impact_thermo  # noqa: PLC0415
 
     thermo = read_impact_thermo(run / "thermo.dat")
     touching = thermo.step[thermo.wall_contacts > 0]
@@ -272,7 +274,7 @@ def main() -> None:
         run = Path(tmp) / "whole"
         whole = _probe("--probe-run", args.config, str(run))
         system = json.loads((run / "system.json").read_text())
-        from analysis.impact import read_impact_thermo  # noqa: PLC0415
+        from analysis.bcm_impact import read_impact_thermo  # noqa: PLC0415
 
         thermo = read_impact_thermo(run / "thermo.dat")
         n, steps, sim = system["n_cells"], int(thermo.step.iloc[-1]), float(thermo.time.iloc[-1])

@@ -229,7 +229,7 @@ def figures(variants: list[str], omegas: list[float]) -> None:
     (analysis/interface_losses.py, from each run's interface dump and record)."""
     import json  # noqa: PLC0415
 
-    from analysis.impact import interface_losses, read_impact_thermo, read_interfaces  # noqa: PLC0415
+    from analysis.bcm_impact import interface_losses, read_impact_thermo, read_interfaces  # noqa: PLC0415
     from analysis.plots import plot_losses  # noqa: PLC0415
 
     fig_dir = ROOT / "docs" / "figures"

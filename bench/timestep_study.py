@@ -328,7 +328,7 @@ def impact_runs(run: bool, scale: str | None, previous: Path | None = None) -> p
         rows.append({"steps_per_period": float(spp), "seed": int(seed), "dt": cfg["timestep"],
                      "wall_s": wall, "end_step": s.get("end_step"), "settled": s.get("settled"),
                      # the energy balance's closure, W_k^- - W_k^+ - W_f - W_c measured - E_el(end),
-                     # over W_k^- (analysis/impact.py): the integration error of the whole run
+                     # over W_k^- (analysis/impact_measures.py): the integration error of the whole run
                      "residual": s.get("balance_residual", math.nan),
                      **{k: s.get(k) for k in MEASURES}})
     runs = pd.DataFrame(rows)

@@ -178,6 +178,7 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
             if given:
                 _fail(f"{' '.join(given)}: options for dump files named on the command line, not for a run "
                       f"directory ({run_dir}); its results are rewritten in place from its resolved config", 2)
+            from analysis.completeness import RunCompleteness, completeness_of  # noqa: PLC0415
             from driver.rundir import MARKER, RunDir, has_marker, read_status  # noqa: PLC0415
 
             # the run's lock is held while its results are rewritten: no run and no other post
@@ -194,11 +195,14 @@ def post(paths: list[Path] = typer.Argument(..., help="a run directory of `drive
                 cfg["output"]["count_above"] = thresholds
             animate = animate or cfg["output"].get("animation", False)
             cfg["output"]["animation"] = False  # made below, with a message
-            unfinished = (read_status(run_dir) or {}).get("state") != "finished"
-            if unfinished:
-                err.print(f"[yellow]{run_dir} did not finish (status.json): analysing the snapshots it has")
+            # cut short: its LAMMPS part did not reach its end; its analysis measures what it
+            # left (flagged) or refuses it (analysis/completeness.py)
+            completeness = completeness_of(read_status(run_dir))
+            if completeness is RunCompleteness.CUT_SHORT:
+                err.print(f"[yellow]{run_dir} did not finish (status.json): analysing what it left, flagged as cut "
+                          "short (or refused where it holds no result)")
             try:
-                summary = analyse_run(run_dir, cfg, partial=unfinished)
+                summary = analyse_run(run_dir, cfg, completeness)
             finally:
                 holder.release()
             for msg in summary.get("warnings", []):

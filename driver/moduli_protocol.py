@@ -1,5 +1,5 @@
 """The moduli protocol both models' calibration runs follow (BPM: driver/bpm/moduli.py; the BCM
-block: driver/bcm/calibration.py): the solid deformed in phases, each from the same undeformed
+block: driver/bcm/calibrate.py): the solid deformed in phases, each from the same undeformed
 state, isotropic compression at a true strain rate (B from the pressure against the volumetric
 strain), then simple shear of the triclinic box in each shear plane (2D: xy; 3D: xy, xz, yz; G
 from the shear stress against the shear strain), then all of it again at half the rate: moduli

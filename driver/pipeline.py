@@ -19,6 +19,7 @@ from typing import Any
 import yaml
 from rich.console import Console
 
+from analysis.completeness import RunCompleteness
 from driver.config import RunConfig, resolved_yaml
 from driver.plugin_build import plugin_library
 from driver.registry import unit_of
@@ -221,10 +222,11 @@ _STAGED = ("results", "plots")
 _REPORTS = ("report.md", "report.html")
 
 
-def analyse_run(run_dir: Path, cfg: dict, partial: bool = False) -> dict:
+def analyse_run(run_dir: Path, cfg: dict, completeness: RunCompleteness = RunCompleteness.FINISHED) -> dict:
     """The analysis of a run directory for its scenario: what `driver run` ends with and
-    `driver post` repeats; returns the summary. partial: the run did not finish; analyse the
-    snapshots it left.
+    `driver post` repeats; returns the summary. completeness: CUT_SHORT for a run that did not
+    finish, which its analysis measures on what it left (flagged) or refuses (RunRefused):
+    analysis/completeness.py.
 
     The analysis works in a staging folder (links to the run's inputs, copies of its earlier
     results) and its results replace the earlier ones only when it has finished, summary.json
@@ -250,7 +252,7 @@ def analyse_run(run_dir: Path, cfg: dict, partial: bool = False) -> dict:
                         shutil.copytree(f, staging / name / f.name, symlinks=True)
                     elif f.name != "summary.json":
                         shutil.copy2(f, staging / name / f.name, follow_symlinks=False)
-        summary = _analyse(staging, cfg, partial)
+        summary = _analyse(staging, cfg, completeness)
         atomic_write_json(staging / "results" / "summary.json", {"name": cfg["name"], **summary})
         # swap in: plots and reports first, the results (holding summary.json) last; a stop
         # signal waits for the end of the swap, so it never leaves a run without results
@@ -268,9 +270,9 @@ def analyse_run(run_dir: Path, cfg: dict, partial: bool = False) -> dict:
         shutil.rmtree(staging, ignore_errors=True)
 
 
-def _analyse(run_dir: Path, cfg: dict, partial: bool) -> dict:
+def _analyse(run_dir: Path, cfg: dict, completeness: RunCompleteness) -> dict:
     scenario = unit_of(cfg)
-    summary = scenario.analyse(run_dir, cfg, cfg["output"]["plots"], partial)
+    summary = scenario.analyse(run_dir, cfg, cfg["output"]["plots"], completeness)
     if (run_dir / "breaks.dat").exists():  # runs made before the break log have none
         from analysis.breaks import write_break_table  # noqa: PLC0415
 

@@ -113,7 +113,7 @@ IMPACT_DIAGNOSTICS = ("broken_closed", "closed_points", "closed_force", "slip", 
 BCM_BLOCK_RECORD = Record("bcm_block", (
     Field("step", "", "time step", "step"),
     Field("time", "s", "simulated time", _g("time", 10)),
-    Field("phase", "", "deformation phase (driver/bcm/calibration.py; 0 for the fracture pull)", "v_phase"),
+    Field("phase", "", "deformation phase (driver/bcm/calibrate.py; 0 for the fracture pull)", "v_phase"),
     Field("strain", "", "strain of the phase: volumetric (compression), shear (tilt / length) or the pull's "
                         "engineering strain", _g("v_strain", 10)),
     *(Field(f"p{ij}", "Pa", f"pressure tensor component {ij} (virial + kinetic)", _g(f"c_thermo_press[{k}]", 10))

@@ -59,7 +59,7 @@ from test_bcm_interface import (
     wxyz,
 )
 
-from analysis.impact import read_impact_thermo
+from analysis.bcm_impact import read_impact_thermo
 from driver.engine import Lammps, venv_bin
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -18,7 +18,8 @@ import yaml
 from scipy.spatial.distance import pdist
 
 from analysis.dumps import read_atom_dump
-from analysis.impact import read_impact_thermo
+from analysis.bcm_impact import read_impact_thermo
+from analysis.completeness import RunCompleteness
 from driver.bcm.particle import parent_shape
 from driver.bcm.section import BCMModel
 from driver.config import parse_config
@@ -108,8 +109,9 @@ def test_post_of_a_run_cut_short_with_periodic_dumps(tmp_path, plugin_path):
     periodic = sorted(int(p.name.split(".")[1]) for p in (out / "dumps").glob("cells.*.lammpstrj")
                       if p.name.split(".")[1].isdigit())
     assert len(periodic) >= 2
-    summary = analyse_run(out, load_resolved(out), partial=True)
+    summary = analyse_run(out, load_resolved(out), RunCompleteness.CUT_SHORT)
     assert summary["settled"] is False
+    assert summary["completeness"] == "cut_short" and "last snapshot" in summary["warnings"][0]
     frames = pd.read_csv(out / "results" / "frames.csv")
     assert frames.step.iloc[0] == 0 and frames.step.iloc[-1] == periodic[-1]
     assert frames.broken_interfaces.iloc[-1] > 0  # 4 m/s: the contact has begun breaking

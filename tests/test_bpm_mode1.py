@@ -1,4 +1,4 @@
-"""BPM mode-I toughness test (SPEC 2.3, driver/bpm/mode1.py, analysis/toughness.py): the refusal
+"""BPM mode-I toughness test (SPEC 2.3, driver/bpm/mode1.py, analysis/mode1.py): the refusal
 of a sample without the void, the void cut checked against a hand computation on the arrays,
 and a real LAMMPS pull: a peak with the stress rising before it and falling after it, and the
 first breaks at the void's tips; in 2D and on a thin 3D slab periodic in z."""
@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from analysis.toughness import feddersen_factor, tip_distances, toughness
+from analysis.mode1 import feddersen_factor, mode1_toughness, tip_distances
 from driver.bpm.cuts import segment_meets_ellipse
 from driver.bpm.mode1 import cut_sample
 from driver.bpm.network import Network, delaunay_network
@@ -131,7 +131,7 @@ def test_a_3d_slab_is_cut_free_in_x_and_y_and_stays_periodic_in_z():
 def test_toughness_formula_by_hand():
     """K_IC = sqrt(sec(pi c / W)) sigma sqrt(pi c): c = 10, W = 40 -> sec(pi / 4) = sqrt 2."""
     assert feddersen_factor(10.0, 40.0) == pytest.approx(2 ** 0.25)
-    assert toughness(0.5, 10.0, 40.0) == pytest.approx(2 ** 0.25 * 0.5 * math.sqrt(10 * math.pi))
+    assert mode1_toughness(0.5, 10.0, 40.0) == pytest.approx(2 ** 0.25 * 0.5 * math.sqrt(10 * math.pi))
     ev = pd.DataFrame({"x": [30.0, 9.0, 30.0, 20.0], "y": [20.0, 21.0, 23.0, 20.0]})
     assert tip_distances(ev, np.array([20.0, 20.0]), 10.0) == pytest.approx([0.0, math.sqrt(2), 3.0, 10.0])
 
@@ -160,7 +160,7 @@ def test_a_pull_peaks_and_the_crack_runs_from_the_tips(pulled):
     assert quarters[0] < quarters[1] < quarters[2] < record.stress[k]
     # falling after it: the mean over the last quarter of the records is below half the peak
     assert record.stress[len(record) * 3 // 4:].mean() < 0.5 * record.stress[k]
-    assert summary["K_IC"] == pytest.approx(toughness(summary["sigma_c"], 10.0, system["width"]))
+    assert summary["K_IC"] == pytest.approx(mode1_toughness(summary["sigma_c"], 10.0, system["width"]))
     assert summary["K_IC_over_E"] == pytest.approx(summary["K_IC"] / 90.5)
     assert summary["sound_crossings_to_peak"] > 5
     # the first breaks lie at the tips: |x - x_c| near 10, |y - y_c| small (measured with
@@ -180,7 +180,7 @@ def test_a_pull_peaks_and_the_crack_runs_from_the_tips(pulled):
 
 def test_the_set_gives_toughness_per_lambda_c(tmp_path):
     """Means and standard deviations over the runs of each lambda_c, K_IC / E included."""
-    from analysis.toughness import analyse_mode1_set  # noqa: PLC0415
+    from analysis.mode1 import analyse_mode1_set  # noqa: PLC0415
 
     def run(lam: float, K: float) -> dict:
         return {"cfg": {"name": f"r{lam}{K}"}, "dir": tmp_path,
@@ -264,7 +264,7 @@ def test_a_3d_slab_pull_peaks_and_breaks_first_at_the_tips(pulled_3d):
                 for f in (0.25, 0.5, 0.75)]
     assert quarters[0] < quarters[1] < quarters[2] < record.stress[k]
     assert record.stress[len(record) * 3 // 4:].mean() < 0.5 * record.stress[k]
-    assert summary["K_IC"] == pytest.approx(toughness(summary["sigma_c"], 5.0, system["width"]))
+    assert summary["K_IC"] == pytest.approx(mode1_toughness(summary["sigma_c"], 5.0, system["width"]))
     events = pd.read_csv(pulled_3d / "results" / "breaks.csv")
     first = events[events.kind == "bond"].sort_values("step", kind="stable").head(10)
     cx, cy = system["void_centre"]

@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from analysis.impact import impact_measures
+from analysis.impact_measures import impact_measures
 
 
 def test_measures_by_hand():
@@ -62,7 +62,7 @@ def test_channel_split_sums_to_measured_dissipation(tmp_path):
     friction and number-of-points changes, interface damping, friction on broken interfaces,
     switch) sum to the measured dissipation, and the summary's W_c_<channel> entries to
     W_c_measured; fracture, kinetic and elastic energy complete W_k^-."""
-    from analysis.impact import ENERGY_CHANNELS, energy_channels, read_impact_thermo
+    from analysis.bcm_impact import ENERGY_CHANNELS, energy_channels, read_impact_thermo
     from runfiles.records import IMPACT_RECORD
 
     columns = IMPACT_RECORD.names[::-1]  # read by the title, not by position
@@ -99,7 +99,7 @@ def test_channel_split_sums_to_measured_dissipation(tmp_path):
 def test_a_record_without_the_broken_law_diagnostics_still_reads(tmp_path):
     """Runs made before the diagnostics columns (broken_closed ... W_damp_broken) are analysed
     as before: those columns are read when present, not required."""
-    from analysis.impact import read_impact_thermo
+    from analysis.bcm_impact import read_impact_thermo
     from runfiles.records import IMPACT_DIAGNOSTICS, IMPACT_RECORD
 
     columns = [c for c in IMPACT_RECORD.names if c not in IMPACT_DIAGNOSTICS]

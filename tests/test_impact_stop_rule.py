@@ -12,7 +12,7 @@ import math
 
 import pytest
 
-from analysis.impact import read_impact_thermo
+from analysis.bcm_impact import read_impact_thermo
 from driver.bcm.particle import contact_timestep, particle_tessellation
 from driver.bcm.section import BCMModel
 from driver.config import parse_config

@@ -18,8 +18,9 @@ import pandas as pd
 import pytest
 import yaml
 
-import analysis.impact
-from analysis.impact import ENERGY_CHANNELS, fragment_counts
+import analysis.bcm_impact
+from analysis.bcm_impact import ENERGY_CHANNELS
+from analysis.impact_measures import fragment_counts
 from driver.sets import analyse_set
 from driver.config import parse_config
 from driver.pipeline import execute
@@ -35,7 +36,7 @@ SPLIT = {"wall_damping": 0.4, "wall_friction": 0.05, "interface_damping": 0.1, "
 def write_run(root: Path, velocity: float, seed: int, state: str = "finished", summary: bool = True,
               status: dict | None = None) -> Path:
     """A run directory as the set analysis reads it: summary from a hand-built fragment table
-    (analysis.impact.fragment_counts), omega = v^2 / 4 (tessellations differ by 1 %), D_w > 0
+    (analysis.impact_measures.fragment_counts), omega = v^2 / 4 (tessellations differ by 1 %), D_w > 0
     once anything broke off, and the energy split SPLIT."""
     frags = pd.DataFrame(FRAGMENTS[velocity], columns=["n_cells", "mass"])
     frags["single_cell"] = frags.n_cells == 1
@@ -156,7 +157,7 @@ def test_failing_figure_leaves_the_run_finished(tmp_path, plugin_path, monkeypat
     def broken_picture(*args, **kwargs):
         raise ValueError("Axis limits cannot be NaN or Inf")
 
-    monkeypatch.setattr(analysis.impact, "render_cells", broken_picture)
+    monkeypatch.setattr(analysis.bcm_impact, "render_cells", broken_picture)
     out = tmp_path / "run"
     cfg = {"name": "impact", "seed": 3, "model": {"kind": "bcm", "n_cells": 100, "interface": {"G_c": 1.0}},
            "scenario": {"kind": "impact", "velocity": 4.5, "max_time": 5e-6}, "output": {"dir": str(out)}}

@@ -266,4 +266,8 @@ def test_post_on_unfinished_run_uses_snapshots_it_has(finished_run, tmp_path):
     assert "did not finish" in proc.stderr and f"strain {snaps[-1]['strain']:g} on left out" in proc.stderr
     frames = pd.read_parquet(rd / "results/frames.parquet")
     assert list(frames.strain) == [s["strain"] for s in snaps[:-1]]
+    # cut short (analysis/completeness.py): flagged, the note first in the warnings and in the report
+    summary = json.loads((rd / "results/summary.json").read_text())
+    assert summary["completeness"] == "cut_short" and summary["warnings"][0].startswith("the run did not finish")
+    assert "Cut short: the run did not finish" in (rd / "report.md").read_text()
     assert json.loads((rd / "status.json").read_text())["state"] == "failed"  # post does not relabel a run

@@ -3,7 +3,7 @@ block's moduli curve, then the interface G_c from the block's fracture curve mea
 stiffness.
 
 Fracture energy. The material's G_c is an energy release rate, energy per unit crack area
-(G_c = K_IC^2 / E', SPEC 3). The block's fracture test (analysis/bcm_calibration.py) reports
+(G_c = K_IC^2 / E', SPEC 3). The block's fracture test (analysis/bcm_calibrate.py) reports
 G_released = W / (2 A): W the elastic energy the broken interfaces held when they broke, A the
 ligament's projected area; an interface breaks when its energy reaches 2 S G_c (SPEC 1.2,
 Eq. 4-6: G = Delta W_p / (2 S)), so a flat crack through the ligament gives G_released = G_c

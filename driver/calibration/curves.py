@@ -55,7 +55,7 @@ LAMBDA_C = {2: (1.0003, 1.001, 1.003, 1.01, 1.03, 1.05, 1.1), 3: (1.0003, 1.001,
 #: Pull of the mode-I runs: to PULL_STRAIN (lambda_c - 1), past the peak (near 0.16 (lambda_c - 1)),
 #: at PULL_RATE (lambda_c - 1) per tau, so every run lasts as long and the peak comes after the
 #: same number of sound crossings whatever lambda_c (2D, L = 40: about 18; 3D, L = 32: about 9,
-#: above the 5 that analysis/toughness.py asks; 3D at half the rate measured sigma_c 2 % lower).
+#: above the 5 that analysis/toughness.py asks of both modes; 3D at half the rate measured sigma_c 2 % lower).
 PULL_STRAIN = {2: 0.4, 3: 0.3}
 PULL_RATE = {2: 2e-3, 3: 4e-3}
 #: Sizes: the moduli sample's side L, the mode-I sample's side and (3D) slab thickness, in a.

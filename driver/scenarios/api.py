@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Callable
 
 if TYPE_CHECKING:  # the types of the callables, for readers and checkers only
+    from analysis.completeness import RunCompleteness
     from driver.config import RunConfig
     from driver.size_model import SizeEstimate
     from driver.rundir import RunDir
@@ -27,7 +28,9 @@ class Scenario:
         inputs and schedule written into the run directory.
     progress(cfg, system) -> ProgressSpec: the progress fields of a run (again on resume).
     estimate(cfg, ranks) -> SizeEstimate: size, memory and time without building.
-    analyse(run_dir, cfg: dict, plots, partial) -> summary: the run's tables and figures.
+    analyse(run_dir, cfg: dict, plots, completeness: RunCompleteness) -> summary: the run's
+        tables, figures and report, by its analysis (an analysis.run_analysis.RunAnalysis); a
+        run cut short is analysed and flagged, or refused (analysis/completeness.py).
     set_params(cfg: dict) -> the parameters a set compares runs by (runs table columns).
     result_tables: result tables (results/<name>.parquet) a set analysis reads; or a function of
         the run's config (dict) giving them, for a unit whose runs differ (calibrate: by test).
@@ -46,7 +49,7 @@ class Scenario:
     build: Callable[[RunConfig, RunDir, Path], tuple[dict, ProgressSpec]]
     progress: Callable[[RunConfig, dict], ProgressSpec]
     estimate: Callable[[RunConfig, int], SizeEstimate]
-    analyse: Callable[[Path, dict, bool, bool], dict]
+    analyse: Callable[[Path, dict, bool, RunCompleteness], dict]
     set_params: Callable[[dict], dict]
     analyse_set: Callable[..., dict]
     frame: tuple[str, Callable[[Path, dict, int, Path], None]]

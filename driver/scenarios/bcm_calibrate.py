@@ -1,8 +1,8 @@
 """BCM calibration tests on a periodic block of cells (SPEC 3): the unit of the (bcm, calibrate)
 pair. Test `moduli`: B, G, E and nu of the block by compression and simple shear; test
 `fracture`: a notched block pulled in mode I, the energy released per unit new crack area
-against G_c and the tensile strength. driver/bcm/calibration.py builds and deforms the block,
-analysis/bcm_calibration.py measures (with the fits of analysis/moduli.py).
+against G_c and the tensile strength. driver/bcm/calibrate.py builds and deforms the block,
+analysis/bcm_calibrate.py measures (with the fits of analysis/moduli.py).
 
 Both models' calibration runs share the `calibrate` section (a config holds one section per
 kind): `BlockCalibrateScenario` extends the BPM one with the BCM tests and a `block:`
@@ -12,7 +12,7 @@ subsection, which a BPM run must leave out and a BCM run gets filled in with its
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 from pydantic import Field, field_validator
 
@@ -20,6 +20,9 @@ from driver.bcm.section import check_steps_per_period
 from driver.scenarios.api import Scenario
 from driver.scenarios.sections import CalibrateScenario
 from driver.schema import _Strict
+
+if TYPE_CHECKING:
+    from analysis.completeness import RunCompleteness
 
 #: Keys of the `calibrate` section that only a BPM run reads (a BCM run refuses them when set).
 BPM_ONLY = ("strain_rate", "void", "void_axes", "grip_width", "max_pull_strain", "B_reference", "G_reference",
@@ -65,13 +68,13 @@ class BlockCalibrateScenario(CalibrateScenario):
 
 
 def _build(cfg, rd, plugin):
-    from driver.bcm.calibration import run_fracture, run_moduli  # noqa: PLC0415
+    from driver.bcm.calibrate import run_fracture, run_moduli  # noqa: PLC0415
 
     return (run_fracture if cfg.scenario.test == "fracture" else run_moduli)(cfg, rd, plugin)
 
 
 def _progress(cfg, system):
-    from driver.bcm.calibration import progress_spec  # noqa: PLC0415
+    from driver.bcm.calibrate import progress_spec  # noqa: PLC0415
 
     return progress_spec(cfg, system)
 
@@ -83,7 +86,7 @@ def _estimate(cfg, ranks):
 
     blk, m = cfg.scenario.block, cfg.model
     n = blk.n_cells
-    # steps per crossing time without building (driver/bcm/calibration.py): T / dt = n^(1/3)
+    # steps per crossing time without building (driver/bcm/calibrate.py): T / dt = n^(1/3)
     # steps_per_period / (2 pi) sqrt(2 k_max / (r k_n)), r = lightest cell / mean cell ~ 0.6
     k_max = max(m.contact.kn, m.contact.kt, m.interface.kn, m.interface.kt)
     per_crossing = n ** (1 / 3) * blk.steps_per_period / (2 * math.pi) * math.sqrt(2 * k_max / (0.6 * m.interface.kn))
@@ -94,11 +97,11 @@ def _estimate(cfg, ranks):
                         steps=int(math.ceil(steps)), ranks=ranks)
 
 
-def _analyse(run_dir: Path, cfg: dict, plots: bool, partial: bool) -> dict:
-    from analysis.bcm_calibration import analyse_block_fracture, analyse_block_moduli  # noqa: PLC0415
+def _analyse(run_dir: Path, cfg: dict, plots: bool, completeness: RunCompleteness) -> dict:
+    from analysis.bcm_calibrate import BlockFractureAnalysis, BlockModuliAnalysis  # noqa: PLC0415
 
-    fn = analyse_block_fracture if cfg["scenario"].get("test") == "fracture" else analyse_block_moduli
-    return fn(run_dir, cfg, plots=plots, partial=partial)
+    analysis = BlockFractureAnalysis if cfg["scenario"].get("test") == "fracture" else BlockModuliAnalysis
+    return analysis(run_dir, cfg, plots, completeness).run()
 
 
 def _set_params(cfg: dict) -> dict:
@@ -110,7 +113,7 @@ def _set_params(cfg: dict) -> dict:
 
 
 def _analyse_set(runs: list[dict], out: Path, plots: bool, left_out: list[dict], options: dict) -> dict:
-    from analysis.bcm_calibration import analyse_block_set  # noqa: PLC0415
+    from analysis.bcm_calibrate import analyse_block_set  # noqa: PLC0415
 
     return analyse_block_set(runs, out, plots, left_out=left_out)
 
@@ -143,7 +146,7 @@ def _check(cfg) -> None:
     if sc.block is None:
         sc.block = BlockSection()
     if sc.block.cell_size is None:
-        from driver.bcm.calibration import particle_cell_size  # noqa: PLC0415 (builds the parent shape)
+        from driver.bcm.calibrate import particle_cell_size  # noqa: PLC0415 (builds the parent shape)
 
         sc.block.cell_size = particle_cell_size(cfg.model)
 

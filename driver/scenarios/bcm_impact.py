@@ -1,14 +1,18 @@
 """BCM particle impact on a rigid plane (SPEC 1.4): the unit of the (bcm, impact) pair. Its
 section is the shared `impact` one (driver/scenarios/sections.py, ImpactScenario). The system
-and input are built by driver/bcm/impact.py, the run analysed by analysis/impact.py, a set by
+and input are built by driver/bcm/impact.py, the run analysed by analysis/bcm_impact.py, a set by
 analysis/runset.py (imported when used: a config is validated without them)."""
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from driver.scenarios.api import Scenario
 from driver.scenarios.sections import ImpactScenario
+
+if TYPE_CHECKING:
+    from analysis.completeness import RunCompleteness
 
 
 def _build(cfg, rd, plugin):
@@ -29,10 +33,10 @@ def _estimate(cfg, ranks):
     return bcm_impact(cfg, ranks)
 
 
-def _analyse(run_dir: Path, cfg: dict, plots: bool, partial: bool) -> dict:
-    from analysis.impact import analyse_impact  # noqa: PLC0415
+def _analyse(run_dir: Path, cfg: dict, plots: bool, completeness: RunCompleteness) -> dict:
+    from analysis.bcm_impact import BcmImpactAnalysis  # noqa: PLC0415
 
-    return analyse_impact(run_dir, cfg, plots=plots, partial=partial)
+    return BcmImpactAnalysis(run_dir, cfg, plots, completeness).run()
 
 
 def _set_params(cfg: dict) -> dict:

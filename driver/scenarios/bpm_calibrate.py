@@ -3,7 +3,7 @@ shared `calibrate` one (driver/scenarios/sections.py, CalibrateScenario). Test `
 and nu of the network (driver/bpm/moduli.py builds and deforms it, analysis/moduli.py fits); a
 set of such runs over k_A gives the calibration curves. Test `mode1`: K_IC from the peak stress
 of a free sample with an elliptic void pulled apart (driver/bpm/mode1.py builds it,
-analysis/toughness.py measures). Test `mode2`: K_IIC from the peak shear stress of a periodic
+analysis/mode1.py measures). Test `mode2`: K_IIC from the peak shear stress of a periodic
 sample with an elliptic void at 45 degrees under pure shear, breakable bonds only in a band
 along the void (driver/bpm/mode2.py builds it, analysis/mode2.py measures). Test `crack_speed`:
 the mode-I pull (2D, or the 3D slab), measured for its crack fronts from the break log, their
@@ -13,9 +13,13 @@ steady speed and its ratio to the Rayleigh speed of the network from B_reference
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from driver.scenarios.api import Scenario
 from driver.scenarios.sections import CalibrateScenario
+
+if TYPE_CHECKING:
+    from analysis.completeness import RunCompleteness
 
 
 def protocol(test: str | None) -> str:
@@ -62,18 +66,14 @@ def _estimate(cfg, ranks):
     return bpm_size(cfg, ranks, phases(m.dimension, sc.strain_rate, sc.max_strain, m.timestep)[-1].end)
 
 
-def _analyse(run_dir: Path, cfg: dict, plots: bool, partial: bool) -> dict:
+def _analyse(run_dir: Path, cfg: dict, plots: bool, completeness: RunCompleteness) -> dict:
     if cfg["scenario"].get("test") == "mode2":
-        from analysis.mode2 import analyse_mode2  # noqa: PLC0415
-
-        return analyse_mode2(run_dir, cfg, plots=plots, partial=partial)
-    if protocol(cfg["scenario"].get("test")) == "mode1":
-        from analysis.toughness import analyse_mode1  # noqa: PLC0415
-
-        return analyse_mode1(run_dir, cfg, plots=plots, partial=partial)
-    from analysis.moduli import analyse_moduli  # noqa: PLC0415
-
-    return analyse_moduli(run_dir, cfg, plots=plots, partial=partial)
+        from analysis.mode2 import Mode2Analysis as analysis  # noqa: PLC0415
+    elif protocol(cfg["scenario"].get("test")) == "mode1":  # mode1 and crack_speed
+        from analysis.mode1 import Mode1Analysis as analysis  # noqa: PLC0415
+    else:
+        from analysis.moduli import ModuliAnalysis as analysis  # noqa: PLC0415
+    return analysis(run_dir, cfg, plots, completeness).run()
 
 
 def _set_params(cfg: dict) -> dict:
@@ -88,7 +88,7 @@ def _analyse_set(runs: list[dict], out: Path, plots: bool, left_out: list[dict],
     if len(tests) > 1:
         raise ValueError(f"a set of calibration runs mixes the tests {sorted(tests)}: analyse each test apart")
     if tests == {"mode1"}:
-        from analysis.toughness import analyse_mode1_set  # noqa: PLC0415
+        from analysis.mode1 import analyse_mode1_set  # noqa: PLC0415
 
         return analyse_mode1_set(runs, out, plots, left_out=left_out)
     if tests == {"mode2"}:

@@ -10,9 +10,13 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from driver.scenarios.api import Scenario
 from driver.scenarios.sections import ImpactScenario
+
+if TYPE_CHECKING:
+    from analysis.completeness import RunCompleteness
 
 
 def _build(cfg, rd, plugin):
@@ -54,10 +58,10 @@ def _estimate(cfg, ranks):
         steps=int(math.ceil(sc.max_time / un["tau"] / dt)), ranks=ranks)
 
 
-def _analyse(run_dir: Path, cfg: dict, plots: bool, partial: bool) -> dict:
-    from analysis.bpm_impact import analyse_bpm_impact  # noqa: PLC0415
+def _analyse(run_dir: Path, cfg: dict, plots: bool, completeness: RunCompleteness) -> dict:
+    from analysis.bpm_impact import BpmImpactAnalysis  # noqa: PLC0415
 
-    return analyse_bpm_impact(run_dir, cfg, plots=plots, partial=partial)
+    return BpmImpactAnalysis(run_dir, cfg, plots, completeness).run()
 
 
 def _set_params(cfg: dict) -> dict:

@@ -6,12 +6,15 @@ without them)."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 from pydantic import Field, model_validator
 
 from driver.scenarios.api import Scenario
 from driver.schema import _Strict
+
+if TYPE_CHECKING:
+    from analysis.completeness import RunCompleteness
 
 #: Most steps a shear run may take.
 MAX_STEPS = 2e9
@@ -58,10 +61,10 @@ def _estimate(cfg, ranks):
     return bpm_shear(cfg, ranks)
 
 
-def _analyse(run_dir: Path, cfg: dict, plots: bool, partial: bool) -> dict:
-    from analysis.shear import analyse_shear  # noqa: PLC0415
+def _analyse(run_dir: Path, cfg: dict, plots: bool, completeness: RunCompleteness) -> dict:
+    from analysis.shear import ShearAnalysis  # noqa: PLC0415
 
-    return analyse_shear(run_dir, cfg, plots=plots, partial=partial)
+    return ShearAnalysis(run_dir, cfg, plots, completeness).run()
 
 
 def _set_params(cfg: dict) -> dict:

@@ -24,7 +24,7 @@ import pandas as pd
 import pytest
 import yaml
 
-from driver.bcm.calibration import notch_interfaces, run_fracture, run_moduli
+from driver.bcm.calibrate import notch_interfaces, run_fracture, run_moduli
 from driver.config import parse_config
 from driver.engine import Lammps
 
@@ -59,7 +59,7 @@ def test_unstrained_block_holds_no_force_and_no_energy(tmp_path, monkeypatch, pl
     system, _ = builder(cfg, SimpleNamespace(root=tmp_path), plugin_path)
     lengths = np.array(system["lengths"])
     # interfaces across the boundary: the bonded image of j is not j's wrapped centroid
-    from driver.bcm.calibration import block_of  # noqa: PLC0415
+    from driver.bcm.calibrate import block_of  # noqa: PLC0415
     from driver.cache import cache_base  # noqa: PLC0415
 
     tess = block_of(cfg.model, cfg.scenario.block, cfg.seed, cache_base() / "blocks")
@@ -123,7 +123,7 @@ def test_released_energy_scales_with_G_c(tmp_path, plugin_path):
     # the strength of a notched solid goes as sqrt(E G_c) (Griffith): sqrt(2) between them
     assert runs[1]["tensile_strength"] / runs[0]["tensile_strength"] == pytest.approx(np.sqrt(2.0), rel=0.1)
 
-    from analysis.bcm_calibration import analyse_block_set  # noqa: PLC0415
+    from analysis.bcm_calibrate import analyse_block_set  # noqa: PLC0415
 
     cfgs = [yaml.safe_load((tmp_path / f"gc{gc}" / "config.resolved.yaml").read_text()) for gc in (0.5, 1.0)]
     result = analyse_block_set([{"cfg": c, "dir": tmp_path / c["name"], "summary": s} for c, s in zip(cfgs, runs)],
@@ -150,7 +150,7 @@ def test_moduli_run_interrupted_and_resumed_is_identical(tmp_path, plugin_path):
 def test_bcm_block_section_is_filled_in_and_bpm_keys_refused():
     """A BCM calibrate config gets its block with the particle's cell size h = (V / N_c)^(1/3);
     the BPM-only keys and test are refused for BCM, the BCM test and block for BPM."""
-    from driver.bcm.calibration import particle_cell_size  # noqa: PLC0415
+    from driver.bcm.calibrate import particle_cell_size  # noqa: PLC0415
     from driver.schema import ConfigError  # noqa: PLC0415
 
     cfg = parse_config(_config("moduli", None))

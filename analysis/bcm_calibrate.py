@@ -1,5 +1,7 @@
-"""BCM calibration on a periodic block (SPEC 3): the moduli of a `moduli` run, the fracture
-measures of a `fracture` run, and the calibration curves of a set of runs.
+"""The analysis of the BCM calibrate scenario (SPEC 3), the tests on a periodic block of cells
+(built by driver/bcm/calibrate.py, the unit driver/scenarios/bcm_calibrate.py): the moduli of a
+`moduli` run (`BlockModuliAnalysis`), the fracture measures of a `fracture` run
+(`BlockFractureAnalysis`), and the calibration curves of a set of runs (`analyse_block_set`).
 
 moduli: each phase fitted as in analysis/moduli.py (stress against strain over the upper part
 of the phase, with an intercept), B from the half-rate compression, G the mean of the three
@@ -25,6 +27,9 @@ Griffith criterion releases it when Delta W_p / (2 S) >= G_c), divided by the ne
 their ratio to G_c is the roughness of the crack (broken area over the ligament) times the
 overshoot of the last step. Separation: the stress at the end of the pull below
 SEPARATED_FRACTION of the peak (flagged otherwise).
+
+A moduli run cut short is refused (its phases are incomplete: run it again); a fracture run cut
+short is measured on the record it left and flagged (analysis/completeness.py).
 """
 
 from __future__ import annotations
@@ -41,6 +46,7 @@ from analysis.moduli import (RATE_TOLERANCE, elastic_constants, linear_fit, modu
                              plot_phases)
 from analysis.plots import PlotGuard
 from analysis.report import Report, clear_report, provenance_line, write_report
+from analysis.run_analysis import RunAnalysis
 from analysis.tables import save_table
 from runfiles.records import BCM_BLOCK_RECORD, read_record
 
@@ -53,9 +59,9 @@ def _load(run_dir: Path) -> tuple[dict, pd.DataFrame]:
     return system, read_record(run_dir / "thermo.dat", BCM_BLOCK_RECORD.names)
 
 
-def _write_report(run_dir: Path, title: str, summary: dict, flags: list[str], tables: list[tuple[pd.DataFrame, str]],
-                  figure: tuple[Path, str] | None) -> None:
-    clear_report(run_dir)
+def _block_report(run_dir: Path, title: str, summary: dict, flags: list[str], tables: list[tuple[pd.DataFrame, str]],
+                  figure: tuple[Path, str] | None) -> Report:
+    """The report of a block test: its summary in SI units, its flags, tables and figure."""
     rep = Report(title, provenance_line(run_dir))
     rep.values({k: v for k, v in summary.items() if not isinstance(v, (list, dict))}, "SI units")
     for f in flags:
@@ -64,7 +70,7 @@ def _write_report(run_dir: Path, title: str, summary: dict, flags: list[str], ta
         rep.table(table, caption)
     if figure is not None:
         rep.figure(*figure)
-    write_report(rep, run_dir)
+    return rep
 
 
 def block_moduli(record: pd.DataFrame, system: dict, density: float) -> tuple[dict, pd.DataFrame]:
@@ -92,32 +98,38 @@ def block_moduli(record: pd.DataFrame, system: dict, density: float) -> tuple[di
     return summary, fits
 
 
-def analyse_block_moduli(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = False) -> dict:
-    """results/moduli_phases (+ moduli.csv), plots/moduli.png, report and summary of a moduli run."""
-    run_dir = Path(run_dir)
-    if partial:
-        raise ValueError("a moduli run that did not finish has no moduli: run it again")
-    system, record = _load(run_dir)
-    m = cfg["model"]
-    summary, fits = block_moduli(record, system, float(m["density"]))
-    kn = float(m["interface"]["kn"])
-    # the reduced moduli B h / k_n, G h / k_n depend on k_t / k_n (and the cells' shape) only:
-    # the calibration curves that carry over to any k_n and h
-    summary |= {"kn": kn, "kt": float(m["interface"]["kt"]), "kt_over_kn": float(m["interface"]["kt"]) / kn,
-                "B_reduced": summary["B"] * summary["cell_size"] / kn,
-                "G_reduced": summary["G"] * summary["cell_size"] / kn}
-    save_table(fits, run_dir / "results" / "moduli_phases")
-    save_table(pd.DataFrame([{k: v for k, v in summary.items() if not isinstance(v, list)}]),
-               run_dir / "results" / "moduli")
-    guard = PlotGuard()
-    png = run_dir / "plots" / "moduli.png"
-    if plots:
-        guard.draw("moduli", png, plot_phases, record, system["phases"], fits, 3, png)
-    summary["plots_failed"] = guard.failed
-    _write_report(run_dir, f"BCM block moduli: {cfg['name']}", summary, summary["flags"],
-                  [(fits, "one fit per phase (stress against strain over the fit window), Pa")],
-                  (png, "stress against strain per phase, fitted lines") if plots and not guard.failed else None)
-    return summary
+class BlockModuliAnalysis(RunAnalysis):
+    """results/moduli_phases (+ moduli.csv), plots/moduli.png, report and summary of a moduli
+    run. Cut short: refused (its phases are incomplete)."""
+
+    refuses_cut_short = "a moduli run that did not finish has no moduli: run it again"
+
+    def _prepare(self) -> None:
+        self.system, self.record = _load(self.run_dir)
+
+    def _conclude(self) -> None:
+        m = self.cfg["model"]
+        summary, fits = block_moduli(self.record, self.system, float(m["density"]))
+        kn = float(m["interface"]["kn"])
+        # the reduced moduli B h / k_n, G h / k_n depend on k_t / k_n (and the cells' shape) only:
+        # the calibration curves that carry over to any k_n and h
+        summary |= {"kn": kn, "kt": float(m["interface"]["kt"]), "kt_over_kn": float(m["interface"]["kt"]) / kn,
+                    "B_reduced": summary["B"] * summary["cell_size"] / kn,
+                    "G_reduced": summary["G"] * summary["cell_size"] / kn}
+        self.results.summary = summary
+        self.results.tables.update(
+            moduli_phases=fits, moduli=pd.DataFrame([{k: v for k, v in summary.items() if not isinstance(v, list)}]))
+        self.fits = fits
+
+    def _plot(self) -> None:
+        self.draw("moduli", plot_phases, self.record, self.system["phases"], self.fits, 3, self.png("moduli"))
+
+    def _report(self) -> Report:
+        summary = self.results.summary
+        return _block_report(self.run_dir, f"BCM block moduli: {self.cfg['name']}", summary, summary["flags"],
+                             [(self.fits, "one fit per phase (stress against strain over the fit window), Pa")],
+                             (self.png("moduli"), "stress against strain per phase, fitted lines")
+                             if self.plots and not self.guard.failed else None)
 
 
 def block_fracture(record: pd.DataFrame, breaks: pd.DataFrame, system: dict, G_c: float) -> tuple[dict, list[str]]:
@@ -150,30 +162,38 @@ def block_fracture(record: pd.DataFrame, breaks: pd.DataFrame, system: dict, G_c
     return summary, flags
 
 
-def analyse_block_fracture(run_dir: Path, cfg: dict, plots: bool = True, partial: bool = False) -> dict:
-    """results/fracture (one row), results/breaks, plots/fracture.png, report and summary."""
-    run_dir = Path(run_dir)
-    system, record = _load(run_dir)
-    breaks = read_break_log(run_dir / "breaks.dat")
-    summary, flags = block_fracture(record, breaks, system, float(cfg["model"]["interface"]["G_c"]))
-    if partial:
-        flags.append("partial: the run did not finish")
-    summary |= {"flags": flags, "flagged": bool(flags)}
-    save_table(pd.DataFrame([{k: v for k, v in summary.items() if not isinstance(v, list)}]),
-               run_dir / "results" / "fracture")
-    save_table(breaks, run_dir / "results" / "breaks")
-    guard = PlotGuard()
-    png = run_dir / "plots" / "fracture.png"
-    if plots:
-        guard.draw("fracture", png, plot_fracture, record, png)
-    summary["plots_failed"] = guard.failed
-    _write_report(run_dir, f"BCM block fracture: {cfg['name']}", summary, flags, [],
-                  (png, "stress and broken interfaces against the pull strain") if plots and not guard.failed
-                  else None)
-    return summary
+class BlockFractureAnalysis(RunAnalysis):
+    """results/fracture (one row), results/breaks, plots/fracture.png, report and summary of a
+    fracture run. Cut short: measured on the record and break log it left, flagged."""
+
+    def _prepare(self) -> None:
+        self.system, self.record = _load(self.run_dir)
+        self.breaks = read_break_log(self.run_dir / "breaks.dat")
+        if self.cut_short:
+            self.cut_short_note = (f"the run did not finish: measured on its record up to step "
+                                   f"{int(self.record.step.iloc[-1])}, before the end of the pull")
+
+    def _conclude(self) -> None:
+        summary, flags = block_fracture(self.record, self.breaks, self.system,
+                                        float(self.cfg["model"]["interface"]["G_c"]))
+        summary |= {"flags": flags, "flagged": bool(flags)}
+        self.results.summary = summary
+        self.results.tables.update(fracture=pd.DataFrame([{k: v for k, v in summary.items()
+                                                           if not isinstance(v, list)}]),
+                                   breaks=self.breaks)
+
+    def _plot(self) -> None:
+        self.draw("fracture", plot_fracture, self.record, self.png("fracture"))
+
+    def _report(self) -> Report:
+        summary = self.results.summary
+        return _block_report(self.run_dir, f"BCM block fracture: {self.cfg['name']}", summary, summary["flags"], [],
+                             (self.png("fracture"), "stress and broken interfaces against the pull strain")
+                             if self.plots and not self.guard.failed else None)
 
 
 def plot_fracture(record: pd.DataFrame, path: Path) -> None:
+    """sigma_zz (MPa) and the broken interfaces against the pull strain."""
     import matplotlib.pyplot as plt  # noqa: PLC0415
     from runfiles.atomic import atomic_save  # noqa: PLC0415
 
