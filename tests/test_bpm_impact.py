@@ -56,6 +56,7 @@ def clipped(shape: str, diameter_kind: str, a: float = A8):
 
 
 # ------------------------------------------------------------------------------ geometry
+@pytest.mark.lammps
 @pytest.mark.parametrize("shape,kind", [("truncated_pentakis_dodecahedron", "circumscribed"),
                                         ("cube", "equal_volume")])
 def test_clipped_packing_lies_inside_and_fills_the_parent(shape, kind):

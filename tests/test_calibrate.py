@@ -115,6 +115,7 @@ def test_toughness_conversions():
     assert t.toughness(3)[1] == pytest.approx(math.sqrt(4.0 * 2.0 / (1 - 0.09)))  # plane strain
 
 
+@pytest.mark.lammps
 def test_a_changed_curve_is_another_cache_entry():
     spec = cv.bpm_moduli(2)
     mat = MaterialFile.model_validate({"material": {"density": 1, "E": 1, "nu": 0.2, "G_c": 1},
@@ -140,11 +141,10 @@ curves:
 
 
 @pytest.mark.slow
-def test_bpm_round_trip_and_cache(tmp_path, monkeypatch, plugin_path):
+def test_bpm_round_trip_and_cache(tmp_path, monkeypatch, plugin_cache):
     """Calibrate a 2D BPM to a material, run the tests at the chosen k_A and lambda_c, and get
     back E, nu within 5 % and G_c within 10 %; then the same call from the cache in seconds, and
     a target out of reach said so, with the nearest reachable value in the table."""
-    monkeypatch.setenv("BRITTLE_CACHE", str(tmp_path / "cache"))
     monkeypatch.chdir(tmp_path)
     (tmp_path / "m.yaml").write_text(SMALL)
     runner = CliRunner()
@@ -184,10 +184,9 @@ curves:
 
 
 @pytest.mark.slow
-def test_bcm_round_trip(tmp_path, monkeypatch, plugin_path):
+def test_bcm_round_trip(tmp_path, monkeypatch, plugin_cache):
     """Calibrate the BCM block to a material, run the block tests at the chosen k_n, k_t, G_c and
     cell size, and get back E, nu within 5 % and the fracture energy within 10 %."""
-    monkeypatch.setenv("BRITTLE_CACHE", str(tmp_path / "cache"))
     monkeypatch.chdir(tmp_path)
     (tmp_path / "m.yaml").write_text(SMALL_BCM)
     res = CliRunner().invoke(app, ["calibrate", "m.yaml", "--out", "cal", "--workers", "1", "--verify"])
