@@ -38,7 +38,6 @@ LAMMPS_COMMANDS = {"run", "sweep", "calibrate", "compare", "plugins"}
 
 
 def pytest_configure(config):
-    config.addinivalue_line("markers", "lammps: starts LAMMPS (set by tests/conftest.py; tier: -m lammps)")
     # One plugin cache for the whole session, whatever a test does to HOME or XDG_CACHE_HOME
     # (a test that moved it would build the plugins again); subprocesses inherit it.
     os.environ.setdefault("BRITTLE_CACHE", str(cache_base()))
@@ -47,6 +46,9 @@ def pytest_configure(config):
 def pytest_collection_modifyitems(config, items):
     limits = config.pluginmanager.hasplugin("timeout") and config.getoption("timeout", None) is None \
         and not config.getini("timeout") and "PYTEST_TIMEOUT" not in os.environ
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        # the slow tests first, so that the workers do not end on a long one each (or one alone)
+        items.sort(key=lambda item: item.get_closest_marker("slow") is None)
     for item in items:
         if "plugin_path" in item.fixturenames or item.get_closest_marker("mpi"):
             item.add_marker(pytest.mark.lammps)
@@ -177,9 +179,12 @@ def _manifest(root: Path) -> dict[str, str]:
 
 @pytest.fixture(scope="session")
 def shared_runs(tmp_path_factory):
-    """The session's SharedRuns, in the folder that every xdist worker of the session shares."""
+    """The session's SharedRuns, in the folder that every xdist worker of the session shares, or
+    in $BRITTLE_SHARED_RUNS: a folder kept from one session to the next (.ci/run's two pytest
+    calls), for one state of the sources only."""
     base = tmp_path_factory.getbasetemp()
-    runs = SharedRuns((base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "shared_runs")
+    root = os.environ.get("BRITTLE_SHARED_RUNS") or (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base)
+    runs = SharedRuns(Path(root) / "shared_runs")
     yield runs
     for name in sorted(runs.used):
         runs.check(name)
