@@ -70,8 +70,10 @@ def _starts_lammps(argv) -> bool:
     code = " ".join(args[i + 1] for i, a in enumerate(args[:-1]) if a == "-c")
     if any(s in code for s in ("plugin_library", "Lammps(", "lammps.lammps(")):
         return True
-    is_driver = any(a == "driver.cli" or Path(a).name == "driver" or "driver.cli import" in a for a in args[:4])
-    return is_driver and any(a in LAMMPS_COMMANDS for a in args[1:])
+    # the command follows the entry point: `driver CMD`, `-m driver.cli CMD`, `-c "...main()" CMD`
+    entry = [i for i, a in enumerate(args[:4]) if a == "driver.cli" or Path(a).name == "driver"
+             or "driver.cli import" in a]
+    return bool(entry) and entry[0] + 1 < len(args) and args[entry[0] + 1] in LAMMPS_COMMANDS
 
 
 def _refuse(what: str):
@@ -131,7 +133,7 @@ def plugin_cache(tmp_path, monkeypatch, plugin_path) -> Path:
     again. The library is shared, read-only, with the session's cache."""
     cache = tmp_path / "cache"
     cache.mkdir()
-    os.symlink(cache_root(), cache / "plugins")
+    os.symlink(cache_root().resolve(), cache / "plugins")
     monkeypatch.setenv("BRITTLE_CACHE", str(cache))
     return cache
 
