@@ -24,8 +24,8 @@ from typing import Callable
 import pytest
 
 from driver import engine
-from driver.engine import Lammps
 from driver.cache import cache_base
+from driver.engine import Lammps
 from driver.plugin_build import cache_root, plugin_library
 
 #: Per-test limits in seconds: about four times the slowest test of each kind on 2 busy cores,
