@@ -13,8 +13,10 @@ from conftest import SharedRuns, _starts_lammps
 from driver.engine import Lammps
 
 
-def test_this_test_is_in_the_pure_tier(request):
+def test_this_test_is_in_the_pure_tier_with_a_time_limit(request):
     assert request.node.get_closest_marker("lammps") is None
+    if request.config.pluginmanager.hasplugin("timeout") and not request.config.getoption("timeout", None):
+        assert request.node.get_closest_marker("timeout").args == (300,)
 
 
 def test_opening_lammps_outside_the_tier_fails():
