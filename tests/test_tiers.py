@@ -15,7 +15,7 @@ from driver.engine import Lammps
 
 def test_this_test_is_in_the_pure_tier_with_a_time_limit(request):
     assert request.node.get_closest_marker("lammps") is None
-    if request.config.pluginmanager.hasplugin("timeout") and not request.config.getoption("timeout", None):
+    if request.config.pluginmanager.hasplugin("timeout") and request.config.getoption("timeout", None) is None:
         assert request.node.get_closest_marker("timeout").args == (300,)
 
 
