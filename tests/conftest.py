@@ -1,7 +1,7 @@
 """Shared fixtures, and the tiers of the suite (docs/testing.md).
 
 Tiers: a test is `lammps` when it starts LAMMPS, in this process or in a subprocess (`driver
-run`, `lmp`, `mpiexec`); the others are pure Python and run in seconds. The marker is set here
+run`, `lmp`, `mpiexec`); the others are pure Python. The marker is set here
 on every test that uses the `plugin_path` fixture (directly, or through `lmp`, `plugin_cache`
 or a fixture of a reference run) or carries `mpi`, and by hand (`@pytest.mark.lammps`) on a
 test that starts LAMMPS otherwise. A test not marked `lammps` that starts LAMMPS fails with a
