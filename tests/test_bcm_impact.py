@@ -49,10 +49,9 @@ SMALL = dict(n_cells=100, velocity=4.5, max_time=2e-5, seed=3)
 
 
 @pytest.fixture(scope="module")
-def small_impact(tmp_path_factory, plugin_path) -> Path:
-    out = tmp_path_factory.mktemp("impact") / "r1"
-    run_impact(out, **SMALL)
-    return out
+def small_impact(shared_runs, plugin_path) -> Path:
+    """Read only (built once per session): a test that changes it copies it."""
+    return shared_runs.get("bcm_impact_small", lambda out: run_impact(out, **SMALL))
 
 
 def contact_balances(thermo) -> tuple[float, float]:
@@ -246,13 +245,16 @@ def test_vibrating_particle_conserves_energy_and_momenta_1728(lmp, tmp_path):
     check_conservation(lmp, tmp_path, n_cells=1728, steps=2000, chunk=200)
 
 
-def test_run_directory_and_post_reproduce_tables(small_impact):
+def test_run_directory_and_post_reproduce_tables(small_impact, tmp_path):
     """The impact run directory holds every product, and `driver post` recomputes the tables
     exactly from the dumps."""
+    import shutil
     import subprocess
     import sys
 
     import pandas as pd
+
+    small_impact = Path(shutil.copytree(small_impact, tmp_path / "run"))  # post rewrites it
 
     for name in ["results/summary.json", "results/energies.parquet", "results/fragments.csv",
                  "results/interfaces.parquet", "results/cells.csv",

@@ -56,6 +56,7 @@ def clipped(shape: str, diameter_kind: str, a: float = A8):
 
 
 # ------------------------------------------------------------------------------ geometry
+@pytest.mark.lammps
 @pytest.mark.parametrize("shape,kind", [("truncated_pentakis_dodecahedron", "circumscribed"),
                                         ("cube", "equal_volume")])
 def test_clipped_packing_lies_inside_and_fills_the_parent(shape, kind):
@@ -141,10 +142,10 @@ def test_free_flight_keeps_its_kinetic_energy(tmp_path, plugin_path, monkeypatch
 
 
 @pytest.fixture(scope="module")
-def rebound(tmp_path_factory, plugin_path) -> Path:
-    out = tmp_path_factory.mktemp("bpm") / "rebound"
-    execute(parse_config(impact_config(out, velocity=0.5, max_time=2e-4)), show_progress=False)
-    return out
+def rebound(shared_runs, plugin_path) -> Path:
+    """Read only (built once per session): a test that changes it copies it."""
+    return shared_runs.get("bpm_impact_rebound", lambda out: execute(
+        parse_config(impact_config(out, velocity=0.5, max_time=2e-4)), show_progress=False))
 
 
 def test_low_velocity_impact_rebounds_unbroken(rebound):

@@ -137,14 +137,13 @@ def test_toughness_formula_by_hand():
 
 
 @pytest.fixture(scope="module")
-def pulled(tmp_path_factory, plugin_path):
+def pulled(shared_runs, plugin_path):
     """2D, L = 40 (2,659 particles after the cut), the default void, pulled at a nominal strain
     rate 1e-4 to strain 0.012 (measured: the peak near strain 0.0076, 14 crossings of the sample
     by sound, c_l = 7.4 from the moduli test; at half the rate sigma_c changes by 1 %)."""
-    out = tmp_path_factory.mktemp("mode1")
-    execute(parse_config(mode1_config(out, strain_rate=1e-4, max_pull_strain=0.012, E_reference=90.5)),
-            show_progress=False)
-    return out
+    return shared_runs.get("bpm_mode1_2d", lambda out: execute(
+        parse_config(mode1_config(out, strain_rate=1e-4, max_pull_strain=0.012, E_reference=90.5)),
+        show_progress=False))
 
 
 def test_a_pull_peaks_and_the_crack_runs_from_the_tips(pulled):
@@ -236,13 +235,12 @@ def mode1_3d_config(out, **scenario) -> dict:
 
 
 @pytest.fixture(scope="module")
-def pulled_3d(tmp_path_factory, plugin_path):
+def pulled_3d(shared_runs, plugin_path):
     """1,253 spheres after the cut, 8,000 steps (about 8 s). Measured (seed 1): sigma_c = 0.526
     at nominal strain 0.011, 6 bonds broken before the peak, the first 10 within 1.0 a of a tip,
     then the crack through to both free edges within 0.93 a of the void's plane."""
-    out = tmp_path_factory.mktemp("mode1_3d")
-    execute(parse_config(mode1_3d_config(out)), show_progress=False)
-    return out
+    return shared_runs.get("bpm_mode1_3d", lambda out: execute(parse_config(mode1_3d_config(out)),
+                                                                show_progress=False))
 
 
 def test_a_3d_slab_pull_peaks_and_breaks_first_at_the_tips(pulled_3d):

@@ -225,14 +225,13 @@ def test_geometry_factor_and_positions_by_hand():
 
 
 @pytest.fixture(scope="module")
-def sheared(tmp_path_factory, plugin_path):
+def sheared(shared_runs, plugin_path):
     """2D, L = 40 (2,663 particles after the cut, 923 band bonds), the default void and band,
     pure shear at true rate 1e-4 to strain 0.022 (measured, seed 1: the peak tau_c = 0.886 at
     strain 0.0145, tau down to 0.14 by 0.03)."""
-    out = tmp_path_factory.mktemp("mode2")
-    execute(parse_config(mode2_config(out, strain_rate=1e-4, max_shear_strain=0.022, K_IC_reference=2.0)),
-            show_progress=False)
-    return out
+    return shared_runs.get("bpm_mode2_2d", lambda out: execute(
+        parse_config(mode2_config(out, strain_rate=1e-4, max_shear_strain=0.022, K_IC_reference=2.0)),
+        show_progress=False))
 
 
 def test_a_shear_peaks_and_breaks_start_at_the_tips_inside_the_band(sheared):
@@ -319,15 +318,14 @@ def mode2_3d_config(out, **scenario) -> dict:
 
 
 @pytest.fixture(scope="module")
-def sheared_3d(tmp_path_factory, plugin_path):
+def sheared_3d(shared_runs, plugin_path):
     """1,250 spheres after the cut, 2,162 band bonds, 12,000 steps (about 15 s). Measured (seed 1):
     the first breaks at step 4,235, within 1.25 a of a tip; 78 bonds broken before the peak
     tau_c = 1.151 at strain 0.023 (step 9,200), the crack then links along the whole period
     (breaks at the half-period point 11.3 a from the void's centre by step 9,800) and tau falls
     to 0.78; every break within 1.98 a of the band's plane."""
-    out = tmp_path_factory.mktemp("mode2_3d")
-    execute(parse_config(mode2_3d_config(out)), show_progress=False)
-    return out
+    return shared_runs.get("bpm_mode2_3d", lambda out: execute(parse_config(mode2_3d_config(out)),
+                                                                show_progress=False))
 
 
 def test_a_3d_slab_shear_peaks_and_breaks_start_at_the_tips_inside_the_band(sheared_3d):

@@ -33,12 +33,12 @@ SEED = 3
 
 
 @pytest.fixture(scope="module")
-def pack2d() -> Packing:
+def pack2d(plugin_path) -> Packing:
     return make_packing(2, 16.0, SEED)
 
 
 @pytest.fixture(scope="module")
-def pack3d() -> Packing:
+def pack3d(plugin_path) -> Packing:
     return make_packing(3, 7.0, SEED)
 
 
@@ -130,6 +130,7 @@ def test_packing_3d_composition(pack3d):
     assert p.packing_fraction == pytest.approx(DEFAULT_PHI[3], abs=1.0 / p.n)
 
 
+@pytest.mark.lammps  # its packing fixture, by name
 @pytest.mark.parametrize("which", ["pack2d", "pack3d"])
 def test_packing_is_relaxed_and_jammed(which, request):
     p = request.getfixturevalue(which)
@@ -143,6 +144,7 @@ def test_packing_is_relaxed_and_jammed(which, request):
     assert z[~rattlers].mean() > 2 * d  # above jamming: hyperstatic, Z > Z_iso = 2d
 
 
+@pytest.mark.lammps
 def test_packing_reproducible_from_seed():
     a = make_packing(2, 12.0, 11)
     b = make_packing(2, 12.0, 11)
@@ -165,6 +167,7 @@ def test_network_2d_torus_counts(pack2d, net2d):
     np.testing.assert_allclose(around, 2 * np.pi, atol=1e-9)
 
 
+@pytest.mark.lammps  # its packing fixture, by name
 @pytest.mark.parametrize("which", ["2d", "3d"])
 def test_every_contact_is_a_bond(which, request):
     p = request.getfixturevalue(f"pack{which}")
@@ -250,6 +253,7 @@ def test_small_box_rejected():
 
 # --- data file ---------------------------------------------------------------------------
 
+@pytest.mark.lammps  # its packing fixture, by name
 @pytest.mark.parametrize("which", ["2d", "3d"])
 def test_data_file_round_trip(which, request, tmp_path):
     p = request.getfixturevalue(f"pack{which}")

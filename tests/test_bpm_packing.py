@@ -32,7 +32,7 @@ def nearest_neighbour_mean(p: Packing) -> float:
 
 
 @pytest.fixture(scope="module")
-def preparations(tmp_path_factory) -> dict[str, Packing]:
+def preparations(tmp_path_factory, plugin_path) -> dict[str, Packing]:
     cache = tmp_path_factory.mktemp("packings")
     return {prep: cached_packing(cache, 3, L, 5, preparation=prep) for prep in ("contact", "lj_minimum")}
 
@@ -78,6 +78,7 @@ def test_both_preparations_have_the_same_topology_and_densities_in_ratio_root_2(
     assert lj.n == particle_count(3, L, 0.66, preparation="lj_minimum")
 
 
+@pytest.mark.lammps
 def test_a_slab_box(tmp_path):
     """An L x L x T periodic slab at the nominal fraction: T along z, the count from its volume."""
     p = cached_packing(tmp_path, 3, 10.0, 2, thickness=5.0)

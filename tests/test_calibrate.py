@@ -20,7 +20,6 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from driver.cache import cache_base
 from driver.calibration import curves as cv
 from driver.calibration.material import MaterialFile, Target, load_material
 from driver.calibration.solve import BpmUnits, bpm_lambda_c, invert, through_zero_slope
@@ -115,6 +114,7 @@ def test_toughness_conversions():
     assert t.toughness(3)[1] == pytest.approx(math.sqrt(4.0 * 2.0 / (1 - 0.09)))  # plane strain
 
 
+@pytest.mark.lammps
 def test_a_changed_curve_is_another_cache_entry():
     spec = cv.bpm_moduli(2)
     mat = MaterialFile.model_validate({"material": {"density": 1, "E": 1, "nu": 0.2, "G_c": 1},
@@ -140,11 +140,10 @@ curves:
 
 
 @pytest.mark.slow
-def test_bpm_round_trip_and_cache(tmp_path, monkeypatch, plugin_path):
+def test_bpm_round_trip_and_cache(tmp_path, monkeypatch, plugin_cache):
     """Calibrate a 2D BPM to a material, run the tests at the chosen k_A and lambda_c, and get
     back E, nu within 5 % and G_c within 10 %; then the same call from the cache in seconds, and
     a target out of reach said so, with the nearest reachable value in the table."""
-    monkeypatch.setenv("BRITTLE_CACHE", str(tmp_path / "cache"))
     monkeypatch.chdir(tmp_path)
     (tmp_path / "m.yaml").write_text(SMALL)
     runner = CliRunner()
@@ -184,10 +183,9 @@ curves:
 
 
 @pytest.mark.slow
-def test_bcm_round_trip(tmp_path, monkeypatch, plugin_path):
+def test_bcm_round_trip(tmp_path, monkeypatch, plugin_cache):
     """Calibrate the BCM block to a material, run the block tests at the chosen k_n, k_t, G_c and
     cell size, and get back E, nu within 5 % and the fracture energy within 10 %."""
-    monkeypatch.setenv("BRITTLE_CACHE", str(tmp_path / "cache"))
     monkeypatch.chdir(tmp_path)
     (tmp_path / "m.yaml").write_text(SMALL_BCM)
     res = CliRunner().invoke(app, ["calibrate", "m.yaml", "--out", "cal", "--workers", "1", "--verify"])
@@ -224,12 +222,10 @@ workers: 1
 """
 
 
-def interrupt_while_a_curve_runs(args: list[str], cwd: Path) -> tuple[int, str, list[dict]]:
-    """`driver ARGS` in cwd with a cache of its own (holding the built plugins), sent SIGINT once
-    a run of a calibration curve runs LAMMPS; (exit code, stderr, the curve runs' status.json)."""
-    cache = cwd / "cache"
-    cache.mkdir()
-    os.symlink(cache_base() / "plugins", cache / "plugins")  # the plugin_path fixture's build
+def interrupt_while_a_curve_runs(args: list[str], cwd: Path, cache: Path) -> tuple[int, str, list[dict]]:
+    """`driver ARGS` in cwd with `cache` (the plugin_cache fixture: the built plugins only), sent
+    SIGINT once a run of a calibration curve runs LAMMPS; (exit code, stderr, the curve runs'
+    status.json)."""
 
     def statuses() -> list[dict]:
         out = []
@@ -262,20 +258,20 @@ def assert_one_line_stop(code: int, err: str, command: str, runs: list[dict]) ->
 
 
 @pytest.mark.slow
-def test_ctrl_c_stops_calibrate_on_dask_with_one_line(tmp_path, plugin_path):
+def test_ctrl_c_stops_calibrate_on_dask_with_one_line(tmp_path, plugin_cache):
     """Two Dask workers measure the moduli curve; Ctrl-C: the running runs write a checkpoint and
     stop, and the command says so in one line (no traceback ending in SweepInterrupted)."""
     (tmp_path / "m.yaml").write_text(SLOW_BPM)
     code, err, runs = interrupt_while_a_curve_runs(["calibrate", "m.yaml", "--out", "cal", "--workers", "2"],
-                                                   tmp_path)
+                                                   tmp_path, plugin_cache)
     assert_one_line_stop(code, err, "calibrate", runs)
 
 
 @pytest.mark.slow
-def test_ctrl_c_stops_compare_in_process_with_one_line(tmp_path, plugin_path):
+def test_ctrl_c_stops_compare_in_process_with_one_line(tmp_path, plugin_cache):
     """`driver compare` (--workers 1: the runs in its own process) stopped while its first curve
     is measured: one line, exit code 130 (no traceback ending in RunInterrupted)."""
     (tmp_path / "m.yaml").write_text(SLOW_COMPARE_MATERIAL)
     (tmp_path / "c.yaml").write_text(SLOW_COMPARE)
-    code, err, runs = interrupt_while_a_curve_runs(["compare", "c.yaml", "--out", "cmp"], tmp_path)
+    code, err, runs = interrupt_while_a_curve_runs(["compare", "c.yaml", "--out", "cmp"], tmp_path, plugin_cache)
     assert_one_line_stop(code, err, "compare", runs)

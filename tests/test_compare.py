@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import time
 from pathlib import Path
 
@@ -231,16 +230,10 @@ workers: 1
 
 
 @pytest.mark.slow
-def test_tiny_grid_writes_tables_plots_report_and_resumes(tmp_path, monkeypatch, plugin_path):
+def test_tiny_grid_writes_tables_plots_report_and_resumes(tmp_path, monkeypatch, plugin_cache):
     """Two velocities, one seed, about 200 cells and 220 particles: calibration (small curves),
     4 runs, the tidy and side-by-side tables, the plots and the report; the second call finds
     every run finished and the curves cached."""
-    from driver.cache import cache_base  # noqa: PLC0415
-
-    plugins = cache_base() / "plugins"  # the fixture's build, shared with the test's cache
-    monkeypatch.setenv("BRITTLE_CACHE", str(tmp_path / "cache"))
-    (tmp_path / "cache").mkdir()
-    os.symlink(plugins, tmp_path / "cache" / "plugins")
     monkeypatch.chdir(tmp_path)
     write(tmp_path, "m.yaml", TINY_MATERIAL)
     write(tmp_path, "c.yaml", TINY)

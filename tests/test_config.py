@@ -83,6 +83,7 @@ def test_steps_for_strain():
     ("model: {kind: bpm, lambda_c: 0.9}\noutput: {dir: OUT}\n", "lambda_c"),
     (GOOD + "colour: red\n", "colour"),
 ])
+@pytest.mark.lammps
 def test_cli_refuses_and_writes_nothing(tmp_path, text, field):
     """`driver run` and `driver validate` exit non-zero, name the field, create no run dir."""
     path = _write(tmp_path, text)

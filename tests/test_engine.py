@@ -8,6 +8,7 @@ from driver.engine import Lammps, LammpsError, lammps_version_string
 from driver.runner import run_input
 
 
+@pytest.mark.lammps
 def test_in_process_error_has_lammps_message():
     with Lammps() as lmp, pytest.raises(LammpsError, match="Unknown command"):
         lmp.command("frobnicate all")

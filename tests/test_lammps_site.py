@@ -70,6 +70,7 @@ def fake_old_lammps(root: Path) -> Path:
     return root
 
 
+@pytest.mark.lammps
 def test_a_too_old_site_lammps_is_refused_naming_what_is_missing(tmp_path):
     site = fake_old_lammps(tmp_path / "old")
     (tmp_path / "run.yaml").write_text(yaml.safe_dump({**BPM_RUN, "output": {"dir": "out"}}))

@@ -14,6 +14,7 @@ from driver import plugin_build
 from driver.plugin_build import plugin_source_dir, source_hash
 
 
+@pytest.mark.lammps
 def test_hash_changes_with_source(tmp_path):
     src = tmp_path / "plugins"
     shutil.copytree(plugin_source_dir(), src)
@@ -24,6 +25,7 @@ def test_hash_changes_with_source(tmp_path):
     assert source_hash(src) != h0
 
 
+@pytest.mark.lammps
 @pytest.mark.slow
 def test_concurrent_first_builds_share_one_library(tmp_path):
     """Two runs starting at once on a fresh cache: one build, both get the same whole file."""

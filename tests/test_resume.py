@@ -114,10 +114,10 @@ def reference_interrupted_resumed(cfg: Path, tmp_path: Path, at_step: int | None
 
 
 @pytest.fixture(scope="module")
-def shear_reference(tmp_path_factory, plugin_path) -> Path:
-    out = tmp_path_factory.mktemp("ref") / "shear"
-    execute(parse_config({**SHEAR, "output": {**SHEAR["output"], "dir": str(out)}}), show_progress=False)
-    return out
+def shear_reference(shared_runs, plugin_path) -> Path:
+    """Read only (built once per session): a test that changes it copies it."""
+    return shared_runs.get("bpm_shear_resume_reference", lambda out: execute(
+        parse_config({**SHEAR, "output": {**SHEAR["output"], "dir": str(out)}}), show_progress=False))
 
 
 # ---------------------------------------------------------------------- SIGINT/TERM

@@ -129,6 +129,7 @@ def test_force_clears_only_the_run_layout(tmp_path, plugin_path):
 
 
 # ------------------------------------------------------------------------------ lock
+@pytest.mark.lammps
 def test_second_run_into_busy_directory_fails_naming_the_holder(tmp_path):
     out = tmp_path / "busy"
     holder = RunDir(out)
@@ -213,6 +214,7 @@ def test_set_analysis_into_foreign_folder_refused(tmp_path):
 
 
 # ------------------------------------------------------------------------ OS errors
+@pytest.mark.lammps
 def test_output_path_that_is_a_file(tmp_path):
     (tmp_path / "afile").write_text("x")
     proc = cli("run", str(write_config(tmp_path)), "-o", str(tmp_path / "afile"))
@@ -227,6 +229,7 @@ def test_read_only_location(tmp_path):  # pragma: no cover - CI runs as root
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
 
 
+@pytest.mark.lammps
 def test_os_error_is_one_line_and_debug_shows_the_traceback(tmp_path):
     """An OS error anywhere (here: a file where the sweep's parent folder should be) is one line
     naming the path with exit code 2; --debug shows the traceback."""

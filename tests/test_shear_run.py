@@ -31,10 +31,10 @@ def small_config(out: Path, **over) -> dict:
 
 
 @pytest.fixture(scope="module")
-def finished_run(tmp_path_factory, plugin_path) -> Path:
-    out = tmp_path_factory.mktemp("run") / "tiny"
-    execute(parse_config(small_config(out)), show_progress=False)
-    return out
+def finished_run(shared_runs, plugin_path) -> Path:
+    """Read only (built once per session): a test that changes it copies it."""
+    return shared_runs.get("bpm_shear_tiny", lambda out: execute(parse_config(small_config(out)),
+                                                                  show_progress=False))
 
 
 def test_run_directory_complete(finished_run):
@@ -80,7 +80,10 @@ def test_generated_input_runs_standalone_with_lmp(finished_run, tmp_path, plugin
     assert last_lmp[0] == last_run[0] and last_lmp[-2:] == last_run[-2:]
 
 
-def test_post_reproduces_tables(finished_run):
+def test_post_reproduces_tables(finished_run, tmp_path):
+    import shutil
+
+    finished_run = Path(shutil.copytree(finished_run, tmp_path / "tiny"))  # post rewrites it
     names = ["nm", "frames", "grains", "stress", "nm_fits", "tracking"]
     before = {n: pd.read_parquet(finished_run / f"results/{n}.parquet") for n in names}
     summary = json.loads((finished_run / "results/summary.json").read_text())
