@@ -165,6 +165,7 @@ def table() -> None:
             "n_fragments_multi_cell_mean", "loss_besides_W_f_mean", "loss_interface_friction_mean",
             "loss_switch_mean", "loss_interface_damping_mean", "loss_wall_damping_mean"]
     print(_md_table(points[show]))
+    (ROOT / "bench" / "bcm_low_energy.md").write_text(docs_table() + "\n")
     # the resolution study: the defaults (damping_interface at 1728 cells) at 300, 1728, 8000 cells
     res = runs[runs.variant.isin(["damping_interface", *(f"cells{n}" for n in RESOLUTION)])
                & runs.omega_target.isin([0.3, 1.0])]
@@ -248,6 +249,21 @@ def figures(variants: list[str], omegas: list[float]) -> None:
                 path = fig_dir / f"bcm_low_energy_{variant}_omega{w:g}.png"
                 plot_losses(series, path, f"1728 cells, G_c = 1 J/m², omega = {w:g}, {variant}")
                 print(path)
+
+
+def docs_table() -> str:
+    """The table of docs/models/bcm-broken-law.md: every variant against omega, means over the
+    seeds (e_k^2 and D_w with their standard deviation), and the loss channels as shares of W_k^-."""
+    p = pd.read_csv(ROOT / "bench" / "bcm_low_energy.csv")
+    rows = ["| variant | ω | e_k² | D_w | largest fragment | fragments ≥ 2 cells | lost besides W_f | friction "
+            "(broken) | switch | damping (interfaces) | plane damping |", "|---" * 11 + "|"]
+    for r in p.itertuples():
+        rows.append(f"| {r.variant} | {r.omega_target:g} | {r.e_k2_mean:.2f} ± {r.e_k2_std:.2f} | "
+                    f"{r.D_w_mean:.3g} ± {r.D_w_std:.2g} | {r.largest_fragment_mass_fraction_mean:.3f} | "
+                    f"{r.n_fragments_multi_cell_mean:g} | {r.loss_besides_W_f_mean:.3f} | "
+                    f"{r.loss_interface_friction_mean:.3f} | {r.loss_switch_mean:.3f} | "
+                    f"{r.loss_interface_damping_mean:.3f} | {r.loss_wall_damping_mean:.3f} |")
+    return "\n".join(rows)
 
 
 def main() -> None:
