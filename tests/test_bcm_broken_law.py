@@ -313,6 +313,12 @@ IMPACT_OPTIONS = {
     "all": {"broken": {"stiffness": "interface", "damping": "interface", "shear_at_break": "released"},
             "plane": {"stiffness": "per_cell", "en2": 0.5}},
 }
+#: Options whose accounts close only at a finer step. The residuals are the time discretisation's,
+#: second order in dt (measured on this 100-cell impact at 50 / 100 / 200 steps per period):
+#: normal_unshifted's balance -1.6e-3 / -4.6e-4 / -1.1e-4 of W_k (the force jumps at each break,
+#: mid-step), mu0's plane account -1.1e-4 / -3.9e-5 / -8.1e-6 (frictionless fragments rattle on
+#: the plane); the defaults' -5.1e-5 / -1.1e-5 / -3.3e-6.
+STEPS_PER_PERIOD = {"normal_unshifted": 100, "mu0": 100}
 
 
 @pytest.mark.parametrize("option", [pytest.param(k, marks=[] if k == "all" else pytest.mark.slow)
@@ -326,7 +332,7 @@ def test_impact_energy_balance_with_every_option(tmp_path, plugin_path, option):
     from driver.config import parse_config
     from driver.pipeline import execute
 
-    cfg = impact_config(tmp_path / "r", **SMALL)
+    cfg = impact_config(tmp_path / "r", **SMALL, steps_per_period=STEPS_PER_PERIOD.get(option, 50))
     for section, keys in IMPACT_OPTIONS[option].items():
         cfg["model"][section] = keys
     execute(parse_config(cfg), np_ranks=1, show_progress=False)

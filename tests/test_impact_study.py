@@ -203,10 +203,11 @@ def test_sweep_of_four_small_impacts_in_one_process(tmp_path, plugin_path):
         assert summary["plots_failed"] == []
         for fig in ("cells", "energies", "fragments", "fragment_masses", "shapes"):
             assert (run / "plots" / f"{fig}.png").stat().st_size > 0, (run, fig)
-        # the energy record resolves the contact: 50 points or more while the plane is loaded
+        # the energy record resolves the contact: 40 points or more while the plane is loaded (the
+        # fewest, 5 m/s seed 1: 50 or more before issue 23's broken-interface damping default, 49 after)
         energies = pd.read_parquet(run / "results/energies.parquet")
         loaded = energies[energies.E_wall > 1e-2 * energies.E_wall.max()]
-        assert len(loaded) >= 50, (run, len(loaded))
+        assert len(loaded) >= 40, (run, len(loaded))
     table = pd.read_csv(out / "runs.csv")
     assert table["included"].all() and len(table) == 4
 
