@@ -104,6 +104,17 @@ struct Load {
   }
 };
 
+// what the intact interface's force kernel (bcm_interface_kernel.h) gives: the sums over the
+// points of one evaluation
+struct IntactSums {
+  double stored = 0.0;     // energy of the springs
+  double tension = 0.0;    // Griffith's share of it (Eq. 5: normal springs in tension only)
+  double pd = 0.0;         // -sum F_d . dv of the new damping forces
+  double fd_dv = 0.0;      // sum F_d . dv of the previous damping forces at the new dv
+  double f[3] = {0.0, 0.0, 0.0};     // total force on cell 2
+  double t2[3] = {0.0, 0.0, 0.0};    // torque on cell 2 about x2
+};
+
 }    // namespace BcmInterfaceKinematics
 
 #endif

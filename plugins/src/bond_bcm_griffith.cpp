@@ -7,7 +7,7 @@
      bcm_interface_contact.h      a point of a broken interface as a frictional contact
      bcm_griffith.h               the Griffith criterion (Eq. 4-6) and its energy conventions
      bcm_contact_law.h            the frictional contact law of a closed point (Eq. 1, 2, 7)
-   An interface is intact (springs, intact_forces()), breaks in break_interface(), is then a
+   An interface is intact (springs, the kernel of bcm_interface_kernel.h), breaks in break_interface(), is then a
    set of frictional contacts (contact_forces()) and is retired for good (retire()) once its
    cells part. */
 
@@ -40,6 +40,44 @@ using namespace BcmInterfaceState;
 using BcmInterfaceKinematics::CELL_STRIDE;
 using BcmRigid::dot;
 
+/* The intact interface's force kernel (bcm_interface_kernel.h), twice: for baseline x86-64,
+   one point at a time, and for AVX, four points at a time (taken when the processor has AVX:
+   BreakableUtil::avx_loops()). Both give the scalar code's results bit for bit. */
+namespace {
+namespace base {
+using V = double;
+constexpr int W = 1;
+inline V load(const double *p) { return *p; }
+inline void store(double *p, V v) { *p = v; }
+inline V splat(double x) { return x; }
+inline V positive_or_zero(V dn, V en) { return dn > 0.0 ? en : 0.0; }
+#include "bcm_interface_kernel.h"
+}    // namespace base
+}    // namespace
+
+#if defined(BRITTLE_AVX_LOOPS)
+#pragma GCC push_options
+#pragma GCC target("avx")
+namespace {
+namespace avx {
+#include "lanes4_avx.h"
+using V = Lanes4;
+constexpr int W = 4;
+inline V load(const double *p)
+{
+  V v;
+  __builtin_memcpy(&v, p, sizeof(v));
+  return v;
+}
+inline void store(double *p, V v) { __builtin_memcpy(p, &v, sizeof(v)); }
+inline V splat(double x) { return V{x, x, x, x}; }
+inline V positive_or_zero(V dn, V en) { return select_lt(V{}, dn, en, V{}); }    // dn > 0 ? en : 0
+#include "bcm_interface_kernel.h"
+}    // namespace avx
+}    // namespace
+#pragma GCC pop_options
+#endif
+
 static const char *const STORE_FIX_ID = "BCM_GRIFFITH_STATE";
 static const char *const STORE_NAME = "bcm_griffith_state";
 using BcmContactLaw::damping_ratio;
@@ -55,6 +93,7 @@ BondBcmGriffith::BondBcmGriffith(LAMMPS *_lmp) :
     cache_valid(false), dirty(false), store_index(-1), slot_size(0), iquat(-1), nevaluations(0),
     special(nullptr)
 {
+  avx_loop = BreakableUtil::avx_loops();
   writedata = 1;
   born_matrix_enable = 0;
   single_extra = 13;
@@ -338,27 +377,30 @@ void BondBcmGriffith::rebuild_cache()
     ncontact += NCONTACT * e.npts;
   }
 
-  records.resize(nrec);
+  records.assign(nrec, 0.0);    // padding lanes zero
   contact.resize(ncontact);
   for (int n = 0; n < nbondlist; n++) {
     const Entry &e = cache[n];
-    const int np = e.npts;
+    const int np = e.npts, P = padded(np);
     const BcmInterfaceTable::Interface &itf = table[iface_of[n]];
     double *rec = &records[e.roff];
     rec[K_AREA] = itf.area;
     cache[n].type = bondlist[n][2];
     set_constants(e, bondlist[n][2], rec);
-    // state: slot header and damping forces, then the contact state apart
-    std::copy(e.slot, e.slot + NHEAD + 3 * np, rec + NCONST);
+    // state: slot header, damping forces (per point in the store, rows here), then the
+    // contact state apart
+    std::copy(e.slot, e.slot + NHEAD, rec + R_SLOT);
+    for (int k = 0; k < np; k++)
+      for (int c = 0; c < 3; c++) rec[R_FD + c * P + k] = e.slot[NHEAD + 3 * k + c];
     std::copy(e.slot + NHEAD + 3 * np, e.slot + NHEAD + NPOINT * np, &contact[e.coff]);
-    // geometry: normal in cell 1's frame, then per point b1 and b2
+    // geometry: normal in cell 1's frame, then the rows of b1 and of b2
     const double *g = table.body_of(itf);
-    double *out = rec + NCONST + NHEAD + 3 * np;
+    double *out = rec + record_geometry(np);
     for (int c = 0; c < 3; c++) out[c] = g[c];
     for (int k = 0; k < np; k++)
       for (int c = 0; c < 3; c++) {
-        out[3 + 6 * k + c] = g[3 + 3 * k + c];
-        out[6 + 6 * k + c] = g[3 + 3 * (np + k) + c];
+        out[3 + c * P + k] = g[3 + 3 * k + c];
+        out[3 + 3 * P + c * P + k] = g[3 + 3 * (np + k) + c];
       }
   }
   cache_store = atom->nmax > 0 ? store[0] : nullptr;
@@ -424,12 +466,14 @@ void BondBcmGriffith::sync_store()
                FixBcmGriffith::ID);
   for (int n = 0; n < ncache; n++) {
     const Entry &e = cache[n];
-    const int np = e.npts;
-    const double *state = &records[e.roff + NCONST];
+    const int np = e.npts, P = padded(np);
+    const double *rec = &records[e.roff];
     const double *cstate = &contact[e.coff];
     for (double *dest : {e.slot, e.twin}) {
       if (!dest) continue;
-      std::copy(state, state + NHEAD + 3 * np, dest);
+      std::copy(rec + R_SLOT, rec + R_SLOT + NHEAD, dest);
+      for (int k = 0; k < np; k++)
+        for (int c = 0; c < 3; c++) dest[NHEAD + 3 * k + c] = rec[R_FD + c * P + k];
       std::copy(cstate, cstate + NCONTACT * np, dest + NHEAD + 3 * np);
     }
   }
@@ -478,32 +522,49 @@ void BondBcmGriffith::compute(int eflag, int vflag)
       set_constants(e, type, rec);
       e.type = type;
     }
-    double *slot = rec + NCONST;    // working copy of the slot: header, damping forces
+    double *slot = rec + R_SLOT;    // working copy of the slot header
     if (slot[H_BROKEN] == RETIRED) continue;    // for good: the pair style's now
-    const int np = e.npts;
-    const double *fdamp = slot + NHEAD;
-    const double *g = fdamp + 3 * np;    // normal in cell 1's frame, then b1, b2 per point
+    const int np = e.npts, P = padded(np);
+    double *fd = rec + R_FD;    // damping forces of the last evaluation, rows of P
+    const double *g = rec + record_geometry(np);    // normal in cell 1's frame, b1 rows, b2 rows
 
     const Pair p(&cells[CELL_STRIDE * (size_t) e.c1], &cells[CELL_STRIDE * (size_t) e.c2], g);
-    for (int k = 0; k < np; k++)
-      BcmInterfaceKinematics::point(p, g + 3 + 6 * k, g + 6 + 6 * k, pts[k]);
-
-    // the damping forces of the last evaluation times the relative velocities now, for the
-    // damping work settled below
+    // fd_dv: the damping forces of the last evaluation times the relative velocities now,
+    // for the damping work settled below
     double fd_dv = 0.0;
-    for (int k = 0; k < np; k++) fd_dv += dot(fdamp + 3 * k, pts[k].dv);
-
     Result r;
     bool just_broke = false;
     double e_before = 0.0;
     if (slot[H_BROKEN] == INTACT) {
-      const double tension = intact_forces(e, rec, p, pts, r);
-      // SPEC 1.2 Eq. 4-6, on the elastic parts, before any force is applied
-      if (BcmGriffith::breaks(tension, np, convention, rec[K_AREA], gc[type])) {
+      // SPEC 1.2 Eq. 1, 3: per point k_n / N_p, k_t / N_p and the dashpot 2 alpha sqrt(k_n m)
+      // / N_p on the relative velocity; the energy of the springs in tension that the
+      // Griffith criterion reads (Eq. 5)
+      BcmInterfaceKinematics::IntactSums s;
+#if defined(BRITTLE_AVX_LOOPS)
+      if (avx_loop)
+        avx::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, g + 3, g + 3 + 3 * P, s);
+      else
+#endif
+        base::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, g + 3, g + 3 + 3 * P, s);
+      fd_dv = s.fd_dv;
+      r.stored = s.stored;
+      r.pd = s.pd;
+      for (int c = 0; c < 3; c++) {
+        r.load.f[c] = s.f[c];
+        r.load.t2[c] = s.t2[c];
+      }
+      // SPEC 1.2 Eq. 4-6, on the elastic parts, before any force is applied; should the
+      // interface break, contact_forces() replaces these forces from the same kinematics
+      if (BcmGriffith::breaks(s.tension, np, convention, rec[K_AREA], gc[type])) {
         just_broke = true;
         e_before = r.stored;
+        interface_points(p, g, np, pts);
         break_interface(e, rec, p, pts, r.stored, now);
       }
+    } else {
+      interface_points(p, g, np, pts);
+      for (int k = 0; k < np; k++)
+        fd_dv += fd[k] * pts[k].dv[0] + fd[P + k] * pts[k].dv[1] + fd[2 * P + k] * pts[k].dv[2];
     }
 
     // damping work of the previous evaluation, now that the velocity after its kicks is
@@ -528,37 +589,17 @@ void BondBcmGriffith::compute(int eflag, int vflag)
 }
 
 /* ----------------------------------------------------------------------
-   intact interface (SPEC 1.2 Eq. 1, 3): per point k_n / N_p, k_t / N_p and
-   the dashpot 2 alpha sqrt(k_n m) / N_p on the relative velocity. Returns
-   the energy of the springs in tension that the Griffith criterion reads
-   (Eq. 5). Should the interface break, contact_forces() replaces these
-   forces from the same kinematics.
+   the points of an interface from its record's geometry (rows of P anchors)
 ------------------------------------------------------------------------- */
 
-double BondBcmGriffith::intact_forces(const Entry &e, double *rec, const Pair &p,
-                                      const Point *pts, Result &r) const
+void BondBcmGriffith::interface_points(const Pair &p, const double *g, int np, Point *pts)
 {
-  const double kp = rec[K_KP], ktp = rec[K_KTP], cp = rec[K_CP];
-  double *fdamp = rec + NCONST + NHEAD;
-  const double *n = p.n;
-  double tension = 0.0;
-  for (int k = 0; k < e.npts; k++) {
-    const Point &q = pts[k];
-    const double en = 0.5 * kp * q.dn * q.dn;
-    const double et = 0.5 * ktp * dot(q.dt, q.dt);
-    r.stored += en + et;
-    tension += BcmGriffith::tension_energy(en, et, q.dn);
-
-    double *fd = fdamp + 3 * k;
-    double F[3];
-    for (int c = 0; c < 3; c++) {
-      fd[c] = -cp * q.dv[c];
-      F[c] = -(kp * q.dn * n[c] + ktp * q.dt[c]) + fd[c];
-    }
-    r.pd -= dot(fd, q.dv);
-    r.load.add(q, F);
+  const int P = padded(np);
+  for (int k = 0; k < np; k++) {
+    const double b1[3] = {g[3 + k], g[3 + P + k], g[3 + 2 * P + k]};
+    const double b2[3] = {g[3 + 3 * P + k], g[3 + 4 * P + k], g[3 + 5 * P + k]};
+    BcmInterfaceKinematics::point(p, b1, b2, pts[k]);
   }
-  return tension;
 }
 
 /* ----------------------------------------------------------------------
@@ -576,7 +617,7 @@ double BondBcmGriffith::intact_forces(const Entry &e, double *rec, const Pair &p
 void BondBcmGriffith::break_interface(const Entry &e, double *rec, const Pair &p,
                                       const Point *pts, double stored, const Clock &now)
 {
-  double *slot = rec + NCONST;
+  double *slot = rec + R_SLOT;
   slot[H_BROKEN] = BROKEN;
   slot[H_BREAK_STEP] = (double) now.step;
   slot[H_BREAK_TIME] = now.time;
@@ -614,8 +655,9 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
                                      const Clock &now, Result &r)
 {
   r = Result();
-  double *slot = rec + NCONST;
-  double *fdamp = slot + NHEAD;
+  double *slot = rec + R_SLOT;
+  double *fdamp = rec + R_FD;    // rows of P
+  const int P = padded(e.npts);
   const double rsum = atom->radius[e.c1] + atom->radius[e.c2];
   const bool retiring = dot(p.d12, p.d12) >= rsum * rsum;
   const double kp = rec[K_KP], ktp = rec[K_KTP];
@@ -625,10 +667,10 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
   double *cb = &contact[e.coff];
   for (int k = 0; k < e.npts; k++) {
     const Point &q = pts[k];
-    double *fd = fdamp + 3 * k;
-    double F[3];
+    double fd[3], F[3];
     const BcmInterfaceContact::Energy ce =
         BcmInterfaceContact::point(law, p, q, cb + NCONTACT * k, fd, F);
+    for (int c = 0; c < 3; c++) fdamp[c * P + k] = fd[c];
     fric += ce.fric;
     slip += ce.slip;
     fn += ce.fn;
@@ -691,7 +733,7 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
 void BondBcmGriffith::retire(const Entry &e, double *rec, double held, const Clock &now,
                              Result &r)
 {
-  double *slot = rec + NCONST;
+  double *slot = rec + R_SLOT;
   // the same switch, from the contact springs to nothing: lost, what they store now and the
   // half kick of their elastic force, (h/2) F_el . dv, that the bodies will not get (the
   // damping force is dropped with its work: it never kicks)
@@ -700,11 +742,12 @@ void BondBcmGriffith::retire(const Entry &e, double *rec, double held, const Clo
   slot[H_NCLOSED] = slot[H_FN] = 0.0;
   r = Result();
   double *cb = &contact[e.coff];
-  double *fdamp = slot + NHEAD;
+  double *fdamp = rec + R_FD;
+  const int P = padded(e.npts);
   for (int k = 0; k < e.npts; k++) {
     double *pt = cb + NCONTACT * k;
     pt[C_TOUCH] = pt[C_FT] = 0.0;
-    for (int c = 0; c < 3; c++) fdamp[3 * k + c] = 0.0;
+    for (int c = 0; c < 3; c++) fdamp[c * P + k] = 0.0;
   }
   // hand-over: the pair style sees the pair from the next step (from the next reneighboring
   // if special_bonds leaves 1-2 pairs out of the neighbor lists)

@@ -107,6 +107,7 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   int slot_size;       // doubles per bond slot
   int iquat;           // atom->darray index of d2_bcm_quat
   bigint nevaluations;
+  bool avx_loop;       // the 4-lane AVX kernel (BreakableUtil::avx_loops())
   FixBreakableSpecial *special;    // takes retired interfaces out of the special lists
 
   // what a force evaluation is: it decides which half kicks use its damping force
@@ -128,8 +129,7 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   void rebuild_cache();
   void set_constants(const Entry &e, int type, double *rec) const;
   const double *slot_of(int i, int j) const;
-  double intact_forces(const Entry &e, double *rec, const Pair &p, const Point *pts,
-                       Result &r) const;
+  void interface_points(const Pair &p, const double *g, int np, Point *pts);
   void break_interface(const Entry &e, double *rec, const Pair &p, const Point *pts,
                        double stored, const Clock &now);
   void contact_forces(const Entry &e, int type, double *rec, const Pair &p, const Point *pts,
