@@ -90,7 +90,7 @@ BondBcmGriffith::BondBcmGriffith(LAMMPS *_lmp) :
     table(_lmp), convention(BcmGriffith::STORED), stiffness(PER_INTERFACE),
     broken_stiffness(CONTACT), broken_damping(CONTACT), break_shear(CARRIED), break_normal(SHIFTED),
     cache_store(nullptr),
-    cache_valid(false), dirty(false), store_index(-1), slot_size(0), iquat(-1), nevaluations(0),
+    cache_valid(false), dirty(false), atoms_moved(true), store_index(-1), slot_size(0), iquat(-1), nevaluations(0),
     special(nullptr)
 {
   avx_loop = BreakableUtil::avx_loops();
@@ -337,6 +337,7 @@ void BondBcmGriffith::rebuild_cache()
 
   cache.resize(nbondlist);
   cache_tags.resize(2 * (size_t) nbondlist);
+  entry_of_slot.assign((size_t) nlocal * atom->bond_per_atom, -1);
   std::vector<int> iface_of(nbondlist);
   long nrec = 0, ncontact = 0;
   for (int n = 0; n < nbondlist; n++) {
@@ -370,6 +371,11 @@ void BondBcmGriffith::rebuild_cache()
     }
     cache_tags[2 * n] = tag[e.c1];
     cache_tags[2 * n + 1] = tag[e.c2];
+    // tally() counts the interface from the owned cell with the smaller ID
+    if (e.c1 < nlocal) {
+      const int m1 = e.c1 == i1 ? m : BreakableUtil::bond_slot(atom, e.c1, tag[e.c2]);
+      if (m1 >= 0) entry_of_slot[(size_t) e.c1 * atom->bond_per_atom + m1] = n;
+    }
     e.npts = table[iface].npts;
     e.roff = nrec;
     e.coff = ncontact;
@@ -405,6 +411,7 @@ void BondBcmGriffith::rebuild_cache()
   }
   cache_store = atom->nmax > 0 ? store[0] : nullptr;
   cache_valid = true;
+  atoms_moved = false;
   dirty = false;
 }
 
@@ -860,23 +867,39 @@ void BondBcmGriffith::tally(double *sums)
 {
   for (int k = 0; k < NVECTOR; k++) sums[k] = 0.0;
   if (store_index < 0) return;
-  sync_store();
+  // an interface of the bond list is read from the working copy (no write-back needed for
+  // a record), one that is not (its partner out of reach) from the store, which is current
+  // for it; either way in the order of the owned atoms and their bond slots, so that the sums
+  // do not depend on where an interface's state lives
+  const bool cached = cache_valid && !atoms_moved &&
+      entry_of_slot.size() == (size_t) atom->nlocal * atom->bond_per_atom;
+  if (!cached) sync_store();
   double **store = atom->darray[store_index];
   const tagint *tag = atom->tag;
   const int nlocal = atom->nlocal;
+  const int bpa = atom->bond_per_atom;
   for (int i = 0; i < nlocal; i++)
     for (int m = 0; m < atom->num_bond[i]; m++) {
       const int type = atom->bond_type[i][m];
       const tagint partner = atom->bond_atom[i][m];
       if (type <= 0 || tag[i] > partner) continue;
-      const int ii = table.find(tag[i], partner);
-      if (ii < 0) continue;
-      const double *slot = store[i] + (long) m * slot_size;
-      const BcmInterfaceTable::Interface &itf = table[ii];
+      const int n = cached ? entry_of_slot[(size_t) i * bpa + m] : -1;
+      const double *slot;
+      double area;
+      if (n >= 0) {
+        const double *rec = &records[cache[n].roff];
+        slot = rec + R_SLOT;
+        area = rec[K_AREA];
+      } else {
+        const int ii = table.find(tag[i], partner);
+        if (ii < 0) continue;
+        slot = store[i] + (long) m * slot_size;
+        area = table[ii].area;
+      }
       if (slot[H_BROKEN] != INTACT) {    // broken or retired
         sums[1] += 1.0;
-        sums[2] += itf.area;
-        sums[3] += 2.0 * itf.area * gc[type];
+        sums[2] += area;
+        sums[3] += 2.0 * area * gc[type];
       } else {
         sums[0] += 1.0;
       }

@@ -47,6 +47,13 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   // of each interface); called by fix bcm/griffith before atoms move (pre_exchange), before
   // output and after a run, and before this style reads the store itself
   void sync_store();
+  // atoms may migrate or be sorted now (fix bcm/griffith, pre_exchange, after sync_store()):
+  // until the working copy is rebuilt, its entries no longer match the atoms' slots
+  void atoms_may_move()
+  {
+    sync_store();
+    atoms_moved = true;
+  }
   // bond slot m of owned atom i is a retired interface: its cells are no longer 1-2 special
   // neighbours (fix breakable/special, at every run setup)
   bool released(int i, int m) override;
@@ -100,6 +107,10 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   double *cache_store;               // store row 0 when the cache was built
   bool cache_valid;
   bool dirty;                        // the working copy is ahead of the store
+  bool atoms_moved;                  // atoms may have moved since the working copy was built
+  // per owned atom and bond slot: the entry of the interface when the atom is its cell with
+  // the smaller ID, or -1 (tally() reads the working copy in the store's order)
+  std::vector<int> entry_of_slot;
   // per owned and ghost cell, this evaluation: BcmInterfaceKinematics::pack_cell()
   std::vector<double> cells;
 
