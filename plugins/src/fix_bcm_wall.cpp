@@ -35,6 +35,7 @@
 #include "comm.h"
 #include "error.h"
 #include "memory.h"
+#include "neighbor.h"
 #include "update.h"
 
 #include <cmath>
@@ -61,7 +62,7 @@ FixBcmWall::FixBcmWall(LAMMPS *_lmp, int narg, char **arg) :
     mu(0.0), alpha(1.0), nslots(16), per_cell(false), iquat(-1), ihist(-1),
     local_now{0.0, 0.0, 0.0}, w_fric(0.0), w_npoints(0.0), totals{}, totals_valid(false),
     warned_slots(false),
-    nmax_touch(0), touch(nullptr)
+    nmax_touch(0), touch(nullptr), order_stamp(-1), order_nlocal(-1)
 {
   const char *usage =
       "fix ID group bcm/wall cells FILE rm R plane FACE VALUE kn kt en2 mu [slots N] "
@@ -208,6 +209,14 @@ void FixBcmWall::wall_forces(bool advance)
     memory->create(touch, nmax_touch, "bcm/wall:touch");
   }
   vector_atom = touch;
+  // atoms are reordered or exchanged only where neighbor lists are built
+  const bool same_order = order_stamp == neighbor->ncalls && order_nlocal == nlocal;
+  if (!same_order) {
+    cell_of.resize(nlocal);
+    for (int i = 0; i < nlocal; i++) cell_of[i] = (mask[i] & groupbit) ? table->find(tag[i]) : nullptr;
+    order_stamp = neighbor->ncalls;
+    order_nlocal = nlocal;
+  }
   // energy accounting: the previous evaluation's forces settled now (bcm_kick_work.h)
   damp_work.begin(lmp, "fix bcm/wall");
   all_work.begin(lmp, "fix bcm/wall");
@@ -219,7 +228,7 @@ void FixBcmWall::wall_forces(bool advance)
   for (int i = 0; i < nlocal; i++) {
     touch[i] = 0.0;
     if (!(mask[i] & groupbit)) continue;
-    const BcmCells::Cell *c = table->find(tag[i]);
+    const BcmCells::Cell *c = cell_of[i];
     if (!c) error->one(FLERR, "fix bcm/wall: cell {} has no geometry in {}", tag[i], cells_file);
     const double hc = side * (x[i][axis] - coord);
     if (hc - c->rbound >= rm) continue;
@@ -350,6 +359,7 @@ void FixBcmWall::wall_forces(bool advance)
   if (advance && kt > 0.0) {
     for (int i = 0; i < nlocal; i++) {
       if (!(mask[i] & groupbit)) continue;
+      if (same_order && !touched_last[i]) continue;    // no slot of the previous step
       double *h = hist[i];
       for (int m = 0; m < nslots; m++) {
         double *s = h + SLOT * m;
@@ -361,6 +371,8 @@ void FixBcmWall::wall_forces(bool advance)
     }
   }
 
+  touched_last.resize(nlocal);
+  for (int i = 0; i < nlocal; i++) touched_last[i] = touch[i] > 0.0;
   local_now[0] = ncells;
   local_now[1] = fnsum;
   local_now[2] = stored;

@@ -64,6 +64,13 @@ class FixBcmWall : public Fix {
   int nmax_touch;
   double *touch;             // per atom: touching vertices (vector_atom)
   std::vector<int> touching;
+  // per owned cell, valid while the atoms keep their order (they move only where neighbor
+  // lists are built: neighbor->ncalls): its geometry, and whether it touched at the last
+  // evaluation (only those cells can hold a slot written at the previous step)
+  std::vector<const BcmCells::Cell *> cell_of;
+  std::vector<char> touched_last;
+  bigint order_stamp;
+  int order_nlocal;
 
   void wall_forces(bool advance);
   void sum_totals();
