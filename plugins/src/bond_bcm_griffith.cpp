@@ -378,9 +378,11 @@ void BondBcmGriffith::rebuild_cache()
     }
     e.npts = table[iface].npts;
     e.roff = nrec;
-    e.coff = ncontact;
+    // contact state only for an interface that is broken already (one that breaks during
+    // the run gets its block then: break_interface())
+    e.coff = e.slot[H_BROKEN] != INTACT ? ncontact : -1;
     nrec += record_size(e.npts);
-    ncontact += NCONTACT * e.npts;
+    if (e.coff >= 0) ncontact += NCONTACT * e.npts;
   }
 
   records.assign(nrec, 0.0);    // padding lanes zero
@@ -398,7 +400,8 @@ void BondBcmGriffith::rebuild_cache()
     std::copy(e.slot, e.slot + NHEAD, rec + R_SLOT);
     for (int k = 0; k < np; k++)
       for (int c = 0; c < 3; c++) rec[R_FD + c * P + k] = e.slot[NHEAD + 3 * k + c];
-    std::copy(e.slot + NHEAD + 3 * np, e.slot + NHEAD + NPOINT * np, &contact[e.coff]);
+    if (e.coff >= 0)
+      std::copy(e.slot + NHEAD + 3 * np, e.slot + NHEAD + NPOINT * np, &contact[e.coff]);
     // geometry: normal in cell 1's frame, then the rows of b1 and of b2
     const double *g = table.body_of(itf);
     double *out = rec + record_geometry(np);
@@ -475,13 +478,14 @@ void BondBcmGriffith::sync_store()
     const Entry &e = cache[n];
     const int np = e.npts, P = padded(np);
     const double *rec = &records[e.roff];
-    const double *cstate = &contact[e.coff];
+    // an intact interface's contact state is zero in the store, and stays so
+    const double *cstate = e.coff >= 0 ? &contact[e.coff] : nullptr;
     for (double *dest : {e.slot, e.twin}) {
       if (!dest) continue;
       std::copy(rec + R_SLOT, rec + R_SLOT + NHEAD, dest);
       for (int k = 0; k < np; k++)
         for (int c = 0; c < 3; c++) dest[NHEAD + 3 * k + c] = rec[R_FD + c * P + k];
-      std::copy(cstate, cstate + NCONTACT * np, dest + NHEAD + 3 * np);
+      if (cstate) std::copy(cstate, cstate + NCONTACT * np, dest + NHEAD + 3 * np);
     }
   }
 }
@@ -621,7 +625,7 @@ void BondBcmGriffith::interface_points(const Pair &p, const double *g, int np, P
    springs held and no longer do is booked at the switch (contact_forces()).
 ------------------------------------------------------------------------- */
 
-void BondBcmGriffith::break_interface(const Entry &e, double *rec, const Pair &p,
+void BondBcmGriffith::break_interface(Entry &e, double *rec, const Pair &p,
                                       const Point *pts, double stored, const Clock &now)
 {
   double *slot = rec + R_SLOT;
@@ -632,6 +636,10 @@ void BondBcmGriffith::break_interface(const Entry &e, double *rec, const Pair &p
   BreakPath::interface(lmp, special, e.c1, e.c2, stored, rec[K_AREA]);    // the event log
 
   const double kp = rec[K_KP], ktp = rec[K_KTP];
+  if (e.coff < 0) {    // its contact state from now on, zeros as in the store
+    e.coff = (long) contact.size();
+    contact.resize(contact.size() + NCONTACT * (size_t) e.npts, 0.0);
+  }
   double *cb = &contact[e.coff];
   for (int k = 0; k < e.npts; k++) {
     const Point &q = pts[k];

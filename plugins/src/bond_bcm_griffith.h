@@ -96,7 +96,7 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
     int type;          // bond type the constants of the record were taken for
     int npts;
     long roff;         // into records
-    long coff;         // into contact: NCONTACT doubles per point
+    long coff;         // into contact: NCONTACT doubles per point; -1 while intact
     double *slot;      // state of the interface in the bondlist atom's bond slot
     double *twin;      // the partner's copy when the partner is owned here too, or nullptr
   };
@@ -141,7 +141,7 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   void set_constants(const Entry &e, int type, double *rec) const;
   const double *slot_of(int i, int j) const;
   void interface_points(const Pair &p, const double *g, int np, Point *pts);
-  void break_interface(const Entry &e, double *rec, const Pair &p, const Point *pts,
+  void break_interface(Entry &e, double *rec, const Pair &p, const Point *pts,
                        double stored, const Clock &now);
   void contact_forces(const Entry &e, int type, double *rec, const Pair &p, const Point *pts,
                       bool just_broke, double e_before, const Clock &now, Result &r);

@@ -35,7 +35,6 @@
 #include "comm.h"
 #include "error.h"
 #include "memory.h"
-#include "neighbor.h"
 #include "update.h"
 
 #include <cmath>
@@ -62,7 +61,7 @@ FixBcmWall::FixBcmWall(LAMMPS *_lmp, int narg, char **arg) :
     mu(0.0), alpha(1.0), nslots(16), per_cell(false), iquat(-1), ihist(-1),
     local_now{0.0, 0.0, 0.0}, w_fric(0.0), w_npoints(0.0), totals{}, totals_valid(false),
     warned_slots(false),
-    nmax_touch(0), touch(nullptr), order_stamp(-1), order_nlocal(-1)
+    nmax_touch(0), touch(nullptr)
 {
   const char *usage =
       "fix ID group bcm/wall cells FILE rm R plane FACE VALUE kn kt en2 mu [slots N] "
@@ -209,14 +208,10 @@ void FixBcmWall::wall_forces(bool advance)
     memory->create(touch, nmax_touch, "bcm/wall:touch");
   }
   vector_atom = touch;
-  // atoms are reordered or exchanged only where neighbor lists are built
-  const bool same_order = order_stamp == neighbor->ncalls && order_nlocal == nlocal;
-  if (!same_order) {
-    cell_of.resize(nlocal);
-    for (int i = 0; i < nlocal; i++) cell_of[i] = (mask[i] & groupbit) ? table->find(tag[i]) : nullptr;
-    order_stamp = neighbor->ncalls;
-    order_nlocal = nlocal;
-  }
+  // each cell's geometry kept from step to step, checked by its tag (atoms change indices
+  // where lists are rebuilt)
+  cell_of.resize(nlocal, nullptr);
+  cell_tag.resize(nlocal, 0);
   // energy accounting: the previous evaluation's forces settled now (bcm_kick_work.h)
   damp_work.begin(lmp, "fix bcm/wall");
   all_work.begin(lmp, "fix bcm/wall");
@@ -228,6 +223,10 @@ void FixBcmWall::wall_forces(bool advance)
   for (int i = 0; i < nlocal; i++) {
     touch[i] = 0.0;
     if (!(mask[i] & groupbit)) continue;
+    if (cell_tag[i] != tag[i] || !cell_of[i]) {
+      cell_tag[i] = tag[i];
+      cell_of[i] = table->find(tag[i]);
+    }
     const BcmCells::Cell *c = cell_of[i];
     if (!c) error->one(FLERR, "fix bcm/wall: cell {} has no geometry in {}", tag[i], cells_file);
     const double hc = side * (x[i][axis] - coord);
@@ -359,7 +358,8 @@ void FixBcmWall::wall_forces(bool advance)
   if (advance && kt > 0.0) {
     for (int i = 0; i < nlocal; i++) {
       if (!(mask[i] & groupbit)) continue;
-      if (same_order && !touched_last[i]) continue;    // no slot of the previous step
+      // a cell that did not touch at the last evaluation holds no slot of the previous step
+      if (i < (int) touched_last.size() && touched_last[i] == tag[i]) continue;
       double *h = hist[i];
       for (int m = 0; m < nslots; m++) {
         double *s = h + SLOT * m;
@@ -372,7 +372,7 @@ void FixBcmWall::wall_forces(bool advance)
   }
 
   touched_last.resize(nlocal);
-  for (int i = 0; i < nlocal; i++) touched_last[i] = touch[i] > 0.0;
+  for (int i = 0; i < nlocal; i++) touched_last[i] = touch[i] > 0.0 ? 0 : tag[i];
   local_now[0] = ncells;
   local_now[1] = fnsum;
   local_now[2] = stored;
