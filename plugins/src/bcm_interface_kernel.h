@@ -96,3 +96,27 @@ inline void intact_interface(const Pair &p, double kp, double ktp, double cp, in
     }
   }
 }
+
+// the normal gap dn of every point of an interface (as BcmInterfaceKinematics::point() computes
+// it), into dn[0 .. P): the screening of a broken interface's points (all open?)
+inline void interface_gaps(const Pair &p, int np, int P, const double *b1, const double *b2,
+                           double *dn)
+{
+  const V R1[3][3] = {{splat(p.R1[0][0]), splat(p.R1[0][1]), splat(p.R1[0][2])},
+                      {splat(p.R1[1][0]), splat(p.R1[1][1]), splat(p.R1[1][2])},
+                      {splat(p.R1[2][0]), splat(p.R1[2][1]), splat(p.R1[2][2])}};
+  const V R2[3][3] = {{splat(p.R2[0][0]), splat(p.R2[0][1]), splat(p.R2[0][2])},
+                      {splat(p.R2[1][0]), splat(p.R2[1][1]), splat(p.R2[1][2])},
+                      {splat(p.R2[2][0]), splat(p.R2[2][1]), splat(p.R2[2][2])}};
+  const V n[3] = {splat(p.n[0]), splat(p.n[1]), splat(p.n[2])};
+  const V d12[3] = {splat(p.d12[0]), splat(p.d12[1]), splat(p.d12[2])};
+  for (int g = 0; g < np; g += W) {
+    V b[3], r1[3], r2[3], delta[3];
+    for (int c = 0; c < 3; c++) b[c] = load(b1 + c * P + g);
+    for (int c = 0; c < 3; c++) r1[c] = R1[c][0] * b[0] + R1[c][1] * b[1] + R1[c][2] * b[2];
+    for (int c = 0; c < 3; c++) b[c] = load(b2 + c * P + g);
+    for (int c = 0; c < 3; c++) r2[c] = R2[c][0] * b[0] + R2[c][1] * b[1] + R2[c][2] * b[2];
+    for (int c = 0; c < 3; c++) delta[c] = (d12[c] + r2[c]) - r1[c];
+    store(dn + g, delta[0] * n[0] + delta[1] * n[1] + delta[2] * n[2]);
+  }
+}

@@ -544,7 +544,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     // for the damping work settled below
     double fd_dv = 0.0;
     Result r;
-    bool just_broke = false;
+    bool just_broke = false, quiet_broken = false;
     double e_before = 0.0;
     if (slot[H_BROKEN] == INTACT) {
       // SPEC 1.2 Eq. 1, 3: per point k_n / N_p, k_t / N_p and the dashpot 2 alpha sqrt(k_n m)
@@ -572,6 +572,12 @@ void BondBcmGriffith::compute(int eflag, int vflag)
         interface_points(p, g, np, pts);
         break_interface(e, rec, p, pts, r.stored, now);
       }
+    } else if (quiet(e, rec, p, g)) {
+      // every point open, none closed at the last evaluation, no damping force left: the
+      // contact law would add zeros only (forces, energies, friction, slip, damping power)
+      // and write what the state holds already; the damping work of the last evaluation is
+      // still settled below (fd_dv = 0)
+      quiet_broken = true;
     } else {
       interface_points(p, g, np, pts);
       for (int k = 0; k < np; k++)
@@ -588,7 +594,9 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     if (nkicks) slot[H_W_DAMP] += 0.25 * nkicks * slot[H_LAST_DT] * (slot[H_PD] - fd_dv);
     if (just_broke) slot[H_W_DAMP_BREAK] = slot[H_W_DAMP];
 
-    if (slot[H_BROKEN] != INTACT)
+    if (quiet_broken)
+      slot[H_NCLOSED] = slot[H_FN] = 0.0;
+    else if (slot[H_BROKEN] != INTACT)
       contact_forces(e, type, rec, p, pts, just_broke, e_before, now, r);
 
     slot[H_PD] = r.pd;
@@ -597,6 +605,39 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     slot[H_LAST_DT] = now.dt;
     apply(e, p, r);
   }
+}
+
+/* ----------------------------------------------------------------------
+   a broken interface whose contact law has nothing to do at this evaluation:
+   its cells' bounding spheres still overlap (no retirement), and every point
+   is open now (dn - s >= 0), was open at the last evaluation (not touching)
+   and holds no damping force from it. Its points' forces, stored energy,
+   friction, slip and damping power are then zeros, and its contact state is
+   left as it is, exactly what contact_forces() would give (the sums of
+   zeros it would take are zeros)
+------------------------------------------------------------------------- */
+
+bool BondBcmGriffith::quiet(const Entry &e, const double *rec, const Pair &p, const double *g)
+{
+  const double rsum = atom->radius[e.c1] + atom->radius[e.c2];
+  if (dot(p.d12, p.d12) >= rsum * rsum) return false;    // retiring: contact_forces()
+  const int np = e.npts, P = padded(np);
+  const double *fd = rec + R_FD;
+  const double *cb = &contact[e.coff];
+  for (int k = 0; k < np; k++)
+    if (cb[NCONTACT * k + C_TOUCH] != 0.0 || fd[k] != 0.0 || fd[P + k] != 0.0 ||
+        fd[2 * P + k] != 0.0)
+      return false;
+  double dn[BcmInterfaceTable::MAX_POINTS];
+#if defined(BRITTLE_AVX_LOOPS)
+  if (avx_loop)
+    avx::interface_gaps(p, np, P, g + 3, g + 3 + 3 * P, dn);
+  else
+#endif
+    base::interface_gaps(p, np, P, g + 3, g + 3 + 3 * P, dn);
+  for (int k = 0; k < np; k++)
+    if (dn[k] - cb[NCONTACT * k + C_SHIFT] < 0.0) return false;    // closed (contact law)
+  return true;
 }
 
 /* ----------------------------------------------------------------------

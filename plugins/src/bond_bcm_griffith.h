@@ -141,6 +141,7 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   void set_constants(const Entry &e, int type, double *rec) const;
   const double *slot_of(int i, int j) const;
   void interface_points(const Pair &p, const double *g, int np, Point *pts);
+  bool quiet(const Entry &e, const double *rec, const Pair &p, const double *g);
   void break_interface(Entry &e, double *rec, const Pair &p, const Point *pts,
                        double stored, const Clock &now);
   void contact_forces(const Entry &e, int type, double *rec, const Pair &p, const Point *pts,
