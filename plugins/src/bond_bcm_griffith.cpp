@@ -90,7 +90,7 @@ BondBcmGriffith::BondBcmGriffith(LAMMPS *_lmp) :
     table(_lmp), convention(BcmGriffith::STORED), stiffness(PER_INTERFACE),
     broken_stiffness(CONTACT), broken_damping(CONTACT), break_shear(CARRIED), break_normal(SHIFTED),
     cache_store(nullptr),
-    cache_valid(false), dirty(false), atoms_moved(true), store_index(-1), slot_size(0), iquat(-1), nevaluations(0),
+    cache_valid(false), dirty(false), atoms_moved(true), store_index(-1), iquat(-1), nevaluations(0),
     special(nullptr)
 {
   avx_loop = BreakableUtil::avx_loops();
@@ -275,9 +275,6 @@ void BondBcmGriffith::init_style()
     error->all(FLERR, "bond_style bcm/griffith requires the per-atom array d2_{} (4 columns, "
                "ghost yes) of fix property/atom", BcmRigid::QUAT);
 
-  slot_size = NHEAD + NPOINT * std::max(table.max_points(), 1);
-  store_index = BreakableUtil::peratom_array(lmp, STORE_FIX_ID, STORE_NAME,
-                                             atom->bond_per_atom * slot_size);
   FixBcmGriffith::get_or_create(lmp);
   special = FixBreakableSpecial::get_or_create(lmp);
 
@@ -306,6 +303,13 @@ void BondBcmGriffith::init_style()
   }
   bigint total = 0;
   MPI_Allreduce(&nbonds, &total, 1, MPI_LMP_BIGINT, MPI_SUM, world);
+  // the store: per atom, the slots of its bonds one after the other, each as long as its
+  // interface's points need (slot_offset()); as wide as the widest atom's
+  long width = 1;
+  for (int i = 0; i < nlocal; i++) width = std::max(width, slot_offset(i, atom->num_bond[i]));
+  long store_width = 0;
+  MPI_Allreduce(&width, &store_width, 1, MPI_LONG, MPI_MAX, world);
+  store_index = BreakableUtil::peratom_array(lmp, STORE_FIX_ID, STORE_NAME, (int) store_width);
   if (total != (bigint) table.size())
     error->all(FLERR, "bond_style bcm/griffith: {} interfaces in the geometry table but {} bonds "
                "in the topology", table.size(), total);
@@ -356,11 +360,11 @@ void BondBcmGriffith::rebuild_cache()
     if (m < 0)
       error->one(FLERR, "bond_style bcm/griffith: bond {}-{} of the bond list is not in the "
                  "atom's bond arrays", tag[i1], tag[i2]);
-    e.slot = store[i1] + (long) m * slot_size;
+    e.slot = store[i1] + slot_offset(i1, m);
     e.twin = nullptr;
     if (i2 < nlocal) {
       const int m2 = BreakableUtil::bond_slot(atom, i2, tag[i1]);
-      if (m2 >= 0) e.twin = store[i2] + (long) m2 * slot_size;
+      if (m2 >= 0) e.twin = store[i2] + slot_offset(i2, m2);
     }
     if (tag[i1] < tag[i2]) {
       e.c1 = i1;
@@ -840,6 +844,24 @@ void BondBcmGriffith::apply(const Entry &e, const Pair &p, const Result &r)
 }
 
 /* ----------------------------------------------------------------------
+   where bond slot m of owned atom i starts in its store row: after the slots
+   before it, each NHEAD + NPOINT N_p long for its interface's N_p points (the
+   bonds of an atom keep their slots for good: bonds are never deleted)
+------------------------------------------------------------------------- */
+
+long BondBcmGriffith::slot_offset(int i, int m) const
+{
+  const tagint *batom = atom->bond_atom[i];
+  const tagint self = atom->tag[i];
+  long off = 0;
+  for (int k = 0; k < m; k++) {
+    const int ii = table.find(self, batom[k]);
+    off += NHEAD + NPOINT * (ii >= 0 ? table[ii].npts : 0);
+  }
+  return off;
+}
+
+/* ----------------------------------------------------------------------
    the state copy of the bond between atoms i and j in an owned atom's slot
 ------------------------------------------------------------------------- */
 
@@ -852,9 +874,9 @@ const double *BondBcmGriffith::slot_of(int i, int j) const
   const int nlocal = atom->nlocal;
   int m;
   if (i < nlocal && (m = BreakableUtil::bond_slot(atom, i, tag[j])) >= 0)
-    return store[i] + (long) m * slot_size;
+    return store[i] + slot_offset(i, m);
   if (j < nlocal && (m = BreakableUtil::bond_slot(atom, j, tag[i])) >= 0)
-    return store[j] + (long) m * slot_size;
+    return store[j] + slot_offset(j, m);
   error->one(FLERR, "bond_style bcm/griffith: atoms {} and {} share no bond on this rank",
              tag[i], tag[j]);
   return nullptr;
@@ -868,7 +890,7 @@ bool BondBcmGriffith::released(int i, int m)
 {
   if (store_index < 0 || atom->bond_type[i][m] <= 0) return false;
   sync_store();
-  return atom->darray[store_index][i][(long) m * slot_size + H_BROKEN] == RETIRED;
+  return atom->darray[store_index][i][slot_offset(i, m) + H_BROKEN] == RETIRED;
 }
 
 /* ----------------------------------------------------------------------
@@ -942,7 +964,7 @@ void BondBcmGriffith::tally(double *sums)
       } else {
         const int ii = table.find(tag[i], partner);
         if (ii < 0) continue;
-        slot = store[i] + (long) m * slot_size;
+        slot = store[i] + slot_offset(i, m);
         area = table[ii].area;
       }
       if (slot[H_BROKEN] != INTACT) {    // broken or retired

@@ -115,7 +115,6 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   std::vector<double> cells;
 
   int store_index;     // atom->darray index of the per-slot state
-  int slot_size;       // doubles per bond slot
   int iquat;           // atom->darray index of d2_bcm_quat
   bigint nevaluations;
   bool avx_loop;       // the 4-lane AVX kernel (BreakableUtil::avx_loops())
@@ -140,6 +139,7 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   void rebuild_cache();
   void set_constants(const Entry &e, int type, double *rec) const;
   const double *slot_of(int i, int j) const;
+  long slot_offset(int i, int m) const;
   void interface_points(const Pair &p, const double *g, int np, Point *pts);
   bool quiet(const Entry &e, const double *rec, const Pair &p, const double *g);
   void break_interface(Entry &e, double *rec, const Pair &p, const Point *pts,
