@@ -36,6 +36,10 @@ inline void intact_interface(const Pair &p, double kp, double ktp, double cp, in
   const V w2[3] = {splat(p.w2[0]), splat(p.w2[1]), splat(p.w2[2])};
   const V kp_ = splat(kp), ktp_ = splat(ktp), mcp = splat(-cp);
   const V hkp = splat(0.5 * kp), hktp = splat(0.5 * ktp);
+  // the sums in locals (registers: the stores into fd cannot alias them), from zero as the
+  // scalar code's
+  double fd_dv = 0.0, sum_stored = 0.0, sum_tension = 0.0, sum_pd = 0.0;
+  double f0 = 0.0, f1 = 0.0, f2 = 0.0, t0 = 0.0, t1 = 0.0, t2 = 0.0;
 
   for (int g = 0; g < np; g += W) {
     V b[3], r1[3], r2[3], arm1[3], delta[3], dt[3], dv[3], fdo[3], fdn[3], F[3];
@@ -85,16 +89,28 @@ inline void intact_interface(const Pair &p, double kp, double ktp, double cp, in
     }
     const int nl = np - g < W ? np - g : W;
     for (int l = 0; l < nl; l++) {
-      s.fd_dv += l_fdv[l];
-      s.stored += l_stored[l];
-      s.tension += l_tension[l];
-      s.pd -= l_pd[l];
-      for (int c = 0; c < 3; c++) {
-        s.f[c] += l_F[c][l];
-        s.t2[c] += l_tq[c][l];
-      }
+      fd_dv += l_fdv[l];
+      sum_stored += l_stored[l];
+      sum_tension += l_tension[l];
+      sum_pd -= l_pd[l];
+      f0 += l_F[0][l];
+      f1 += l_F[1][l];
+      f2 += l_F[2][l];
+      t0 += l_tq[0][l];
+      t1 += l_tq[1][l];
+      t2 += l_tq[2][l];
     }
   }
+  s.fd_dv = fd_dv;
+  s.stored = sum_stored;
+  s.tension = sum_tension;
+  s.pd = sum_pd;
+  s.f[0] = f0;
+  s.f[1] = f1;
+  s.f[2] = f2;
+  s.t2[0] = t0;
+  s.t2[1] = t1;
+  s.t2[2] = t2;
 }
 
 // the normal gap dn of every point of an interface (as BcmInterfaceKinematics::point() computes

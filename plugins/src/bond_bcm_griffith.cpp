@@ -607,7 +607,8 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     slot[H_E_EL] = r.stored;
     slot[H_LAST_KIND] = now.kind;
     slot[H_LAST_DT] = now.dt;
-    apply(e, p, r);
+    // a quiet interface's load is zero: adding it changes no force, torque, energy or virial
+    if (!quiet_broken) apply(e, p, r);
   }
 }
 
