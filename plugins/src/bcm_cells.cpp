@@ -43,10 +43,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
-#include <fstream>
+#include <cctype>
+#include <cstdio>
 #include <map>
 #include <mpi.h>
-#include <sstream>
+#include <string_view>
+#include <sys/mman.h>
 #include <tuple>
 
 using namespace LAMMPS_NS;
@@ -72,25 +74,74 @@ std::map<CacheKey, std::weak_ptr<const BcmCells>> &table_cache()
   return cache;
 }
 
-// whitespace tokens of the text with their line numbers; '#' starts a comment
+// whitespace tokens of the text, read in place one at a time, with their line numbers; '#'
+// starts a comment
 struct Tokens {
-  std::vector<std::pair<std::string, int>> tok;
-  std::size_t pos = 0;
-  explicit Tokens(const std::string &text)
+  struct Tok {
+    const char *p;
+    int n, line;
+    std::string str() const { return std::string(p, n); }
+  };
+  const char *s, *end;
+  int line = 1;
+  Tokens(const char *text, std::size_t n) : s(text), end(text + n) {}
+  // past blanks and comments: true while a token follows
+  bool skip()
   {
-    std::istringstream in(text);
-    std::string line;
-    int lineno = 0;
-    while (std::getline(in, line)) {
-      ++lineno;
-      const auto hash = line.find('#');
-      if (hash != std::string::npos) line.resize(hash);
-      std::istringstream ls(line);
-      std::string word;
-      while (ls >> word) tok.emplace_back(word, lineno);
+    while (s < end) {
+      if (*s == '#') {
+        while (s < end && *s != '\n') s++;
+      } else if (*s == '\n') {
+        line++;
+        s++;
+      } else if (std::isspace(static_cast<unsigned char>(*s))) {
+        s++;
+      } else {
+        return true;
+      }
+    }
+    return false;
+  }
+  bool done() { return !skip(); }
+  int next_line()
+  {
+    skip();
+    return line;
+  }
+  Tok next()
+  {
+    skip();
+    const char *b = s;
+    while (s < end && *s != '#' && !std::isspace(static_cast<unsigned char>(*s))) s++;
+    return Tok{b, static_cast<int>(s - b), line};
+  }
+};
+
+// a file's text in an anonymous mapping of its own: given back to the system whole when
+// freed (a heap block of this size may stay in the process after free)
+class MappedText {
+ public:
+  explicit MappedText(std::size_t n) : n_(n)
+  {
+    if (n_) {
+      void *p = mmap(nullptr, n_, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+      p_ = p == MAP_FAILED ? nullptr : static_cast<char *>(p);
     }
   }
-  bool done() const { return pos >= tok.size(); }
+  ~MappedText()
+  {
+    if (p_) munmap(p_, n_);
+  }
+  MappedText(const MappedText &) = delete;
+  MappedText &operator=(const MappedText &) = delete;
+  char *data() { return p_; }
+  const char *data() const { return p_; }
+  std::size_t size() const { return n_; }
+  bool ok() const { return p_ || !n_; }
+
+ private:
+  char *p_ = nullptr;
+  std::size_t n_;
 };
 
 inline void sub3(const double *a, const double *b, double *c)
@@ -111,28 +162,38 @@ inline double len3(const double *a)
 
 std::shared_ptr<const BcmCells> BcmCells::load(LAMMPS *lmp, const std::string &file)
 {
-  // rank 0 reads the whole file, every rank gets its text
-  std::string text;
+  // rank 0 reads the whole file, every rank gets its text (in a mapping given back when the
+  // table is built: the text is as large as the table)
   long long nbytes = -1;
+  FILE *fp = nullptr;
   if (lmp->comm->me == 0) {
-    std::ifstream in(file, std::ios::binary);
-    if (in) {
-      std::ostringstream ss;
-      ss << in.rdbuf();
-      text = ss.str();
-      nbytes = static_cast<long long>(text.size());
-    }
+    fp = fopen(file.c_str(), "rb");
+    if (fp && fseek(fp, 0, SEEK_END) == 0) nbytes = ftell(fp);
+    if (fp && nbytes >= 0) rewind(fp);
   }
   MPI_Bcast(&nbytes, 1, MPI_LONG_LONG, 0, lmp->world);
-  if (nbytes < 0) lmp->error->all(FLERR, "Cannot open BCM cells file {}", file);
-  text.resize(nbytes);
+  if (nbytes < 0) {
+    if (fp) fclose(fp);
+    lmp->error->all(FLERR, "Cannot open BCM cells file {}", file);
+  }
+  MappedText text(static_cast<std::size_t>(nbytes));
+  int ok = text.ok();
+  if (fp) {
+    if (ok && nbytes > 0 && fread(text.data(), 1, nbytes, fp) != static_cast<std::size_t>(nbytes))
+      ok = 0;
+    fclose(fp);
+  }
+  int all_ok = 0;
+  MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, lmp->world);
+  if (!all_ok) lmp->error->all(FLERR, "Cannot read BCM cells file {}", file);
   const long long chunk = 1LL << 30;
   for (long long off = 0; off < nbytes; off += chunk) {
     const int n = static_cast<int>(std::min(chunk, nbytes - off));
-    MPI_Bcast(&text[off], n, MPI_CHAR, 0, lmp->world);
+    MPI_Bcast(text.data() + off, n, MPI_CHAR, 0, lmp->world);
   }
 
-  const CacheKey key{lmp, std::hash<std::string>()(text), text.size()};
+  const std::string_view view(text.data(), text.size());
+  const CacheKey key{lmp, std::hash<std::string_view>()(view), view.size()};
   auto &cache = table_cache();
   for (auto it = cache.begin(); it != cache.end();)    // forget tables nobody holds
     it = it->second.expired() ? cache.erase(it) : std::next(it);
@@ -142,7 +203,7 @@ std::shared_ptr<const BcmCells> BcmCells::load(LAMMPS *lmp, const std::string &f
   }
   auto table = std::make_shared<BcmCells>();
   table->source = file;
-  table->parse(lmp, text);
+  table->parse(lmp, text.data(), text.size());
   cache[key] = table;
   return table;
 }
@@ -151,44 +212,44 @@ std::shared_ptr<const BcmCells> BcmCells::load(LAMMPS *lmp, const std::string &f
    bcm/cells NCELLS, then per cell: TAG NV NF, NV lines x y z, NF lines K i0 .. i(K-1)
 ------------------------------------------------------------------------- */
 
-void BcmCells::parse(LAMMPS *lmp, const std::string &text)
+void BcmCells::parse(LAMMPS *lmp, const char *text, std::size_t size)
 {
-  Tokens tk(text);
+  Tokens tk(text, size);
   Error *error = lmp->error;
-  auto next = [&](const char *what) -> const std::pair<std::string, int> & {
+  auto next = [&](const char *what) -> Tokens::Tok {
     if (tk.done()) error->all(FLERR, "BCM cells file {}: ends early, expected {}", source, what);
-    return tk.tok[tk.pos++];
+    return tk.next();
   };
   auto next_int = [&](const char *what) -> long long {
-    const auto &t = next(what);
+    const Tokens::Tok t = next(what);
     char *end = nullptr;
-    const long long v = std::strtoll(t.first.c_str(), &end, 10);
-    if (*end != '\0')
+    const long long v = std::strtoll(t.p, &end, 10);
+    if (end != t.p + t.n)
       error->all(FLERR, "BCM cells file {} line {}: expected {} (an integer), got '{}'", source,
-                 t.second, what, t.first);
+                 t.line, what, t.str());
     return v;
   };
   auto next_double = [&](const char *what) -> double {
-    const auto &t = next(what);
+    const Tokens::Tok t = next(what);
     char *end = nullptr;
-    const double v = std::strtod(t.first.c_str(), &end);
-    if (*end != '\0' || !std::isfinite(v))
+    const double v = std::strtod(t.p, &end);
+    if (end != t.p + t.n || !std::isfinite(v))
       error->all(FLERR, "BCM cells file {} line {}: expected {} (a number), got '{}'", source,
-                 t.second, what, t.first);
+                 t.line, what, t.str());
     return v;
   };
 
-  const auto &magic = next("the header 'bcm/cells NCELLS'");
-  if (magic.first != "bcm/cells")
+  const Tokens::Tok magic = next("the header 'bcm/cells NCELLS'");
+  if (magic.str() != "bcm/cells")
     error->all(FLERR, "BCM cells file {} line {}: must start with 'bcm/cells NCELLS', got '{}'",
-               source, magic.second, magic.first);
+               source, magic.line, magic.str());
   const long long ncells = next_int("the number of cells");
   if (ncells < 1) error->all(FLERR, "BCM cells file {}: the number of cells must be >= 1", source);
   cells.reserve(ncells);
   index_of_tag.reserve(ncells);
 
   for (long long ic = 0; ic < ncells; ic++) {
-    const int line = tk.done() ? -1 : tk.tok[tk.pos].second;
+    const int line = tk.done() ? -1 : tk.next_line();
     const long long tag = next_int("a cell header 'TAG NV NF'");
     const long long nv = next_int("the number of vertices");
     const long long nf = next_int("the number of faces");
@@ -208,7 +269,7 @@ void BcmCells::parse(LAMMPS *lmp, const std::string &text)
     c.e0 = static_cast<int>(edge.size() / 4);
     for (long long k = 0; k < 3 * nv; k++) vert.push_back(next_double("a vertex coordinate"));
     for (long long f = 0; f < nf; f++) {
-      const int fline = tk.done() ? -1 : tk.tok[tk.pos].second;
+      const int fline = tk.done() ? -1 : tk.next_line();
       const long long m = next_int("the number of vertices of a face");
       if (m < 3 || m > nv)
         error->all(FLERR, "BCM cells file {} line {}: cell {} face {} has {} vertices", source,
@@ -229,9 +290,13 @@ void BcmCells::parse(LAMMPS *lmp, const std::string &text)
   }
   if (!tk.done())
     error->all(FLERR, "BCM cells file {} line {}: text after the last of {} cells", source,
-               tk.tok[tk.pos].second, ncells);
+               tk.next_line(), ncells);
   face_first.push_back(static_cast<int>(face_vert.size()));
   adj_first.push_back(static_cast<int>(adj.size()));
+  // the table is kept for the run: no room left from the vectors' growth
+  for (auto *v : {&vert, &plane}) v->shrink_to_fit();
+  for (auto *v : {&face_first, &face_vert, &edge, &adj_first, &adj}) v->shrink_to_fit();
+  cells.shrink_to_fit();
 }
 
 /* ----------------------------------------------------------------------

@@ -58,7 +58,7 @@ class BcmCells {
   double memory_usage() const;
 
  private:
-  void parse(LAMMPS *lmp, const std::string &text);
+  void parse(LAMMPS *lmp, const char *text, std::size_t size);
   void finish_cell(LAMMPS *lmp, tagint tag, Cell &c);
 };
 

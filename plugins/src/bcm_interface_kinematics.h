@@ -44,6 +44,7 @@ struct Pair {
   double d12[3];    // x2 - x1
   double v12[3];    // v2 - v1
 
+  Pair() = default;
   Pair(const double *cell1, const double *cell2, const double *n_body) :
       R1(reinterpret_cast<const double(*)[3]>(cell1 + 9)),
       R2(reinterpret_cast<const double(*)[3]>(cell2 + 9)), w1(cell1 + 6), w2(cell2 + 6)
@@ -102,6 +103,17 @@ struct Load {
     BcmRigid::cross(p.d12, f, t1);
     for (int c = 0; c < 3; c++) t1[c] = -(t1[c] + t2[c]);
   }
+};
+
+// what the intact interface's force kernel (bcm_interface_kernel.h) gives: the sums over the
+// points of one evaluation
+struct IntactSums {
+  double stored = 0.0;     // energy of the springs
+  double tension = 0.0;    // Griffith's share of it (Eq. 5: normal springs in tension only)
+  double pd = 0.0;         // -sum F_d . dv of the new damping forces
+  double fd_dv = 0.0;      // sum F_d . dv of the previous damping forces at the new dv
+  double f[3] = {0.0, 0.0, 0.0};     // total force on cell 2
+  double t2[3] = {0.0, 0.0, 0.0};    // torque on cell 2 about x2
 };
 
 }    // namespace BcmInterfaceKinematics

@@ -112,6 +112,8 @@ void BcmInterfaceTable::read(const std::string &file)
     }
   }
 
+  space.shrink_to_fit();    // kept for the run: no room left from its growth
+  interfaces.shrink_to_fit();
   int nproblem = (int) problem.size();
   MPI_Bcast(&nproblem, 1, MPI_INT, 0, world);
   if (nproblem) {

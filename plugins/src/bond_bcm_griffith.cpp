@@ -7,7 +7,7 @@
      bcm_interface_contact.h      a point of a broken interface as a frictional contact
      bcm_griffith.h               the Griffith criterion (Eq. 4-6) and its energy conventions
      bcm_contact_law.h            the frictional contact law of a closed point (Eq. 1, 2, 7)
-   An interface is intact (springs, intact_forces()), breaks in break_interface(), is then a
+   An interface is intact (springs, the kernel of bcm_interface_kernel.h), breaks in break_interface(), is then a
    set of frictional contacts (contact_forces()) and is retired for good (retire()) once its
    cells part. */
 
@@ -40,6 +40,130 @@ using namespace BcmInterfaceState;
 using BcmInterfaceKinematics::CELL_STRIDE;
 using BcmRigid::dot;
 
+/* The intact interface's force kernel (bcm_interface_kernel.h), twice: for baseline x86-64,
+   one point at a time, and for AVX, four points at a time (taken when the processor has AVX:
+   BreakableUtil::avx_loops()). Both give the scalar code's results bit for bit. */
+namespace {
+namespace base {
+using V = double;
+constexpr int W = 1;
+inline V load(const double *p) { return *p; }
+inline void store(double *p, V v) { *p = v; }
+inline V splat(double x) { return x; }
+inline V positive_or_zero(V dn, V en) { return dn > 0.0 ? en : 0.0; }
+#include "bcm_interface_kernel.h"
+}    // namespace base
+}    // namespace
+
+#if defined(BRITTLE_AVX_LOOPS)
+#pragma GCC push_options
+#pragma GCC target("avx")
+namespace {
+namespace avx {
+#include "lanes4_avx.h"
+using V = Lanes4;
+constexpr int W = 4;
+inline V load(const double *p)
+{
+  V v;
+  __builtin_memcpy(&v, p, sizeof(v));
+  return v;
+}
+inline void store(double *p, V v) { __builtin_memcpy(p, &v, sizeof(v)); }
+inline V splat(double x) { return V{x, x, x, x}; }
+inline V positive_or_zero(V dn, V en) { return select_lt(V{}, dn, en, V{}); }    // dn > 0 ? en : 0
+#include "bcm_interface_kernel.h"
+
+/* Four intact interfaces of the same number of points at a time, one in each lane: the
+   operations of intact_interface() lane by lane, each lane summing its own interface's points
+   in their order, so that its sums are those of the one-interface kernels bit for bit. */
+struct QuadLane {
+  const Pair *p;
+  double kp, ktp, cp;
+  double *fd;
+  const double *b1, *b2;
+};
+
+inline void intact_quad(const QuadLane *L, int np, int P, IntactSums *out)
+{
+#define LANES4(expr) V{L[0].expr, L[1].expr, L[2].expr, L[3].expr}
+  V R1[3][3], R2[3][3], n[3], d12[3], v12[3], w1[3], w2[3];
+  for (int a = 0; a < 3; a++) {
+    for (int b = 0; b < 3; b++) {
+      R1[a][b] = LANES4(p->R1[a][b]);
+      R2[a][b] = LANES4(p->R2[a][b]);
+    }
+    n[a] = LANES4(p->n[a]);
+    d12[a] = LANES4(p->d12[a]);
+    v12[a] = LANES4(p->v12[a]);
+    w1[a] = LANES4(p->w1[a]);
+    w2[a] = LANES4(p->w2[a]);
+  }
+  const V kp_ = LANES4(kp), ktp_ = LANES4(ktp);
+  const V mcp = V{-L[0].cp, -L[1].cp, -L[2].cp, -L[3].cp};
+  const V hkp = V{0.5 * L[0].kp, 0.5 * L[1].kp, 0.5 * L[2].kp, 0.5 * L[3].kp};
+  const V hktp = V{0.5 * L[0].ktp, 0.5 * L[1].ktp, 0.5 * L[2].ktp, 0.5 * L[3].ktp};
+  V acc_fdv{}, acc_stored{}, acc_tension{}, acc_pd{}, acc_f[3] = {}, acc_t[3] = {};
+
+  for (int k = 0; k < np; k++) {
+    V b[3], r1[3], r2[3], arm1[3], delta[3], dt[3], dv[3], fdo[3], fdn[3], F[3];
+    for (int c = 0; c < 3; c++) b[c] = LANES4(b1[c * P + k]);
+    for (int c = 0; c < 3; c++) r1[c] = R1[c][0] * b[0] + R1[c][1] * b[1] + R1[c][2] * b[2];
+    for (int c = 0; c < 3; c++) b[c] = LANES4(b2[c * P + k]);
+    for (int c = 0; c < 3; c++) r2[c] = R2[c][0] * b[0] + R2[c][1] * b[1] + R2[c][2] * b[2];
+    for (int c = 0; c < 3; c++) {
+      arm1[c] = d12[c] + r2[c];
+      delta[c] = arm1[c] - r1[c];
+    }
+    const V dn = delta[0] * n[0] + delta[1] * n[1] + delta[2] * n[2];
+    for (int c = 0; c < 3; c++) dt[c] = delta[c] - dn * n[c];
+    const V wa[3] = {w2[1] * r2[2] - w2[2] * r2[1], w2[2] * r2[0] - w2[0] * r2[2],
+                     w2[0] * r2[1] - w2[1] * r2[0]};
+    const V wb[3] = {w1[1] * arm1[2] - w1[2] * arm1[1], w1[2] * arm1[0] - w1[0] * arm1[2],
+                     w1[0] * arm1[1] - w1[1] * arm1[0]};
+    for (int c = 0; c < 3; c++) dv[c] = v12[c] + wa[c] - wb[c];
+    for (int c = 0; c < 3; c++) fdo[c] = LANES4(fd[c * P + k]);
+    const V fdv_old = fdo[0] * dv[0] + fdo[1] * dv[1] + fdo[2] * dv[2];
+    const V en = hkp * dn * dn;
+    const V et = hktp * (dt[0] * dt[0] + dt[1] * dt[1] + dt[2] * dt[2]);
+    const V stored = en + et;
+    const V tension = positive_or_zero(dn, en) + et;
+    const V kdn = kp_ * dn;
+    for (int c = 0; c < 3; c++) {
+      fdn[c] = mcp * dv[c];
+      F[c] = -(kdn * n[c] + ktp_ * dt[c]) + fdn[c];
+      for (int j = 0; j < 4; j++) L[j].fd[c * P + k] = fdn[c][j];
+    }
+    const V pd = fdn[0] * dv[0] + fdn[1] * dv[1] + fdn[2] * dv[2];
+    const V tq[3] = {r2[1] * F[2] - r2[2] * F[1], r2[2] * F[0] - r2[0] * F[2],
+                     r2[0] * F[1] - r2[1] * F[0]};
+    acc_fdv += fdv_old;
+    acc_stored += stored;
+    acc_tension += tension;
+    acc_pd -= pd;
+    for (int c = 0; c < 3; c++) {
+      acc_f[c] += F[c];
+      acc_t[c] += tq[c];
+    }
+  }
+#undef LANES4
+  for (int j = 0; j < 4; j++) {
+    IntactSums &s = out[j];
+    s.fd_dv = acc_fdv[j];
+    s.stored = acc_stored[j];
+    s.tension = acc_tension[j];
+    s.pd = acc_pd[j];
+    for (int c = 0; c < 3; c++) {
+      s.f[c] = acc_f[c][j];
+      s.t2[c] = acc_t[c][j];
+    }
+  }
+}
+}    // namespace avx
+}    // namespace
+#pragma GCC pop_options
+#endif
+
 static const char *const STORE_FIX_ID = "BCM_GRIFFITH_STATE";
 static const char *const STORE_NAME = "bcm_griffith_state";
 using BcmContactLaw::damping_ratio;
@@ -52,9 +176,10 @@ BondBcmGriffith::BondBcmGriffith(LAMMPS *_lmp) :
     table(_lmp), convention(BcmGriffith::STORED), stiffness(PER_INTERFACE),
     broken_stiffness(CONTACT), broken_damping(CONTACT), break_shear(CARRIED), break_normal(SHIFTED),
     cache_store(nullptr),
-    cache_valid(false), dirty(false), store_index(-1), slot_size(0), iquat(-1), nevaluations(0),
+    cache_valid(false), dirty(false), atoms_moved(true), store_index(-1), iquat(-1), nevaluations(0),
     special(nullptr)
 {
+  avx_loop = BreakableUtil::avx_loops();
   writedata = 1;
   born_matrix_enable = 0;
   single_extra = 13;
@@ -236,9 +361,6 @@ void BondBcmGriffith::init_style()
     error->all(FLERR, "bond_style bcm/griffith requires the per-atom array d2_{} (4 columns, "
                "ghost yes) of fix property/atom", BcmRigid::QUAT);
 
-  slot_size = NHEAD + NPOINT * std::max(table.max_points(), 1);
-  store_index = BreakableUtil::peratom_array(lmp, STORE_FIX_ID, STORE_NAME,
-                                             atom->bond_per_atom * slot_size);
   FixBcmGriffith::get_or_create(lmp);
   special = FixBreakableSpecial::get_or_create(lmp);
 
@@ -267,6 +389,13 @@ void BondBcmGriffith::init_style()
   }
   bigint total = 0;
   MPI_Allreduce(&nbonds, &total, 1, MPI_LMP_BIGINT, MPI_SUM, world);
+  // the store: per atom, the slots of its bonds one after the other, each as long as its
+  // interface's points need (slot_offset()); as wide as the widest atom's
+  long width = 1;
+  for (int i = 0; i < nlocal; i++) width = std::max(width, slot_offset(i, atom->num_bond[i]));
+  long store_width = 0;
+  MPI_Allreduce(&width, &store_width, 1, MPI_LONG, MPI_MAX, world);
+  store_index = BreakableUtil::peratom_array(lmp, STORE_FIX_ID, STORE_NAME, (int) store_width);
   if (total != (bigint) table.size())
     error->all(FLERR, "bond_style bcm/griffith: {} interfaces in the geometry table but {} bonds "
                "in the topology", table.size(), total);
@@ -298,6 +427,7 @@ void BondBcmGriffith::rebuild_cache()
 
   cache.resize(nbondlist);
   cache_tags.resize(2 * (size_t) nbondlist);
+  entry_of_slot.assign((size_t) nlocal * atom->bond_per_atom, -1);
   std::vector<int> iface_of(nbondlist);
   long nrec = 0, ncontact = 0;
   for (int n = 0; n < nbondlist; n++) {
@@ -316,11 +446,11 @@ void BondBcmGriffith::rebuild_cache()
     if (m < 0)
       error->one(FLERR, "bond_style bcm/griffith: bond {}-{} of the bond list is not in the "
                  "atom's bond arrays", tag[i1], tag[i2]);
-    e.slot = store[i1] + (long) m * slot_size;
+    e.slot = store[i1] + slot_offset(i1, m);
     e.twin = nullptr;
     if (i2 < nlocal) {
       const int m2 = BreakableUtil::bond_slot(atom, i2, tag[i1]);
-      if (m2 >= 0) e.twin = store[i2] + (long) m2 * slot_size;
+      if (m2 >= 0) e.twin = store[i2] + slot_offset(i2, m2);
     }
     if (tag[i1] < tag[i2]) {
       e.c1 = i1;
@@ -331,39 +461,129 @@ void BondBcmGriffith::rebuild_cache()
     }
     cache_tags[2 * n] = tag[e.c1];
     cache_tags[2 * n + 1] = tag[e.c2];
+    // tally() counts the interface from the owned cell with the smaller ID
+    if (e.c1 < nlocal) {
+      const int m1 = e.c1 == i1 ? m : BreakableUtil::bond_slot(atom, e.c1, tag[e.c2]);
+      if (m1 >= 0) entry_of_slot[(size_t) e.c1 * atom->bond_per_atom + m1] = n;
+    }
     e.npts = table[iface].npts;
     e.roff = nrec;
-    e.coff = ncontact;
+    // contact state only for an interface that is broken already (one that breaks during
+    // the run gets its block then: break_interface())
+    e.coff = e.slot[H_BROKEN] != INTACT ? ncontact : -1;
     nrec += record_size(e.npts);
-    ncontact += NCONTACT * e.npts;
+    if (e.coff >= 0) ncontact += NCONTACT * e.npts;
   }
 
-  records.resize(nrec);
+  records.assign(nrec, 0.0);    // padding lanes zero
   contact.resize(ncontact);
   for (int n = 0; n < nbondlist; n++) {
     const Entry &e = cache[n];
-    const int np = e.npts;
+    const int np = e.npts, P = padded(np);
     const BcmInterfaceTable::Interface &itf = table[iface_of[n]];
     double *rec = &records[e.roff];
     rec[K_AREA] = itf.area;
     cache[n].type = bondlist[n][2];
     set_constants(e, bondlist[n][2], rec);
-    // state: slot header and damping forces, then the contact state apart
-    std::copy(e.slot, e.slot + NHEAD + 3 * np, rec + NCONST);
-    std::copy(e.slot + NHEAD + 3 * np, e.slot + NHEAD + NPOINT * np, &contact[e.coff]);
-    // geometry: normal in cell 1's frame, then per point b1 and b2
+    // state: slot header, damping forces (per point in the store, rows here), then the
+    // contact state apart
+    std::copy(e.slot, e.slot + NHEAD, rec + R_SLOT);
+    for (int k = 0; k < np; k++)
+      for (int c = 0; c < 3; c++) rec[R_FD + c * P + k] = e.slot[NHEAD + 3 * k + c];
+    if (e.coff >= 0)
+      std::copy(e.slot + NHEAD + 3 * np, e.slot + NHEAD + NPOINT * np, &contact[e.coff]);
+    // geometry: normal in cell 1's frame, then the rows of b1 and of b2
     const double *g = table.body_of(itf);
-    double *out = rec + NCONST + NHEAD + 3 * np;
+    double *out = rec + record_geometry(np);
     for (int c = 0; c < 3; c++) out[c] = g[c];
     for (int k = 0; k < np; k++)
       for (int c = 0; c < 3; c++) {
-        out[3 + 6 * k + c] = g[3 + 3 * k + c];
-        out[6 + 6 * k + c] = g[3 + 3 * (np + k) + c];
+        out[3 + c * P + k] = g[3 + 3 * k + c];
+        out[3 + 3 * P + c * P + k] = g[3 + 3 * (np + k) + c];
       }
   }
   cache_store = atom->nmax > 0 ? store[0] : nullptr;
   cache_valid = true;
+  atoms_moved = false;
+  group_quads();
   dirty = false;
+}
+
+/* ----------------------------------------------------------------------
+   the intact interfaces of the bond list in groups of four with the same
+   number of points (AVX: evaluate_quads()), in bond-list order within a group
+------------------------------------------------------------------------- */
+
+void BondBcmGriffith::group_quads()
+{
+  quads.clear();
+  quad_np.clear();
+  if (!avx_loop) return;
+  int **bondlist = neighbor->bondlist;
+  const int ncache = (int) cache.size();
+  std::vector<std::vector<int>> by_np(BcmInterfaceTable::MAX_POINTS + 1);
+  for (int n = 0; n < ncache; n++)
+    if (bondlist[n][2] > 0 && records[cache[n].roff + R_SLOT + H_BROKEN] == INTACT)
+      by_np[cache[n].npts].push_back(n);
+  for (int np = 1; np <= BcmInterfaceTable::MAX_POINTS; np++) {
+    const std::vector<int> &ids = by_np[np];
+    for (size_t k = 0; k < ids.size(); k += 4) {
+      std::array<int, 4> q = {-1, -1, -1, -1};
+      for (size_t j = 0; j < 4 && k + j < ids.size(); j++) q[j] = ids[k + j];
+      quads.push_back(q);
+      quad_np.push_back(np);
+    }
+  }
+}
+
+/* ----------------------------------------------------------------------
+   AVX: the intact interfaces of each group of four, one in each lane
+   (avx::intact_quad()): their sums, and their new damping forces written,
+   exactly as the one-interface kernel would (compute() takes the sums in
+   bond-list order). An interface that broke since the groups were made, or
+   whose type is 0, is left to compute().
+------------------------------------------------------------------------- */
+
+void BondBcmGriffith::evaluate_quads()
+{
+#if defined(BRITTLE_AVX_LOOPS)
+  int **bondlist = neighbor->bondlist;
+  const int nbondlist = neighbor->nbondlist;
+  have_sums.assign(nbondlist, 0);
+  quad_sums.resize(nbondlist);
+  for (size_t q = 0; q < quads.size(); q++) {
+    const int np = quad_np[q], P = padded(np);
+    Pair pq[4];
+    avx::QuadLane L[4];
+    int active[4], na = 0;
+    for (int j = 0; j < 4; j++) {
+      const int n = quads[q][j];
+      if (n < 0) continue;
+      const int type = bondlist[n][2];
+      if (type <= 0) continue;
+      Entry &e = cache[n];
+      double *rec = &records[e.roff];
+      if (type != e.type) {
+        set_constants(e, type, rec);
+        e.type = type;
+      }
+      if (rec[R_SLOT + H_BROKEN] != INTACT) continue;
+      const double *g = rec + record_geometry(np);
+      pq[na] = Pair(&cells[CELL_STRIDE * (size_t) e.c1], &cells[CELL_STRIDE * (size_t) e.c2], g);
+      L[na] = {&pq[na], rec[K_KP], rec[K_KTP], rec[K_CP], rec + R_FD, g + 3, g + 3 + 3 * P};
+      active[na++] = n;
+    }
+    if (na == 0) continue;
+    // an empty lane repeats lane 0: the same values, written to the same place
+    for (int j = na; j < 4; j++) L[j] = L[0];
+    BcmInterfaceKinematics::IntactSums out[4];
+    avx::intact_quad(L, np, P, out);
+    for (int j = 0; j < na; j++) {
+      quad_sums[active[j]] = out[j];
+      have_sums[active[j]] = 1;
+    }
+  }
+#endif
 }
 
 /* ----------------------------------------------------------------------
@@ -424,13 +644,16 @@ void BondBcmGriffith::sync_store()
                FixBcmGriffith::ID);
   for (int n = 0; n < ncache; n++) {
     const Entry &e = cache[n];
-    const int np = e.npts;
-    const double *state = &records[e.roff + NCONST];
-    const double *cstate = &contact[e.coff];
+    const int np = e.npts, P = padded(np);
+    const double *rec = &records[e.roff];
+    // an intact interface's contact state is zero in the store, and stays so
+    const double *cstate = e.coff >= 0 ? &contact[e.coff] : nullptr;
     for (double *dest : {e.slot, e.twin}) {
       if (!dest) continue;
-      std::copy(state, state + NHEAD + 3 * np, dest);
-      std::copy(cstate, cstate + NCONTACT * np, dest + NHEAD + 3 * np);
+      std::copy(rec + R_SLOT, rec + R_SLOT + NHEAD, dest);
+      for (int k = 0; k < np; k++)
+        for (int c = 0; c < 3; c++) dest[NHEAD + 3 * k + c] = rec[R_FD + c * P + k];
+      if (cstate) std::copy(cstate, cstate + NCONTACT * np, dest + NHEAD + 3 * np);
     }
   }
 }
@@ -468,6 +691,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
   int **bondlist = neighbor->bondlist;
   const int nbondlist = neighbor->nbondlist;
   Point pts[BcmInterfaceTable::MAX_POINTS];
+  if (avx_loop) evaluate_quads();
 
   for (int nb = 0; nb < nbondlist; nb++) {
     const int type = bondlist[nb][2];
@@ -478,32 +702,57 @@ void BondBcmGriffith::compute(int eflag, int vflag)
       set_constants(e, type, rec);
       e.type = type;
     }
-    double *slot = rec + NCONST;    // working copy of the slot: header, damping forces
+    double *slot = rec + R_SLOT;    // working copy of the slot header
     if (slot[H_BROKEN] == RETIRED) continue;    // for good: the pair style's now
-    const int np = e.npts;
-    const double *fdamp = slot + NHEAD;
-    const double *g = fdamp + 3 * np;    // normal in cell 1's frame, then b1, b2 per point
+    const int np = e.npts, P = padded(np);
+    double *fd = rec + R_FD;    // damping forces of the last evaluation, rows of P
+    const double *g = rec + record_geometry(np);    // normal in cell 1's frame, b1 rows, b2 rows
 
     const Pair p(&cells[CELL_STRIDE * (size_t) e.c1], &cells[CELL_STRIDE * (size_t) e.c2], g);
-    for (int k = 0; k < np; k++)
-      BcmInterfaceKinematics::point(p, g + 3 + 6 * k, g + 6 + 6 * k, pts[k]);
-
-    // the damping forces of the last evaluation times the relative velocities now, for the
-    // damping work settled below
+    // fd_dv: the damping forces of the last evaluation times the relative velocities now,
+    // for the damping work settled below
     double fd_dv = 0.0;
-    for (int k = 0; k < np; k++) fd_dv += dot(fdamp + 3 * k, pts[k].dv);
-
     Result r;
-    bool just_broke = false;
+    bool just_broke = false, quiet_broken = false;
     double e_before = 0.0;
     if (slot[H_BROKEN] == INTACT) {
-      const double tension = intact_forces(e, rec, p, pts, r);
-      // SPEC 1.2 Eq. 4-6, on the elastic parts, before any force is applied
-      if (BcmGriffith::breaks(tension, np, convention, rec[K_AREA], gc[type])) {
+      // SPEC 1.2 Eq. 1, 3: per point k_n / N_p, k_t / N_p and the dashpot 2 alpha sqrt(k_n m)
+      // / N_p on the relative velocity; the energy of the springs in tension that the
+      // Griffith criterion reads (Eq. 5)
+      BcmInterfaceKinematics::IntactSums s;
+#if defined(BRITTLE_AVX_LOOPS)
+      if (avx_loop && have_sums[nb])
+        s = quad_sums[nb];    // evaluated four interfaces at a time (evaluate_quads())
+      else if (avx_loop)
+        avx::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, g + 3, g + 3 + 3 * P, s);
+      else
+#endif
+        base::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, g + 3, g + 3 + 3 * P, s);
+      fd_dv = s.fd_dv;
+      r.stored = s.stored;
+      r.pd = s.pd;
+      for (int c = 0; c < 3; c++) {
+        r.load.f[c] = s.f[c];
+        r.load.t2[c] = s.t2[c];
+      }
+      // SPEC 1.2 Eq. 4-6, on the elastic parts, before any force is applied; should the
+      // interface break, contact_forces() replaces these forces from the same kinematics
+      if (BcmGriffith::breaks(s.tension, np, convention, rec[K_AREA], gc[type])) {
         just_broke = true;
         e_before = r.stored;
+        interface_points(p, g, np, pts);
         break_interface(e, rec, p, pts, r.stored, now);
       }
+    } else if (quiet(e, rec, p, g)) {
+      // every point open, none closed at the last evaluation, no damping force left: the
+      // contact law would add zeros only (forces, energies, friction, slip, damping power)
+      // and write what the state holds already; the damping work of the last evaluation is
+      // still settled below (fd_dv = 0)
+      quiet_broken = true;
+    } else {
+      interface_points(p, g, np, pts);
+      for (int k = 0; k < np; k++)
+        fd_dv += fd[k] * pts[k].dv[0] + fd[P + k] * pts[k].dv[1] + fd[2 * P + k] * pts[k].dv[2];
     }
 
     // damping work of the previous evaluation, now that the velocity after its kicks is
@@ -516,49 +765,65 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     if (nkicks) slot[H_W_DAMP] += 0.25 * nkicks * slot[H_LAST_DT] * (slot[H_PD] - fd_dv);
     if (just_broke) slot[H_W_DAMP_BREAK] = slot[H_W_DAMP];
 
-    if (slot[H_BROKEN] != INTACT)
+    if (quiet_broken)
+      slot[H_NCLOSED] = slot[H_FN] = 0.0;
+    else if (slot[H_BROKEN] != INTACT)
       contact_forces(e, type, rec, p, pts, just_broke, e_before, now, r);
 
     slot[H_PD] = r.pd;
     slot[H_E_EL] = r.stored;
     slot[H_LAST_KIND] = now.kind;
     slot[H_LAST_DT] = now.dt;
-    apply(e, p, r);
+    // a quiet interface's load is zero: adding it changes no force, torque, energy or virial
+    if (!quiet_broken) apply(e, p, r);
   }
 }
 
 /* ----------------------------------------------------------------------
-   intact interface (SPEC 1.2 Eq. 1, 3): per point k_n / N_p, k_t / N_p and
-   the dashpot 2 alpha sqrt(k_n m) / N_p on the relative velocity. Returns
-   the energy of the springs in tension that the Griffith criterion reads
-   (Eq. 5). Should the interface break, contact_forces() replaces these
-   forces from the same kinematics.
+   a broken interface whose contact law has nothing to do at this evaluation:
+   its cells' bounding spheres still overlap (no retirement), and every point
+   is open now (dn - s >= 0), was open at the last evaluation (not touching)
+   and holds no damping force from it. Its points' forces, stored energy,
+   friction, slip and damping power are then zeros, and its contact state is
+   left as it is, exactly what contact_forces() would give (the sums of
+   zeros it would take are zeros)
 ------------------------------------------------------------------------- */
 
-double BondBcmGriffith::intact_forces(const Entry &e, double *rec, const Pair &p,
-                                      const Point *pts, Result &r) const
+bool BondBcmGriffith::quiet(const Entry &e, const double *rec, const Pair &p, const double *g)
 {
-  const double kp = rec[K_KP], ktp = rec[K_KTP], cp = rec[K_CP];
-  double *fdamp = rec + NCONST + NHEAD;
-  const double *n = p.n;
-  double tension = 0.0;
-  for (int k = 0; k < e.npts; k++) {
-    const Point &q = pts[k];
-    const double en = 0.5 * kp * q.dn * q.dn;
-    const double et = 0.5 * ktp * dot(q.dt, q.dt);
-    r.stored += en + et;
-    tension += BcmGriffith::tension_energy(en, et, q.dn);
+  const double rsum = atom->radius[e.c1] + atom->radius[e.c2];
+  if (dot(p.d12, p.d12) >= rsum * rsum) return false;    // retiring: contact_forces()
+  const int np = e.npts, P = padded(np);
+  const double *fd = rec + R_FD;
+  const double *cb = &contact[e.coff];
+  for (int k = 0; k < np; k++)
+    if (cb[NCONTACT * k + C_TOUCH] != 0.0 || fd[k] != 0.0 || fd[P + k] != 0.0 ||
+        fd[2 * P + k] != 0.0)
+      return false;
+  double dn[BcmInterfaceTable::MAX_POINTS];
+#if defined(BRITTLE_AVX_LOOPS)
+  if (avx_loop)
+    avx::interface_gaps(p, np, P, g + 3, g + 3 + 3 * P, dn);
+  else
+#endif
+    base::interface_gaps(p, np, P, g + 3, g + 3 + 3 * P, dn);
+  for (int k = 0; k < np; k++)
+    if (dn[k] - cb[NCONTACT * k + C_SHIFT] < 0.0) return false;    // closed (contact law)
+  return true;
+}
 
-    double *fd = fdamp + 3 * k;
-    double F[3];
-    for (int c = 0; c < 3; c++) {
-      fd[c] = -cp * q.dv[c];
-      F[c] = -(kp * q.dn * n[c] + ktp * q.dt[c]) + fd[c];
-    }
-    r.pd -= dot(fd, q.dv);
-    r.load.add(q, F);
+/* ----------------------------------------------------------------------
+   the points of an interface from its record's geometry (rows of P anchors)
+------------------------------------------------------------------------- */
+
+void BondBcmGriffith::interface_points(const Pair &p, const double *g, int np, Point *pts)
+{
+  const int P = padded(np);
+  for (int k = 0; k < np; k++) {
+    const double b1[3] = {g[3 + k], g[3 + P + k], g[3 + 2 * P + k]};
+    const double b2[3] = {g[3 + 3 * P + k], g[3 + 4 * P + k], g[3 + 5 * P + k]};
+    BcmInterfaceKinematics::point(p, b1, b2, pts[k]);
   }
-  return tension;
 }
 
 /* ----------------------------------------------------------------------
@@ -573,10 +838,10 @@ double BondBcmGriffith::intact_forces(const Entry &e, double *rec, const Pair &p
    springs held and no longer do is booked at the switch (contact_forces()).
 ------------------------------------------------------------------------- */
 
-void BondBcmGriffith::break_interface(const Entry &e, double *rec, const Pair &p,
+void BondBcmGriffith::break_interface(Entry &e, double *rec, const Pair &p,
                                       const Point *pts, double stored, const Clock &now)
 {
-  double *slot = rec + NCONST;
+  double *slot = rec + R_SLOT;
   slot[H_BROKEN] = BROKEN;
   slot[H_BREAK_STEP] = (double) now.step;
   slot[H_BREAK_TIME] = now.time;
@@ -584,6 +849,10 @@ void BondBcmGriffith::break_interface(const Entry &e, double *rec, const Pair &p
   BreakPath::interface(lmp, special, e.c1, e.c2, stored, rec[K_AREA]);    // the event log
 
   const double kp = rec[K_KP], ktp = rec[K_KTP];
+  if (e.coff < 0) {    // its contact state from now on, zeros as in the store
+    e.coff = (long) contact.size();
+    contact.resize(contact.size() + NCONTACT * (size_t) e.npts, 0.0);
+  }
   double *cb = &contact[e.coff];
   for (int k = 0; k < e.npts; k++) {
     const Point &q = pts[k];
@@ -614,8 +883,9 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
                                      const Clock &now, Result &r)
 {
   r = Result();
-  double *slot = rec + NCONST;
-  double *fdamp = slot + NHEAD;
+  double *slot = rec + R_SLOT;
+  double *fdamp = rec + R_FD;    // rows of P
+  const int P = padded(e.npts);
   const double rsum = atom->radius[e.c1] + atom->radius[e.c2];
   const bool retiring = dot(p.d12, p.d12) >= rsum * rsum;
   const double kp = rec[K_KP], ktp = rec[K_KTP];
@@ -625,10 +895,10 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
   double *cb = &contact[e.coff];
   for (int k = 0; k < e.npts; k++) {
     const Point &q = pts[k];
-    double *fd = fdamp + 3 * k;
-    double F[3];
+    double fd[3], F[3];
     const BcmInterfaceContact::Energy ce =
         BcmInterfaceContact::point(law, p, q, cb + NCONTACT * k, fd, F);
+    for (int c = 0; c < 3; c++) fdamp[c * P + k] = fd[c];
     fric += ce.fric;
     slip += ce.slip;
     fn += ce.fn;
@@ -691,7 +961,7 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
 void BondBcmGriffith::retire(const Entry &e, double *rec, double held, const Clock &now,
                              Result &r)
 {
-  double *slot = rec + NCONST;
+  double *slot = rec + R_SLOT;
   // the same switch, from the contact springs to nothing: lost, what they store now and the
   // half kick of their elastic force, (h/2) F_el . dv, that the bodies will not get (the
   // damping force is dropped with its work: it never kicks)
@@ -700,11 +970,12 @@ void BondBcmGriffith::retire(const Entry &e, double *rec, double held, const Clo
   slot[H_NCLOSED] = slot[H_FN] = 0.0;
   r = Result();
   double *cb = &contact[e.coff];
-  double *fdamp = slot + NHEAD;
+  double *fdamp = rec + R_FD;
+  const int P = padded(e.npts);
   for (int k = 0; k < e.npts; k++) {
     double *pt = cb + NCONTACT * k;
     pt[C_TOUCH] = pt[C_FT] = 0.0;
-    for (int c = 0; c < 3; c++) fdamp[3 * k + c] = 0.0;
+    for (int c = 0; c < 3; c++) fdamp[c * P + k] = 0.0;
   }
   // hand-over: the pair style sees the pair from the next step (from the next reneighboring
   // if special_bonds leaves 1-2 pairs out of the neighbor lists)
@@ -741,6 +1012,24 @@ void BondBcmGriffith::apply(const Entry &e, const Pair &p, const Result &r)
 }
 
 /* ----------------------------------------------------------------------
+   where bond slot m of owned atom i starts in its store row: after the slots
+   before it, each NHEAD + NPOINT N_p long for its interface's N_p points (the
+   bonds of an atom keep their slots for good: bonds are never deleted)
+------------------------------------------------------------------------- */
+
+long BondBcmGriffith::slot_offset(int i, int m) const
+{
+  const tagint *batom = atom->bond_atom[i];
+  const tagint self = atom->tag[i];
+  long off = 0;
+  for (int k = 0; k < m; k++) {
+    const int ii = table.find(self, batom[k]);
+    off += NHEAD + NPOINT * (ii >= 0 ? table[ii].npts : 0);
+  }
+  return off;
+}
+
+/* ----------------------------------------------------------------------
    the state copy of the bond between atoms i and j in an owned atom's slot
 ------------------------------------------------------------------------- */
 
@@ -753,9 +1042,9 @@ const double *BondBcmGriffith::slot_of(int i, int j) const
   const int nlocal = atom->nlocal;
   int m;
   if (i < nlocal && (m = BreakableUtil::bond_slot(atom, i, tag[j])) >= 0)
-    return store[i] + (long) m * slot_size;
+    return store[i] + slot_offset(i, m);
   if (j < nlocal && (m = BreakableUtil::bond_slot(atom, j, tag[i])) >= 0)
-    return store[j] + (long) m * slot_size;
+    return store[j] + slot_offset(j, m);
   error->one(FLERR, "bond_style bcm/griffith: atoms {} and {} share no bond on this rank",
              tag[i], tag[j]);
   return nullptr;
@@ -769,7 +1058,7 @@ bool BondBcmGriffith::released(int i, int m)
 {
   if (store_index < 0 || atom->bond_type[i][m] <= 0) return false;
   sync_store();
-  return atom->darray[store_index][i][(long) m * slot_size + H_BROKEN] == RETIRED;
+  return atom->darray[store_index][i][slot_offset(i, m) + H_BROKEN] == RETIRED;
 }
 
 /* ----------------------------------------------------------------------
@@ -817,23 +1106,39 @@ void BondBcmGriffith::tally(double *sums)
 {
   for (int k = 0; k < NVECTOR; k++) sums[k] = 0.0;
   if (store_index < 0) return;
-  sync_store();
+  // an interface of the bond list is read from the working copy (no write-back needed for
+  // a record), one that is not (its partner out of reach) from the store, which is current
+  // for it; either way in the order of the owned atoms and their bond slots, so that the sums
+  // do not depend on where an interface's state lives
+  const bool cached = cache_valid && !atoms_moved &&
+      entry_of_slot.size() == (size_t) atom->nlocal * atom->bond_per_atom;
+  if (!cached) sync_store();
   double **store = atom->darray[store_index];
   const tagint *tag = atom->tag;
   const int nlocal = atom->nlocal;
+  const int bpa = atom->bond_per_atom;
   for (int i = 0; i < nlocal; i++)
     for (int m = 0; m < atom->num_bond[i]; m++) {
       const int type = atom->bond_type[i][m];
       const tagint partner = atom->bond_atom[i][m];
       if (type <= 0 || tag[i] > partner) continue;
-      const int ii = table.find(tag[i], partner);
-      if (ii < 0) continue;
-      const double *slot = store[i] + (long) m * slot_size;
-      const BcmInterfaceTable::Interface &itf = table[ii];
+      const int n = cached ? entry_of_slot[(size_t) i * bpa + m] : -1;
+      const double *slot;
+      double area;
+      if (n >= 0) {
+        const double *rec = &records[cache[n].roff];
+        slot = rec + R_SLOT;
+        area = rec[K_AREA];
+      } else {
+        const int ii = table.find(tag[i], partner);
+        if (ii < 0) continue;
+        slot = store[i] + slot_offset(i, m);
+        area = table[ii].area;
+      }
       if (slot[H_BROKEN] != INTACT) {    // broken or retired
         sums[1] += 1.0;
-        sums[2] += itf.area;
-        sums[3] += 2.0 * itf.area * gc[type];
+        sums[2] += area;
+        sums[3] += 2.0 * area * gc[type];
       } else {
         sums[0] += 1.0;
       }

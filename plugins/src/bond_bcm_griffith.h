@@ -14,6 +14,7 @@
 #include "bond.h"
 #include "fix_breakable_special.h"
 
+#include <array>
 #include <vector>
 
 namespace LAMMPS_NS {
@@ -47,6 +48,13 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   // of each interface); called by fix bcm/griffith before atoms move (pre_exchange), before
   // output and after a run, and before this style reads the store itself
   void sync_store();
+  // atoms may migrate or be sorted now (fix bcm/griffith, pre_exchange, after sync_store()):
+  // until the working copy is rebuilt, its entries no longer match the atoms' slots
+  void atoms_may_move()
+  {
+    sync_store();
+    atoms_moved = true;
+  }
   // bond slot m of owned atom i is a retired interface: its cells are no longer 1-2 special
   // neighbours (fix breakable/special, at every run setup)
   bool released(int i, int m) override;
@@ -89,24 +97,35 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
     int type;          // bond type the constants of the record were taken for
     int npts;
     long roff;         // into records
-    long coff;         // into contact: NCONTACT doubles per point
+    long coff;         // into contact: NCONTACT doubles per point; -1 while intact
     double *slot;      // state of the interface in the bondlist atom's bond slot
     double *twin;      // the partner's copy when the partner is owned here too, or nullptr
   };
   std::vector<Entry> cache;
+  // with AVX: the intact interfaces of the bond list in groups of four of the same number of
+  // points (entry indices, -1 for an empty lane), evaluated four at a time before the loop
+  // over the bond list, which takes their sums from quad_sums where have_sums says so
+  std::vector<std::array<int, 4>> quads;
+  std::vector<int> quad_np;
+  std::vector<BcmInterfaceKinematics::IntactSums> quad_sums;
+  std::vector<char> have_sums;
   std::vector<double> records;
   std::vector<double> contact;
   std::vector<tagint> cache_tags;    // (tag1, tag2) per entry: checks that the cells stayed
   double *cache_store;               // store row 0 when the cache was built
   bool cache_valid;
   bool dirty;                        // the working copy is ahead of the store
+  bool atoms_moved;                  // atoms may have moved since the working copy was built
+  // per owned atom and bond slot: the entry of the interface when the atom is its cell with
+  // the smaller ID, or -1 (tally() reads the working copy in the store's order)
+  std::vector<int> entry_of_slot;
   // per owned and ghost cell, this evaluation: BcmInterfaceKinematics::pack_cell()
   std::vector<double> cells;
 
   int store_index;     // atom->darray index of the per-slot state
-  int slot_size;       // doubles per bond slot
   int iquat;           // atom->darray index of d2_bcm_quat
   bigint nevaluations;
+  bool avx_loop;       // the 4-lane AVX kernel (BreakableUtil::avx_loops())
   FixBreakableSpecial *special;    // takes retired interfaces out of the special lists
 
   // what a force evaluation is: it decides which half kicks use its damping force
@@ -126,11 +145,14 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
 
   void allocate();
   void rebuild_cache();
+  void group_quads();
+  void evaluate_quads();
   void set_constants(const Entry &e, int type, double *rec) const;
   const double *slot_of(int i, int j) const;
-  double intact_forces(const Entry &e, double *rec, const Pair &p, const Point *pts,
-                       Result &r) const;
-  void break_interface(const Entry &e, double *rec, const Pair &p, const Point *pts,
+  long slot_offset(int i, int m) const;
+  void interface_points(const Pair &p, const double *g, int np, Point *pts);
+  bool quiet(const Entry &e, const double *rec, const Pair &p, const double *g);
+  void break_interface(Entry &e, double *rec, const Pair &p, const Point *pts,
                        double stored, const Clock &now);
   void contact_forces(const Entry &e, int type, double *rec, const Pair &p, const Point *pts,
                       bool just_broke, double e_before, const Clock &now, Result &r);

@@ -55,24 +55,38 @@ void FixBcmGriffith::sync()
   if (bond) bond->sync_store();
 }
 
+void FixBcmGriffith::before_exchange()
+{
+  auto bond = dynamic_cast<BondBcmGriffith *>(force->bond_match("bcm/griffith"));
+  if (bond) bond->atoms_may_move();
+}
+
 void FixBcmGriffith::setup_pre_exchange()
 {
-  sync();
+  before_exchange();
 }
 
 void FixBcmGriffith::pre_exchange()
 {
-  sync();
+  before_exchange();
 }
 
 void FixBcmGriffith::min_pre_exchange()
 {
-  sync();
+  before_exchange();
 }
+
+/* ----------------------------------------------------------------------
+   a dump or a restart file of this step may read the store; thermo output and
+   fix print read the global vector, which reads the working copy (tally()),
+   and compute bond/local reads the store through single(), which writes it
+   back itself
+------------------------------------------------------------------------- */
 
 void FixBcmGriffith::end_of_step()
 {
-  if (update->ntimestep == output->next) sync();
+  const bigint step = update->ntimestep;
+  if (step == output->next_dump_any || step == output->next_restart) sync();
 }
 
 void FixBcmGriffith::post_run()

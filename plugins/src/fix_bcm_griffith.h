@@ -14,8 +14,9 @@
    The per-interface values live in the bond style's per-atom store, so they migrate with
    their cells and carry on through restart files. The bond style works on a copy of them
    laid out in bondlist order; this fix has it written back to the store before atoms move
-   (pre_exchange), before output (a restart file or a dump may read the store) and after a
-   run. */
+   (pre_exchange), before a dump or a restart file of a step (they may read the store) and
+   after a run. The vector is summed from that copy (BondBcmGriffith::tally()): a record
+   needs no write-back. */
 
 #ifndef BRITTLE_FIX_BCM_GRIFFITH_H
 #define BRITTLE_FIX_BCM_GRIFFITH_H
@@ -45,6 +46,7 @@ class FixBcmGriffith : public Fix {
  private:
   double totals[BondBcmGriffith::NVECTOR];
   void sync();
+  void before_exchange();
   bigint cached_step, cached_evaluations;
   bool cached;
 };

@@ -208,6 +208,10 @@ void FixBcmWall::wall_forces(bool advance)
     memory->create(touch, nmax_touch, "bcm/wall:touch");
   }
   vector_atom = touch;
+  // each cell's geometry kept from step to step, checked by its tag (atoms change indices
+  // where lists are rebuilt)
+  cell_of.resize(nlocal, nullptr);
+  cell_tag.resize(nlocal, 0);
   // energy accounting: the previous evaluation's forces settled now (bcm_kick_work.h)
   damp_work.begin(lmp, "fix bcm/wall");
   all_work.begin(lmp, "fix bcm/wall");
@@ -219,7 +223,11 @@ void FixBcmWall::wall_forces(bool advance)
   for (int i = 0; i < nlocal; i++) {
     touch[i] = 0.0;
     if (!(mask[i] & groupbit)) continue;
-    const BcmCells::Cell *c = table->find(tag[i]);
+    if (cell_tag[i] != tag[i] || !cell_of[i]) {
+      cell_tag[i] = tag[i];
+      cell_of[i] = table->find(tag[i]);
+    }
+    const BcmCells::Cell *c = cell_of[i];
     if (!c) error->one(FLERR, "fix bcm/wall: cell {} has no geometry in {}", tag[i], cells_file);
     const double hc = side * (x[i][axis] - coord);
     if (hc - c->rbound >= rm) continue;
@@ -350,6 +358,8 @@ void FixBcmWall::wall_forces(bool advance)
   if (advance && kt > 0.0) {
     for (int i = 0; i < nlocal; i++) {
       if (!(mask[i] & groupbit)) continue;
+      // a cell that did not touch at the last evaluation holds no slot of the previous step
+      if (i < (int) touched_last.size() && touched_last[i] == tag[i]) continue;
       double *h = hist[i];
       for (int m = 0; m < nslots; m++) {
         double *s = h + SLOT * m;
@@ -361,6 +371,8 @@ void FixBcmWall::wall_forces(bool advance)
     }
   }
 
+  touched_last.resize(nlocal);
+  for (int i = 0; i < nlocal; i++) touched_last[i] = touch[i] > 0.0 ? 0 : tag[i];
   local_now[0] = ncells;
   local_now[1] = fnsum;
   local_now[2] = stored;

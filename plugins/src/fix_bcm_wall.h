@@ -64,6 +64,11 @@ class FixBcmWall : public Fix {
   int nmax_touch;
   double *touch;             // per atom: touching vertices (vector_atom)
   std::vector<int> touching;
+  // per owned cell, checked by its tag (atoms change indices where neighbor lists are built):
+  // its geometry; and the cells that did not touch at the last evaluation (their tag; 0 for
+  // one that touched): only the others can hold a slot written at the previous step
+  std::vector<const BcmCells::Cell *> cell_of;
+  std::vector<tagint> cell_tag, touched_last;
 
   void wall_forces(bool advance);
   void sum_totals();

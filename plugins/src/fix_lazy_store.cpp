@@ -7,6 +7,7 @@
 #include "memory.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <sys/mman.h>
 
@@ -34,8 +35,8 @@ FixLazyStore::FixLazyStore(LAMMPS *lmp, int narg, char **arg) :
   atom->darray[index] = nullptr;
 
   restart_peratom = 1;
-  maxexchange = ncols;            // the exchange buffer must hold a whole row
-  if (ghost) comm_border = ncols;
+  maxexchange = ncols + 1;            // the exchange buffer must hold a whole row and its length
+  if (ghost) comm_border = ncols + 1;
 
   grow_arrays(atom->nmax);
   atom->add_callback(Atom::GROW);
@@ -94,41 +95,86 @@ void FixLazyStore::grow_arrays(int nmax)
 
 void FixLazyStore::copy_arrays(int i, int j, int /*delflag*/)
 {
-  if (i != j) std::memcpy(rows[j], rows[i], sizeof(double) * ncols);
+  if (i != j) put_row(rows[j], rows[i], extent(rows[i]));
 }
 
-/* ---------------------------------------------------------------------- */
+/* ----------------------------------------------------------------------
+   the length of a row up to its last value that is not +0.0 (all bits zero): the rest of the
+   row reads as zeros whether its pages were ever touched or not
+------------------------------------------------------------------------- */
+
+size_t FixLazyStore::extent(const double *row) const
+{
+  size_t n = (size_t) ncols;
+  while (n > 0) {
+    uint64_t bits;
+    std::memcpy(&bits, row + n - 1, sizeof(bits));
+    if (bits) break;
+    n--;
+  }
+  return n;
+}
+
+/* ----------------------------------------------------------------------
+   dest becomes the n values of src followed by zeros, bit for bit, writing only where dest
+   has (or gets) a value: pages of a row beyond both extents stay untouched (no memory)
+------------------------------------------------------------------------- */
+
+void FixLazyStore::put_row(double *dest, const double *src, size_t n)
+{
+  const size_t old = extent(dest);
+  if (n) std::memmove(dest, src, sizeof(double) * n);
+  if (old > n) std::memset(dest + n, 0, sizeof(double) * (old - n));
+}
+
+/* ----------------------------------------------------------------------
+   border and exchange buffers carry a row as its extent, then that many values
+   (comm_border and maxexchange bound it by NCOLS + 1)
+------------------------------------------------------------------------- */
 
 int FixLazyStore::pack_border(int n, int *list, double *buf)
 {
-  for (int k = 0; k < n; k++)
-    std::memcpy(buf + (size_t) k * ncols, rows[list[k]], sizeof(double) * ncols);
-  return n * ncols;
+  int m = 0;
+  for (int k = 0; k < n; k++) {
+    const double *row = rows[list[k]];
+    const size_t len = extent(row);
+    buf[m++] = (double) len;
+    std::memcpy(buf + m, row, sizeof(double) * len);
+    m += (int) len;
+  }
+  return m;
 }
 
 /* ---------------------------------------------------------------------- */
 
 int FixLazyStore::unpack_border(int n, int first, double *buf)
 {
-  for (int k = 0; k < n; k++)
-    std::memcpy(rows[first + k], buf + (size_t) k * ncols, sizeof(double) * ncols);
-  return n * ncols;
+  int m = 0;
+  for (int k = 0; k < n; k++) {
+    const size_t len = (size_t) buf[m++];
+    put_row(rows[first + k], buf + m, len);
+    m += (int) len;
+  }
+  return m;
 }
 
 /* ---------------------------------------------------------------------- */
 
 int FixLazyStore::pack_exchange(int i, double *buf)
 {
-  std::memcpy(buf, rows[i], sizeof(double) * ncols);
-  return ncols;
+  const size_t len = extent(rows[i]);
+  buf[0] = (double) len;
+  std::memcpy(buf + 1, rows[i], sizeof(double) * len);
+  return (int) len + 1;
 }
 
 /* ---------------------------------------------------------------------- */
 
 int FixLazyStore::unpack_exchange(int nlocal, double *buf)
 {
-  std::memcpy(rows[nlocal], buf, sizeof(double) * ncols);
-  return ncols;
+  const size_t len = (size_t) buf[0];
+  put_row(rows[nlocal], buf + 1, len);
+  return (int) len + 1;
 }
 
 /* ----------------------------------------------------------------------
@@ -149,7 +195,7 @@ void FixLazyStore::unpack_restart(int nlocal, int nth)
   double **extra = atom->extra;
   int m = 0;    // skip the values of the fixes before this one
   for (int k = 0; k < nth; k++) m += static_cast<int>(extra[nlocal][m]);
-  std::memcpy(rows[nlocal], &extra[nlocal][m + 1], sizeof(double) * ncols);
+  put_row(rows[nlocal], &extra[nlocal][m + 1], extent(&extra[nlocal][m + 1]));
 }
 
 /* ---------------------------------------------------------------------- */

@@ -44,6 +44,10 @@ class FixLazyStore : public Fix {
   int maxsize_restart() override;
 
  private:
+  // a row's length up to its last value that is not +0.0; a row set to n values then zeros,
+  // writing nothing beyond what either extent covers (untouched pages cost no memory)
+  size_t extent(const double *row) const;
+  void put_row(double *dest, const double *src, size_t n);
   std::string name;
   int ncols;
   int index;                    // into atom->darray

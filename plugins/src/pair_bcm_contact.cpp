@@ -253,7 +253,8 @@ double PairBcmContact::init_one(int i, int j)
 
 const BcmCells::Cell *PairBcmContact::cell(int i)
 {
-  if (!cell_of[i]) {
+  if (!cell_of[i] || cell_tag[i] != atom->tag[i]) {
+    cell_tag[i] = atom->tag[i];
     cell_of[i] = table->find(atom->tag[i]);
     if (!cell_of[i])
       error->one(FLERR, "pair_style bcm/contact: cell {} has no geometry in {}", atom->tag[i],
@@ -317,7 +318,10 @@ void PairBcmContact::compute(int eflag, int vflag)
   const double dt = update->dt;
   const double dcut = 2.0 * rm;
 
-  cell_of.assign(nall, nullptr);
+  // the geometry of each local cell is kept from step to step, checked by its tag (atoms
+  // change indices where lists are rebuilt)
+  cell_of.resize(nall, nullptr);
+  cell_tag.resize(nall, 0);
   placed.assign(nall, -1);
   geom.clear();
   bigint npoints = 0, npairs = 0, nlost = 0;

@@ -67,7 +67,8 @@ class PairBcmContact : public Pair {
   void save_totals();
 
   // per force evaluation: each local cell placed in space once, on first use
-  std::vector<const BcmCells::Cell *> cell_of;
+  std::vector<const BcmCells::Cell *> cell_of;    // looked up for the atom of tag cell_tag
+  std::vector<tagint> cell_tag;
   std::vector<int> placed;       // offset into geom, or -1
   std::vector<double> geom;      // 3 nv vertices then 4 nf planes per placed cell
   std::vector<BcmContactPoint> points;
