@@ -52,6 +52,7 @@ VARIANTS: dict[str, dict] = {
     "normal_unshifted": {"model.broken.normal_at_break": "unshifted"},
     "plane_per_cell": {"model.plane.stiffness": "per_cell"},
     "plane_elastic": {"model.plane.en2": 0.999},
+    "points_cells": {"model.broken.points": "cells"},
 }
 
 #: per run: the measures of the issue and the loss channels (summary keys; W_c_* as shares of W_k^-)

@@ -30,6 +30,8 @@ from test_bcm_contact import MASS as MASS_WALL
 from test_bcm_contact import RM, quat_axis_angle, rigid_props, setup_cells, space_vertices
 from test_bcm_contact_energy import MOMENT, V0, read_series
 from test_bcm_interface import (
+    X1,
+    X2,
     KN,
     KNC,
     KT,
@@ -199,6 +201,82 @@ def test_unshifted_switch_jumps_the_normal_force_and_books_the_energy_it_creates
     assert griffith(lmp, 8) == pytest.approx(before - after - 2 * S * GC_SHEAR, rel=1e-9) and griffith(lmp, 8) < 0
 
 
+# ------------------------------------------------------------ broken_points cells
+
+def cells_system(lmp, tmp_path, settings: str = "", en2p: float | None = None) -> None:
+    """The two glued cubes with pair_style bcm/contact of tests/test_bcm_broken_contacts.py
+    (rounded cores facing each other across the glued square), with further bond_style
+    keywords and optionally the pair's e_n^2."""
+    import test_bcm_broken_contacts as bc
+
+    text = bc.system_text(tmp_path, X1, X2, bc.Q0, N, bc.square_points(4))
+    bond = f"bond_style bcm/griffith geometry {tmp_path / 'interfaces.txt'}"
+    assert bond in text
+    text = text.replace(bond, f"{bond} {settings}")
+    if en2p is not None:
+        pair = f"pair_coeff * * {bc.KNP} {bc.KTP} {bc.EN2P} {bc.MUP}"
+        assert pair in text
+        text = text.replace(pair, f"pair_coeff * * {bc.KNP} {bc.KTP} {en2p} {bc.MUP}")
+    lmp.commands(text)
+    lmp.commands(bc.OUTPUT)
+
+
+def pulled_to_break(lmp, d=1e-6) -> float:
+    """Reference taken, then cell 2 pulled by d along N in a setup: the interface breaks there
+    with every point open. Returns the energy the intact springs held, k_n d^2 / 2."""
+    lmp.command("run 0")
+    set_by_tag(lmp, "x", [X1, X2 + d * N])
+    lmp.command("run 0")
+    assert griffith(lmp, 2) == 1.0 and lmp.get_thermo("ebond") == 0.0
+    return 0.5 * KN * d**2
+
+
+@pytest.mark.parametrize("settings", ["broken_points cells", ""])
+def test_cells_points_hand_the_pair_over_at_the_break(lmp, tmp_path, settings):
+    """broken_points cells: from its break on, a broken interface is the pair style's (the rounded
+    cores' vertex-face contacts: 4 corners at k_n,p delta), not its polygon's points'. Without
+    the option the polygon's points carry the closed crack (the contact law, k_n,c delta over
+    the interface) and the pair, still 1-2 special, does not act."""
+    import test_bcm_broken_contacts as bc
+
+    cells_system(lmp, tmp_path, settings)
+    held = pulled_to_break(lmp)
+    assert griffith(lmp, 8) == pytest.approx(held - 2 * S * bc.GC, rel=1e-12)  # the switch, a setup
+    f, tq = bc.face_contact(lmp)
+    if settings:
+        assert bc.special12(lmp) == [0, 0]
+        bc.assert_pair_contact(lmp, f, tq)
+    else:
+        assert bc.special12(lmp) == [1, 1]
+        assert lmp.lmp.last_thermo()["c_cp[1]"] == 0
+        np.testing.assert_allclose(f[1], KNC * 1e-7 * N, rtol=1e-9)
+
+
+def test_cells_points_collision_after_the_break_conserves_energy(lmp, tmp_path):
+    """broken_points cells, nothing damped (e_n = 1 for the interface and the pair): broken in
+    a setup, the cells are sent back at each other, spinning, and collide through the pair
+    style; kinetic + stored + W_f + switch + friction is conserved to 1e-6."""
+    import test_bcm_broken_contacts as bc
+
+    cells_system(lmp, tmp_path, "broken_points cells", en2p=1.0)
+    pulled_to_break(lmp)
+    rng = np.random.default_rng(5)
+    set_by_tag(lmp, "v", [np.zeros(3), -0.3 * N + 0.1 * T1])
+    set_by_tag(lmp, "d2_bcm_angmom", rng.normal(scale=5 * MOMENTS[0], size=(2, 3)))
+    lmp.commands(f"""
+        timestep {float(PERIOD / 4000)!r}
+        run 0
+    """)
+    e0 = bc.energy(lmp)
+    touched = 0
+    for _ in range(40):
+        lmp.command("run 200")
+        touched = max(touched, lmp.lmp.last_thermo()["c_cp[1]"])
+    assert touched >= 1  # the pair carried the collision ...
+    assert griffith(lmp, 9) == 0.0 and griffith(lmp, 6) == 0.0  # ... the polygon's points nothing
+    assert abs(bc.energy(lmp) - e0) / e0 < 1e-6
+
+
 # ------------------------------------------------------------ diagnostics
 
 def test_per_interface_losses_and_closed_points(lmp, tmp_path):
@@ -285,11 +363,12 @@ def test_plane_per_cell_books_the_resplit_and_closes_the_balance(lmp, tmp_path):
 # ------------------------------------------------------------ the driver renders the options
 
 def test_style_lines_carry_the_options():
-    m = BCMModel(broken={"stiffness": "interface", "damping": "interface", "shear_at_break": "released", "mu": 0.0},
+    m = BCMModel(broken={"stiffness": "interface", "damping": "interface", "shear_at_break": "released", "mu": 0.0,
+                         "points": "cells"},
                  plane={"stiffness": "per_cell", "en2": 0.5})
     bond = bond_setup(m).splitlines()
     assert bond[0].endswith("broken_stiffness interface broken_damping interface break_shear released "
-                            "break_normal shifted")
+                            "break_normal shifted broken_points cells")
     assert bond[1].split()[-1] == "0.0"  # mu of the broken interfaces
     assert bond[1].split()[-4] == str(m.contact.kn)
     wall = wall_setup(m, 1e-6).split()
@@ -308,6 +387,7 @@ IMPACT_OPTIONS = {
     "shear_released": {"broken": {"shear_at_break": "released"}},
     "mu0": {"broken": {"mu": 0.0}},
     "normal_unshifted": {"broken": {"normal_at_break": "unshifted"}},
+    "points_cells": {"broken": {"points": "cells"}},
     "plane_per_cell": {"plane": {"stiffness": "per_cell"}},
     "plane_elastic": {"plane": {"en2": 0.999}},
     "all": {"broken": {"stiffness": "interface", "damping": "interface", "shear_at_break": "released"},
@@ -336,8 +416,30 @@ def test_impact_energy_balance_with_every_option(tmp_path, plugin_path, option):
     for section, keys in IMPACT_OPTIONS[option].items():
         cfg["model"][section] = keys
     execute(parse_config(cfg), np_ranks=1, show_progress=False)
-    summary = check_balance(tmp_path / "r")
+    if option == "points_cells":
+        summary = created_at_hand_over_closes_the_balance(tmp_path / "r")
+    else:
+        summary = check_balance(tmp_path / "r")
     assert summary["broken_interfaces"] > 100
+
+
+def created_at_hand_over_closes_the_balance(run_dir) -> dict:
+    """broken_points cells: an interface broken in compression is handed to pair_style
+    bcm/contact at a finite overlap, under the contact's stiffness (k_n,c per point, ~50x the
+    interface's per point here): the pair's springs start with an energy no force paid for.
+    The pair's own account (work + stored change + dissipated, exact otherwise: 1e-5 W_k) is
+    that created energy; positive, and with it the impact balance closes to 1e-3."""
+    from test_bcm_impact import contact_balances
+
+    from analysis.bcm_impact import read_impact_thermo
+
+    summary = json.loads((run_dir / "results" / "summary.json").read_text())
+    wk = summary["W_k_minus"]
+    wall, created = contact_balances(read_impact_thermo(run_dir / "thermo.dat"))
+    assert abs(wall) < 1e-4 * wk
+    assert created > 0.1 * wk  # measured: 3.1 W_k at 4.5 m/s, 100 cells
+    assert abs(summary["balance_residual"] + created / wk) < 1e-3, (summary["balance_residual"], created / wk)
+    return summary
 
 
 # ------------------------------------------------------------ the 1728-cell example's damage

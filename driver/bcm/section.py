@@ -72,6 +72,12 @@ class BrokenInterface(_Strict):
                                "`unshifted` takes the overlap itself under the contact stiffness, as the reference "
                                "code Rockable does: a diagnostic that creates energy at every break in compression "
                                "(a negative W_switch)")
+    points: Literal["polygon", "cells"] = Field(
+        "polygon", description="where a broken interface touches: `polygon` = the glued face's vertices until "
+                               "the cells part (SPEC 1.2; the reference code keeps them too), `cells` = handed to the "
+                               "cell-cell contact (the rounded cells' own geometry) at the break itself: a "
+                               "diagnostic; a hand-over in compression creates the contact's overlap energy, "
+                               "which shows in the impact's balance residual")
     mu: float | None = Field(None, ge=0.0, description="friction coefficient on broken interfaces; null = "
                                                        "model.contact.mu (0 bounds what friction can explain)")
 

@@ -22,7 +22,7 @@ def bond_setup(model, G_c: float | None = None) -> str:
     mu = c.mu if b.mu is None else b.mu
     return (f"bond_style      bcm/griffith geometry interfaces.txt energy {model.griffith_energy} "
             f"stiffness {model.interface_stiffness} broken_stiffness {b.stiffness} broken_damping {b.damping} "
-            f"break_shear {b.shear_at_break} break_normal {b.normal_at_break}\n"
+            f"break_shear {b.shear_at_break} break_normal {b.normal_at_break} broken_points {b.points}\n"
             f"bond_coeff      1 {i.kn} {i.kt} {i.en2} {G_c:g} {c.kn} {c.kt} {c.en2} {mu}")
 
 

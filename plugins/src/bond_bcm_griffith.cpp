@@ -175,6 +175,7 @@ BondBcmGriffith::BondBcmGriffith(LAMMPS *_lmp) :
     kt_c(nullptr), en2_c(nullptr), mu(nullptr), alpha(nullptr), alpha_c(nullptr),
     table(_lmp), convention(BcmGriffith::STORED), stiffness(PER_INTERFACE),
     broken_stiffness(CONTACT), broken_damping(CONTACT), break_shear(CARRIED), break_normal(SHIFTED),
+    broken_points(POLYGON),
     cache_store(nullptr),
     cache_valid(false), dirty(false), atoms_moved(true), store_index(-1), iquat(-1), nevaluations(0),
     special(nullptr)
@@ -237,6 +238,7 @@ void BondBcmGriffith::allocate()
                            [broken_damping contact|interface]
                            [break_shear carried|released]
                            [break_normal shifted|unshifted]
+                           [broken_points polygon|cells]
 ------------------------------------------------------------------------- */
 
 // value of a two-way keyword: `first` -> 0, `second` -> 1, anything else an error
@@ -258,6 +260,7 @@ void BondBcmGriffith::settings(int narg, char **arg)
   broken_stiffness = broken_damping = CONTACT;
   break_shear = CARRIED;
   break_normal = SHIFTED;
+  broken_points = POLYGON;
   for (int iarg = 0; iarg < narg; iarg += 2) {
     if (iarg + 1 >= narg)
       error->all(FLERR, "bond_style bcm/griffith: keyword {} needs a value", arg[iarg]);
@@ -283,9 +286,11 @@ void BondBcmGriffith::settings(int narg, char **arg)
       break_shear = choice(error, arg[iarg], arg[iarg + 1], "carried", "released");
     } else if (strcmp(arg[iarg], "break_normal") == 0) {
       break_normal = choice(error, arg[iarg], arg[iarg + 1], "shifted", "unshifted");
+    } else if (strcmp(arg[iarg], "broken_points") == 0) {
+      broken_points = choice(error, arg[iarg], arg[iarg + 1], "polygon", "cells");
     } else {
       error->all(FLERR, "bond_style bcm/griffith: unknown keyword {} (known: geometry, energy, "
-                 "stiffness, broken_stiffness, broken_damping, break_shear, break_normal)", arg[iarg]);
+                 "stiffness, broken_stiffness, broken_damping, break_shear, break_normal, broken_points)", arg[iarg]);
     }
   }
   if (file.empty())
@@ -887,7 +892,8 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
   double *fdamp = rec + R_FD;    // rows of P
   const int P = padded(e.npts);
   const double rsum = atom->radius[e.c1] + atom->radius[e.c2];
-  const bool retiring = dot(p.d12, p.d12) >= rsum * rsum;
+  // broken_points cells: handed to the pair style at the break (its points never act)
+  const bool retiring = (broken_points == CELLS && just_broke) || dot(p.d12, p.d12) >= rsum * rsum;
   const double kp = rec[K_KP], ktp = rec[K_KTP];
   const BcmInterfaceContact::Constants law{rec[K_KC], rec[K_KTC], rec[K_CC], mu[type]};
   double fric = 0.0, unpaid = 0.0, held = 0.0, slip = 0.0, fn = 0.0;
@@ -1206,7 +1212,8 @@ void BondBcmGriffith::read_restart(FILE *fp)
 void BondBcmGriffith::write_restart_settings(FILE *fp)
 {
   for (const int *v :
-       {&convention, &stiffness, &broken_stiffness, &broken_damping, &break_shear, &break_normal})
+       {&convention, &stiffness, &broken_stiffness, &broken_damping, &break_shear, &break_normal,
+        &broken_points})
     fwrite(v, sizeof(int), 1, fp);
   table.write_restart(fp);
 }
@@ -1216,7 +1223,7 @@ void BondBcmGriffith::write_restart_settings(FILE *fp)
 void BondBcmGriffith::read_restart_settings(FILE *fp)
 {
   int *settings[] = {&convention,     &stiffness,   &broken_stiffness,
-                     &broken_damping, &break_shear, &break_normal};
+                     &broken_damping, &break_shear, &break_normal, &broken_points};
   if (comm->me == 0)
     for (int *v : settings) utils::sfread(FLERR, v, sizeof(int), 1, fp, nullptr, error);
   table.read_restart(fp);

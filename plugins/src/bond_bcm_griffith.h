@@ -72,6 +72,11 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   // as the reference code Rockable switches: a diagnostic; it creates energy, booked as a
   // negative switch term)
   enum BreakNormal { SHIFTED, UNSHIFTED };
+  // the points of a broken interface: the glued face polygon's vertices (SPEC 1.2, until the
+  // cells part: retire()), or none: handed to pair_style bcm/contact (the rounded cells' own
+  // contact geometry) at the break itself (a diagnostic of issue 23; a hand-over in compression
+  // makes the pair's overlap energy from nothing, which no counter books)
+  enum BrokenPoints { POLYGON, CELLS };
 
   // per type: bond_coeff values and derived damping ratios (SPEC Eq. 2)
   double *kn, *kt, *en2, *gc, *kn_c, *kt_c, *en2_c, *mu;
@@ -84,6 +89,7 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   int broken_damping;         // BrokenLaw of the closed points' damping
   int break_shear;            // BreakShear
   int break_normal;           // BreakNormal
+  int broken_points;          // BrokenPoints
 
   // Working copy of the interfaces of the bond list, rebuilt with it (at each
   // reneighbouring): per entry one contiguous record in bondlist order holding the per-point
