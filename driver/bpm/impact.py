@@ -75,13 +75,21 @@ def plane_law(contact, un: dict) -> dict:
             "alpha": alpha_of(contact.en2), "period": 2.0 * math.pi / math.sqrt(kn)}
 
 
+def plane_law_args(law: dict, clamp: bool = True) -> str:
+    """The contact law of plane_law as the `granular` arguments of `fix wall/gran` (module
+    docstring); `fix wall/gran/region` takes the same ones (one parser, FixWallGran's
+    constructor: the BPM platen, driver/bpm/platen.py). clamp=False drops `limit_damping`
+    (f_n may pull: the plain spring-dashpot, for tests only)."""
+    return (f"granular hooke {law['kn']:.12g} {law['eta_n']:.12g} "
+            f"tangential linear_history {law['kt']:.12g} 0.0 {law['mu']:.12g} damping mass_velocity"
+            f"{' limit_damping' if clamp else ''}")
+
+
 def plane_fix(law: dict, group: str = "all", fix_id: str = "plane", clamp: bool = True) -> str:
     """The plane z = 0 as `fix wall/gran` (module docstring) with the law of plane_law; its
     per-atom output (`contacts`): [1] touching, [2-4] the plane's force on the particle.
-    clamp=False drops `limit_damping` (f_n may pull: the plain spring-dashpot, for tests only)."""
-    return (f"fix             {fix_id} {group} wall/gran granular hooke {law['kn']:.12g} {law['eta_n']:.12g} "
-            f"tangential linear_history {law['kt']:.12g} 0.0 {law['mu']:.12g} damping mass_velocity"
-            f"{' limit_damping' if clamp else ''} zplane 0.0 NULL contacts")
+    clamp=False drops `limit_damping` (plane_law_args)."""
+    return f"fix             {fix_id} {group} wall/gran {plane_law_args(law, clamp)} zplane 0.0 NULL contacts"
 
 
 def write_sphere_data(path: Path, x: np.ndarray, net: Network, box: tuple[np.ndarray, np.ndarray]) -> None:
