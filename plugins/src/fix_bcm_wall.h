@@ -5,17 +5,24 @@
    velocity (a platen, SPEC 4.1): the law then takes the vertices' velocities relative to it.
    See plugins/doc/fix_bcm_wall.md.
 
-   How the work is counted (per plane; J, cumulative): the work done on the cells by the
-   plane's forces, [8] = W, equals
+   How the work is counted (per plane; J, cumulative; plugins/doc/fix_bcm_wall.md): the work
+   done on the cells by the plane's forces, [8] = W, is
        W = -(E_now - E_start) - D + W_p
    with E the springs' stored energy [4], D the energy dissipated at the plane [3] (damping
    [5], Coulomb slip [6], [7]), and W_p = int F . V_p dt [11] the work the moving plane does
    on the cells (F the plane's force on them, V_p its velocity): the springs store and the
-   damping dissipates on the vertices' displacement relative to the plane, the cells take
-   the work on their own displacement, and the difference is what the plane's motion puts
-   in. W, W_p and the damping's share of both are settled over the half kicks of velocity
-   Verlet (bcm_kick_work.h), so that the identity holds as it does at rest: to round-off
-   for linear springs in translation, otherwise to the O(h^2) of velocity Verlet. */
+   damping and slip dissipate on the vertices' displacement relative to the plane, the cells
+   take the work on their own displacement, and the difference is what the plane's motion
+   puts in. W, W_p and the damping's share of both are trapezoids on the displacements,
+   settled over the half kicks of velocity Verlet (bcm_kick_work.h; the plane's on its stored
+   position), and a linear spring stores exactly its trapezoid: read during a run, the
+   identity holds to round-off for translating cells whose contacts start and end at steps,
+   otherwise to velocity Verlet's O(h^2) (rotation, the clamp, a contact starting within a
+   step). Once every half kick is settled (`run 0`), W is the change of kinetic energy it
+   causes and the identity gains, per cell, (h^2 / 8 m) F_w . F at the instants compared
+   (F_w this plane's force, F the net force on the cell): velocity Verlet's full-step
+   kinetic energy against the trapezoid, which does not accumulate. At rest W_p = 0 and the
+   numbers are those of the plane before it could move, to the bit. */
 
 #ifndef BRITTLE_FIX_BCM_WALL_H
 #define BRITTLE_FIX_BCM_WALL_H
