@@ -24,9 +24,10 @@ the overlap s / 2 and the overlap rate VP / 2, and
 two springs K in series (2 k_n) plus the damping of either contact at half the platen's
 speed. A law that left the plane's velocity out of the moving contact's damping would see
 that contact opening at VP / 2 instead of closing: -C VP / 2 there, +C VP / 2 at the fixed
-one, and both forces at K s / 2: the offset C VP / 2 is the test of the relative velocity. Velocity Verlet keeps this steady state exactly (constant
-velocities, forces balanced), so after the transient the forces are on the line to
-round-off. Each contact stores 4 k_n (s / 2)^2 / 2.
+one, and both forces at K s / 2: the offset C VP / 2 is the test of the relative velocity.
+Velocity Verlet keeps this steady state exactly (constant velocities, forces balanced), so
+after the transient the forces are on the line to round-off. Each contact stores
+4 k_n (s / 2)^2 / 2.
 """
 
 from __future__ import annotations
@@ -235,9 +236,10 @@ THERMO = ("thermo_style custom step " + " ".join(f"f_wall[{k}]" for k in range(1
 
 @pytest.mark.parametrize("velocity", [" velocity 0.0", " velocity v_zero"])
 def test_plane_at_velocity_zero_is_the_plane_at_rest(plugin_path, tmp_path, velocity):
-    """A tilted, spinning, drifting cube dropped on the plane (an edge lands, the face rolls
-    on, with damping and Coulomb slip) gives the very same records, to the last printed bit,
-    and the same final state, with `velocity 0.0` or a zero variable as without the keyword."""
+    """A tilted, spinning, drifting cube dropped on the plane (it lands tilted, with
+    damping and Coulomb slip) gives the very same records, to the last printed bit (%.17g),
+    and the same final state, with `velocity 0.0` or a zero variable as without the keyword;
+    [9], [10], [11] print 0."""
     q = quat_axis_angle([1.0, 0.3, 0.0], 0.05)
     cells = [dict(x=(0.0, 0.0, 0.0), q=q, v=(0.3, 0.1, -1.0), omega=(2000.0, -1000.0, 500.0))]
     lowest = space_vertices((0.0, 0.0, 0.0), q)[:, 2].min()
