@@ -19,10 +19,11 @@
    identity holds to round-off for translating cells whose contacts start and end at steps,
    otherwise to velocity Verlet's O(h^2) (rotation, the clamp, a contact starting within a
    step). Once every half kick is settled (`run 0`), W is the change of kinetic energy it
-   causes and the identity gains, per cell, (h^2 / 8 m) F_w . F at the instants compared
-   (F_w this plane's force, F the net force on the cell): velocity Verlet's full-step
-   kinetic energy against the trapezoid, which does not accumulate. At rest W_p = 0 and the
-   numbers are those of the plane before it could move, to the bit. */
+   causes (exactly, in translation), and
+       W = -(E_now - E_start) - D + W_p + sum over cells (h^2 / 8 m) [F_w . F]_start^now
+   (F_w this plane's force on the cell, F the net force on it): velocity Verlet's full-step
+   kinetic energy against the trapezoid, a term that does not accumulate. At rest W_p = 0
+   and the numbers are those of the plane before it could move, to the bit. */
 
 #ifndef BRITTLE_FIX_BCM_WALL_H
 #define BRITTLE_FIX_BCM_WALL_H
