@@ -1,8 +1,11 @@
 """The LAMMPS style lines of a BCM model section (SPEC 1.2): the cell-cell contacts, the
-Griffith interfaces with the law of their broken points, and the rigid plane. One place, so
+Griffith interfaces with the law of their broken points, and the rigid plane (at rest, or a
+moving platen, SPEC 4.1). One place, so
 that the impact and the calibration block render the same model alike."""
 
 from __future__ import annotations
+
+import math
 
 
 def pair_setup(model, r_m: float) -> str:
@@ -26,10 +29,30 @@ def bond_setup(model, G_c: float | None = None) -> str:
             f"bond_coeff      1 {i.kn} {i.kt} {i.en2} {G_c:g} {c.kn} {c.kt} {c.en2} {mu}")
 
 
-def wall_setup(model, r_m: float, fix_id: str = "plane") -> str:
-    """`fix bcm/wall`: the rigid plane z = 0 under the contact law (model.contact) with the
-    options of model.plane."""
+#: the faces of fix bcm/wall: plane x[axis] = coord, the cells above (lo) or below (hi) it
+WALL_FACES = ("xlo", "xhi", "ylo", "yhi", "zlo", "zhi")
+
+
+def wall_setup(model, r_m: float, fix_id: str = "plane", face: str = "zlo", coord: float = 0.0,
+               velocity: float | str | None = None) -> str:
+    """`fix bcm/wall`: a rigid plane under the contact law (model.contact) with the options of
+    model.plane; by default the impact's plane z = 0, the cells above it. `face` and `coord`
+    place it (plugins/doc/fix_bcm_wall.md); `velocity` makes it a platen moving along its axis
+    (SPEC 4.1): a number, m/s along +x, +y or +z (a `zhi` platen pressing down on the cells
+    has velocity < 0), or the name of an equal-style LAMMPS variable giving that velocity at
+    every step (rendered `v_name`: to hold the platen still or unload it within a run)."""
+    if face not in WALL_FACES:
+        raise ValueError(f"wall face {face!r}: one of {', '.join(WALL_FACES)}")
     c, p = model.contact, model.plane
     en2 = c.en2 if p.en2 is None else p.en2
-    return (f"fix             {fix_id} all bcm/wall cells cells.txt rm {r_m:.12g} plane zlo 0.0 "
+    line = (f"fix             {fix_id} all bcm/wall cells cells.txt rm {r_m:.12g} plane {face} {coord!r} "
             f"{c.kn} {c.kt} {en2} {c.mu} stiffness {p.stiffness}")
+    if velocity is None:
+        return line
+    if isinstance(velocity, str):
+        if not velocity.isidentifier():
+            raise ValueError(f"platen velocity variable {velocity!r}: not a LAMMPS variable name")
+        return f"{line} velocity v_{velocity}"
+    if isinstance(velocity, bool) or not isinstance(velocity, (int, float)) or not math.isfinite(velocity):
+        raise ValueError(f"platen velocity {velocity!r}: a finite number (m/s) or a variable's name")
+    return f"{line} velocity {float(velocity)!r}"

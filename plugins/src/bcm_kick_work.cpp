@@ -87,3 +87,30 @@ void BcmKickWork::restore(double w)
   last_kind = NONE;
   settled = w;
 }
+
+/* ---------------------------------------------------------------------- */
+
+void BcmPrescribedWork::begin(LAMMPS *lmp, double dx)
+{
+  const int kind = BcmKickWork::evaluation_kind(lmp);
+  if (last_kind != BcmKickWork::NONE && kind != BcmKickWork::NONE) {
+    if (last_kind == BcmKickWork::STEP) settled += 0.5 * force * dx_last;
+    if (kind == BcmKickWork::STEP) settled += 0.5 * force * dx;
+  }
+  force = 0.0;
+  dx_last = dx;
+  last_kind = kind;
+}
+
+double BcmPrescribedWork::work() const
+{
+  return settled + (last_kind == BcmKickWork::STEP ? 0.5 * force * dx_last : 0.0);
+}
+
+void BcmPrescribedWork::restore(double w)
+{
+  force = 0.0;
+  dx_last = 0.0;
+  last_kind = BcmKickWork::NONE;
+  settled = w;
+}

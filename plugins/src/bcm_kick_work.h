@@ -17,7 +17,20 @@
    The forces of one evaluation are kept per rank with the atom IDs of their cells; the next
    evaluation finds the cells through the atom map (owned or ghost: a cell touching at one
    step is within the ghost cutoff of the same rank at the next, and ghost v and omega are
-   current with comm_modify vel yes). */
+   current with comm_modify vel yes).
+
+   BcmPrescribedWork settles the same way the work of forces on a body whose motion is
+   prescribed rather than kicked (the moving plane of fix bcm/wall). The force F_k of
+   evaluation k is held over the half kick closing step k, over which the body moved by
+   dX_k, and the half kick opening step k+1, over which it moves by dX_k+1:
+       W = F_k dX_k / 2 [closing] + F_k dX_k+1 / 2 [opening]
+   (a run's setup evaluation closes and opens no step). Over a run of steps this is
+   sum_k (F_k + F_k+1)/2 dX_k+1, the trapezoid on the body's displacement, as the work of
+   BcmKickWork is on the cells' (x_k+1 - x_k = h v seen at evaluation k+1): a linear spring
+   between a translating cell and the body stores the work done on both. dX is the body's
+   displacement as stored (position after less position before), not V h: a position of
+   1e-4 m moved by a constant 1e-11 m a step rounds the same way at every step, a
+   systematic 1e-9 of the displacement that the springs see and V h would not. */
 
 #ifndef BRITTLE_BCM_KICK_WORK_H
 #define BRITTLE_BCM_KICK_WORK_H
@@ -73,6 +86,30 @@ class BcmKickWork {
   static double power(LAMMPS *lmp, const Entry &e, int ia, int ib);
   // work of the listed forces over nkicks half kicks at the current velocities
   double kicks(LAMMPS *lmp, const char *style, int nkicks) const;
+};
+
+class BcmPrescribedWork {
+ public:
+  // settle the previous evaluation's force over the half kicks between it and this one,
+  // with the body's displacement dx over the step that ends at this evaluation (0 at a
+  // run's setup), and start again from zero force; call once per force evaluation, before
+  // add()
+  void begin(LAMMPS *lmp, double dx);
+
+  // a force on the body: its component along the body's motion (this rank's part)
+  void add(double f) { force += f; }
+
+  // work done on the body since the start, the closing half kick of the last step's force
+  // included (F_k dX_k / 2: exact, the body's displacement over that step being known)
+  double work() const;
+
+  void restore(double w);
+
+ private:
+  double force = 0.0;      // this rank's sum of the forces of the last evaluation
+  double dx_last = 0.0;    // the body's displacement over the step of the last evaluation
+  int last_kind = BcmKickWork::NONE;
+  double settled = 0.0;
 };
 
 }    // namespace LAMMPS_NS

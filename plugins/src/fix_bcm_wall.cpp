@@ -1,14 +1,20 @@
 /* fix bcm/wall (see fix_bcm_wall.h).
 
-   Plane x[axis] = coord with unit normal n_w = side e_axis pointing to the cells' side.
+   Plane x[axis] = coord with unit normal n_w = side e_axis pointing to the cells' side,
+   moving along e_axis at the velocity V (0 unless `velocity` is given; SPEC 4.1: a platen):
+   coord += V h at each step, V being the plane's velocity seen at that step's force
+   evaluation, as a cell's x += h v with the v seen at that evaluation (velocity Verlet).
    A cell with N vertices at heights h_k < r_m over the plane has N contact points, each
    with overlap delta_k = h_k - r_m < 0, at the midpoint between the plane and the bottom
    of the vertex's sphere, under the per-point law of bcm_contact_law.h (SPEC 1.2 Eq. 1, 2,
-   7; m = the cell's mass, wall at rest):
-     f_n = k_n (-delta) + 2 alpha sqrt(k_n m / N) (-d delta/dt),   clamped at f_n >= 0
+   7; m = the cell's mass), with the velocity of the vertex's material point relative to
+   the plane, v_r = v + omega x r - V e_axis (SPEC 4.1):
+     f_n = k_n (-delta) + 2 alpha sqrt(k_n m / N) (-d delta/dt),   d delta/dt = v_r . n_w,
+           clamped at f_n >= 0
      f_t = -k_t u_t,  |f_t| <= mu f_n  (at the limit u_t = -f_t / k_t)
    u_t = tangential displacement of the vertex's material point along the plane since the
-   contact began, kept per (cell, vertex) in slots of a hidden per-atom array
+   contact began (v_r's tangential part: the vertex's own, the plane moving along its
+   normal), kept per (cell, vertex) in slots of a hidden per-atom array
    (vertex + 1, step, u_t[3], |f_t|); a slot is current when written at this step or the
    previous one. The setup force evaluation reads the history without advancing it.
    Energy accounting (the same as pair_style bcm/contact and bond_style bcm/griffith):
@@ -17,7 +23,9 @@
    kicks of velocity Verlet (bcm_kick_work.h); friction: per Coulomb cap, the mean of the
    previous and the capped |f_t| times the slip, and when a vertex stops touching, its
    spring's energy (it slips free). A vertex starts and stops touching at zero overlap, so
-   a change of N moves no energy: vector value [7] is identically zero.
+   a change of N moves no energy: vector value [7] is identically zero. A moving plane
+   (fix_bcm_wall.h): the damping dissipates -(its work on the cells) + (its work on the
+   plane), both over the half kicks; W_p = the work of all the forces on the plane.
 
    Option `stiffness per_cell` (not the SPEC 1.2 law: a diagnostic of what the plane's law
    does to an impact): the cell's contact is one spring k_n, k_t shared by its N touching
@@ -34,8 +42,11 @@
 #include "bcm_rigid.h"
 #include "comm.h"
 #include "error.h"
+#include "input.h"
 #include "memory.h"
+#include "modify.h"
 #include "update.h"
+#include "variable.h"
 
 #include <cmath>
 #include <cstring>
@@ -51,21 +62,25 @@ using BcmRigid::dot;
 static constexpr int SLOT = 8;
 enum { S_VERTEX, S_STEP, S_U, S_FT = 5, S_NP, S_EWHOLE };
 
+// restart layout tag: the layout before the moving plane held 4 values, the first the
+// energy dissipated by damping (>= 0 J up to round-off), which cannot be this
+static constexpr double RESTART_PLANE = -1.0e300;
+
 /* ----------------------------------------------------------------------
    fix ID group bcm/wall cells FILE rm R plane FACE VALUE kn kt en2 mu [slots N]
-                         [stiffness per_point|per_cell]
+                         [stiffness per_point|per_cell] [velocity V|v_name]
 ------------------------------------------------------------------------- */
 
 FixBcmWall::FixBcmWall(LAMMPS *_lmp, int narg, char **arg) :
-    Fix(_lmp, narg, arg), rm(0.0), axis(2), side(1.0), coord(0.0), kn(0.0), kt(0.0), en2(0.0),
-    mu(0.0), alpha(1.0), nslots(16), per_cell(false), iquat(-1), ihist(-1),
+    Fix(_lmp, narg, arg), rm(0.0), axis(2), side(1.0), coord(0.0), vel(0.0), ivar(-1), kn(0.0),
+    kt(0.0), en2(0.0), mu(0.0), alpha(1.0), nslots(16), per_cell(false), iquat(-1), ihist(-1),
     local_now{0.0, 0.0, 0.0}, w_fric(0.0), w_npoints(0.0), totals{}, totals_valid(false),
     warned_slots(false),
     nmax_touch(0), touch(nullptr)
 {
   const char *usage =
       "fix ID group bcm/wall cells FILE rm R plane FACE VALUE kn kt en2 mu [slots N] "
-      "[stiffness per_point|per_cell]";
+      "[stiffness per_point|per_cell] [velocity V|v_name]";
   if (narg < 14) error->all(FLERR, "Illegal fix bcm/wall command: {}", usage);
   if (strcmp(arg[3], "cells") != 0 || strcmp(arg[5], "rm") != 0 || strcmp(arg[7], "plane") != 0)
     error->all(FLERR, "Illegal fix bcm/wall command: {}", usage);
@@ -94,8 +109,11 @@ FixBcmWall::FixBcmWall(LAMMPS *_lmp, int narg, char **arg) :
       else
         error->all(FLERR, "fix bcm/wall: unknown stiffness {} (known: per_point, per_cell)",
                    arg[iarg + 1]);
+    } else if (strcmp(arg[iarg], "velocity") == 0) {
+      set_velocity(arg[iarg + 1]);
     } else {
-      error->all(FLERR, "fix bcm/wall: unknown keyword {} (known: slots, stiffness)", arg[iarg]);
+      error->all(FLERR, "fix bcm/wall: unknown keyword {} (known: slots, stiffness, velocity)",
+                 arg[iarg]);
     }
   }
   if (!(rm >= 0.0)) error->all(FLERR, "fix bcm/wall: rm must be >= 0");
@@ -113,7 +131,11 @@ FixBcmWall::FixBcmWall(LAMMPS *_lmp, int narg, char **arg) :
   size_vector = NVECTOR;
   global_freq = 1;
   extscalar = 1;
-  extvector = 1;
+  // the plane's position and velocity are intensive, the rest extensive
+  extvector = -1;
+  extlist = new int[NVECTOR];
+  for (int k = 0; k < NVECTOR; k++) extlist[k] = 1;
+  extlist[8] = extlist[9] = 0;
   energy_global_flag = 1;
   peratom_flag = 1;
   size_peratom_cols = 0;
@@ -129,6 +151,32 @@ FixBcmWall::FixBcmWall(LAMMPS *_lmp, int narg, char **arg) :
 FixBcmWall::~FixBcmWall()
 {
   memory->destroy(touch);
+  delete[] extlist;
+}
+
+/* ----------------------------------------------------------------------
+   velocity V (m/s along +e_axis: a zhi platen moving down has V < 0) or v_name (an
+   equal-style variable, evaluated at every force evaluation)
+------------------------------------------------------------------------- */
+
+void FixBcmWall::set_velocity(const char *arg)
+{
+  if (strncmp(arg, "v_", 2) == 0) {
+    vel_var = arg + 2;
+    if (vel_var.empty()) error->all(FLERR, "fix bcm/wall: velocity v_ needs a variable name");
+  } else {
+    vel_var.clear();
+    vel = utils::numeric(FLERR, arg, false, lmp);
+    if (!std::isfinite(vel)) error->all(FLERR, "fix bcm/wall: velocity must be finite");
+  }
+}
+
+int FixBcmWall::modify_param(int narg, char **arg)
+{
+  if (strcmp(arg[0], "velocity") != 0) return 0;
+  if (narg < 2) error->all(FLERR, "fix_modify {} velocity needs a value (V or v_name)", id);
+  set_velocity(arg[1]);
+  return 2;
 }
 
 /* ----------------------------------------------------------------------
@@ -164,6 +212,12 @@ void FixBcmWall::init()
   if (atom->map_style == Atom::MAP_NONE)
     error->all(FLERR, "fix bcm/wall requires an atom map (atom_modify map array): the "
                       "damping work of a step is settled at the next one by atom ID");
+  if (!vel_var.empty()) {
+    ivar = input->variable->find(vel_var.c_str());
+    if (ivar < 0) error->all(FLERR, "fix bcm/wall: velocity variable {} does not exist", vel_var);
+    if (!input->variable->equalstyle(ivar))
+      error->all(FLERR, "fix bcm/wall: velocity variable {} is not equal-style", vel_var);
+  }
 
   const int nlocal = atom->nlocal;
   tagint missing = 0, any = 0;
@@ -212,13 +266,25 @@ void FixBcmWall::wall_forces(bool advance)
   // where lists are rebuilt)
   cell_of.resize(nlocal, nullptr);
   cell_tag.resize(nlocal, 0);
-  // energy accounting: the previous evaluation's forces settled now (bcm_kick_work.h)
+  // the plane's velocity at this evaluation, and its position at the end of the step
+  if (!vel_var.empty()) {
+    modify->clearstep_compute();
+    vel = input->variable->compute_equal(ivar);
+    modify->addstep_compute(update->ntimestep + 1);
+  }
+  const double coord_before = coord;
+  if (advance) coord += vel * dt;
+  // energy accounting: the previous evaluation's forces settled now (bcm_kick_work.h), on
+  // the plane with its displacement as stored (exactly 0 at rest)
   damp_work.begin(lmp, "fix bcm/wall");
   all_work.begin(lmp, "fix bcm/wall");
+  damp_plane.begin(lmp, coord - coord_before);
+  all_plane.begin(lmp, coord - coord_before);
 
   double ncells = 0.0, fnsum = 0.0, stored = 0.0, fric = 0.0, npoints = 0.0;
-  double nw[3] = {0.0, 0.0, 0.0};
+  double nw[3] = {0.0, 0.0, 0.0}, vw[3] = {0.0, 0.0, 0.0};
   nw[axis] = side;
+  vw[axis] = vel;
 
   for (int i = 0; i < nlocal; i++) {
     touch[i] = 0.0;
@@ -261,10 +327,11 @@ void FixBcmWall::wall_forces(bool advance)
       const double height = hc + side * r[axis];
       const double overlap = rm - height;
       r[axis] -= side * 0.5 * (height + rm);    // contact point p = x + r
-      double w[3], vp[3];
+      // velocity of the vertex's material point relative to the plane (SPEC 4.1)
+      double w[3], vr[3];
       cross(omega[i], r, w);
-      for (int d = 0; d < 3; d++) vp[d] = v[i][d] + w[d];
-      const double vn = dot(vp, nw);
+      for (int d = 0; d < 3; d++) vr[d] = (v[i][d] + w[d]) - vw[d];
+      const double vn = dot(vr, nw);
 
       // the vertex's tangential spring: from its slot, advanced along the plane
       double u[3] = {0.0, 0.0, 0.0}, ft_before = 0.0;
@@ -292,7 +359,7 @@ void FixBcmWall::wall_forces(bool advance)
         u[axis] = 0.0;    // the plane does not turn: u_t stays in it
         if (advance)
           for (int d = 0; d < 3; d++)
-            if (d != axis) u[d] += vp[d] * dt;
+            if (d != axis) u[d] += vr[d] * dt;
       }
 
       const BcmContactLaw::Point pt =
@@ -340,6 +407,9 @@ void FixBcmWall::wall_forces(bool advance)
     }
     damp_work.add(lmp, i, -1, fdamp, tdamp, nullptr);
     all_work.add(lmp, i, -1, fcell, tcell, nullptr);
+    // on the plane, moving along e_axis: F . dX_p = F[axis] dX
+    damp_plane.add(fdamp[axis]);
+    all_plane.add(fcell[axis]);
     if (per_cell && advance && kt > 0.0) {
       if (np_before > 0.0 && np_before != np)
         npoints -= (1.0 / np - 1.0 / np_before) * 0.5 * (ewhole + ew_before);
@@ -386,12 +456,22 @@ void FixBcmWall::wall_forces(bool advance)
 void FixBcmWall::sum_totals()
 {
   if (totals_valid) return;
-  const double damp = -damp_work.work();
+  // damping dissipates on the displacement relative to the plane: -(its work on the cells)
+  // + (its work on the plane); the latter is exactly +0 for a plane at rest, so this is
+  // -damp_work.work() to the bit
+  const double damp = -(damp_work.work() - damp_plane.work());
   // [7], the energy of changes of N under a shared stiffness, is identically zero under the
   // per-point law (SPEC 1.2); stiffness per_cell books it
-  const double mine[NVECTOR] = {local_now[0], local_now[1], damp + w_fric + w_npoints,
-                                local_now[2], damp, w_fric, w_npoints, all_work.work()};
-  MPI_Allreduce(mine, totals, NVECTOR, MPI_DOUBLE, MPI_SUM, world);
+  constexpr int NSUM = 9;
+  const double mine[NSUM] = {local_now[0], local_now[1], damp + w_fric + w_npoints,
+                             local_now[2], damp,         w_fric,
+                             w_npoints,    all_work.work(), all_plane.work()};
+  double sums[NSUM];
+  MPI_Allreduce(mine, sums, NSUM, MPI_DOUBLE, MPI_SUM, world);
+  for (int k = 0; k < 8; k++) totals[k] = sums[k];
+  totals[8] = coord;    // the same on every rank
+  totals[9] = vel;
+  totals[10] = sums[8];
   totals_valid = true;
 }
 
@@ -410,34 +490,55 @@ double FixBcmWall::compute_vector(int n)
 /* ----------------------------------------------------------------------
    the dissipated energies and the work of the wall's forces carry on across restarts
    (kept on rank 0): damping, friction, the energy of changes of N ([7]: zero but for
-   stiffness per_cell), work. The kick works are closed as the
+   stiffness per_cell), work, and the moving plane's position and works (its velocity is a
+   setting: the command's). The kick works are closed as the
    next run's setup would close them (BcmKickWork::work_closed), so a resumed run carries
    on with the very numbers of an uninterrupted one. Called on every rank (the sums need
-   them all); only rank 0 has a file.
+   them all); only rank 0 has a file. Layout: RESTART_PLANE, damping (cells' part, negated),
+   friction, [7], work on the cells, the plane's position, damping's work on the plane, W_p.
 ------------------------------------------------------------------------- */
 
 void FixBcmWall::write_restart(FILE *fp)
 {
-  const double mine[4] = {-damp_work.work_closed(lmp, "fix bcm/wall"), w_fric, w_npoints,
-                          all_work.work_closed(lmp, "fix bcm/wall")};
-  double total[4] = {0.0, 0.0, 0.0, 0.0};
-  MPI_Reduce(mine, total, 4, MPI_DOUBLE, MPI_SUM, 0, world);
+  const double mine[6] = {-damp_work.work_closed(lmp, "fix bcm/wall"), w_fric, w_npoints,
+                          all_work.work_closed(lmp, "fix bcm/wall"), damp_plane.work(),
+                          all_plane.work()};
+  double total[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+  MPI_Reduce(mine, total, 6, MPI_DOUBLE, MPI_SUM, 0, world);
   if (comm->me == 0) {
-    const int size = 4 * sizeof(double);
+    const double out[8] = {RESTART_PLANE, total[0], total[1], total[2],
+                           total[3],      coord,    total[4], total[5]};
+    const int size = sizeof(out);
     fwrite(&size, sizeof(int), 1, fp);
-    fwrite(total, sizeof(double), 4, fp);
+    fwrite(out, sizeof(double), 8, fp);
   }
 }
 
 void FixBcmWall::restart(char *buf)
 {
-  double total[4];
-  std::memcpy(total, buf, sizeof(total));
+  // a file written before the moving plane holds the first 4 values, without the tag: the
+  // plane stays where the command puts it, and its works start from zero
+  double first;
+  std::memcpy(&first, buf, sizeof(double));
+  const bool tagged = first == RESTART_PLANE;
+  double total[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+  if (tagged) {
+    double in[8];
+    std::memcpy(in, buf, sizeof(in));
+    for (int k = 0; k < 4; k++) total[k] = in[k + 1];
+    coord = in[5];
+    total[4] = in[6];
+    total[5] = in[7];
+  } else {
+    std::memcpy(total, buf, 4 * sizeof(double));
+  }
   const bool root = comm->me == 0;
   damp_work.restore(root ? -total[0] : 0.0);
   w_fric = root ? total[1] : 0.0;
   w_npoints = root ? total[2] : 0.0;
   all_work.restore(root ? total[3] : 0.0);
+  damp_plane.restore(root ? total[4] : 0.0);
+  all_plane.restore(root ? total[5] : 0.0);
 }
 
 /* ---------------------------------------------------------------------- */
