@@ -1,0 +1,244 @@
+"""The analysis of one crush run (SPEC 4.1): the platen force against the platen's travel, F_c by
+analysis.strength.first_peak, the work and loading stiffness up to it, sigma_c = F_c / d², the
+damage at F_c and at the end, the energy account and the fragments at the end (the impact's
+fragment analysis, analysis/bcm_impact.py) (`BcmCrushAnalysis`); and a set of crush runs, the
+F_c and sigma_c of its grains with a Weibull fit (`analyse_crush_set`).
+
+Displacement u: the upper platen's travel from first contact (its travel since the start less
+the initial gap), closing positive, m. Force: the normal force on the upper platen, N.
+Energies in J. The rule of F_c is analysis.strength.first_peak's (CRUSH_RULE below).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from analysis.bcm_impact import _fragment_picture, cell_shapes, fragments_of, last_state_dumps, read_interfaces
+from analysis.dumps import read_atom_dump
+from analysis.fragment_shapes import fragment_table, shape_averages, vertices_in_space
+from analysis.impact_measures import fragment_counts, settle_outcome
+from analysis.report import Report, provenance_line, write_report
+from analysis.run_analysis import RunAnalysis
+from analysis.runset import RunSetError
+from analysis.strength import (DROP, MIN_WEIBULL_GRAINS, NOISE_FLOOR, characteristic_stress, first_peak,
+                               loading_stiffness, weibull_fit, work_to)
+from analysis.strength_plots import plot_force_displacement, plot_weibull
+from analysis.tables import save_table
+from runfiles.atomic import atomic_save
+from runfiles.records import CRUSH_RECORD, read_record
+
+#: The rule of F_c, quoted in every summary and report (analysis.strength.first_peak).
+CRUSH_RULE = (f"F_c is the largest upper-platen force before the force first falls below {DROP:g} times its "
+              f"running maximum, such a fall counting once the running maximum has reached {NOISE_FLOOR:g} of the "
+              "record's largest force (analysis.strength.first_peak); when it never falls so, F_c is the largest "
+              "force recorded and dropped is false")
+#: Quasi-static: the two platens' forces agree within this fraction of F_c on the loading branch.
+QUASI_STATIC_TOLERANCE = 0.05
+#: The energy account is flagged when it does not close to this fraction of W_p.
+BALANCE_TOLERANCE = 1e-3
+
+
+def read_crush_record(path: Path) -> pd.DataFrame:
+    """The `fix print` record of a crush run (runfiles/records.py CRUSH_RECORD), one row per
+    step, with derived columns as the impact's (analysis/bcm_impact.py read_impact_thermo):
+    kinetic, elastic (interfaces + platens + contacts), dissipated (damping, friction,
+    number-of-points changes and switch losses of the three force styles; W_f apart)."""
+    df = read_record(path, CRUSH_RECORD.names)
+    df["kinetic"] = df.ke_trans + df.ke_rot
+    df["elastic"] = df.E_interfaces + df.E_wall + df.E_contacts
+    df["dissipated_damping"] = df.W_damp + df.W_wall_damp + df.W_contact_damp
+    df["dissipated_friction"] = df.W_friction + df.W_wall_friction + df.W_contact_friction
+    df["dissipated_npoints"] = df.W_wall_npoints + df.W_contact_npoints
+    df["dissipated"] = df.dissipated_damping + df.dissipated_friction + df.dissipated_npoints + df.W_switch
+    return df
+
+
+def energy_residual(record: pd.DataFrame) -> pd.Series:
+    """W_p - (change of kinetic + elastic + W_f + dissipated) at each record: the energy account
+    of the crush (plugins/doc/fix_bcm_wall.md), zero to velocity Verlet's O(h²) of the instant."""
+    k0 = float(record.kinetic.iloc[0]) + float(record.elastic.iloc[0])
+    return record.W_p - (record.kinetic + record.elastic - k0 + record.W_f + record.dissipated)
+
+
+def crush_measures(record: pd.DataFrame, height: float, gap0: float) -> tuple[dict, pd.DataFrame, object, object]:
+    """(measures, record with u, Peak, Stiffness or None) of one crush record; `height` is d
+    (the particle between the platens at contact), `gap0` the upper platen's initial gap."""
+    rec = record.copy()
+    rec["u"] = rec.displacement - gap0
+    peak = first_peak(rec.u, rec.F_upper)
+    at = rec.iloc[peak.index]
+    end = rec.iloc[-1]
+    try:
+        stiff = loading_stiffness(rec.u, rec.F_upper, peak.F_c)
+    except ValueError:
+        stiff = None
+    # quasi-static check: the platens' forces on the loading branch between 0.1 F_c and F_c
+    loading = rec.iloc[: peak.index + 1]
+    loading = loading[loading.F_upper >= 0.1 * peak.F_c]
+    mismatch = float((loading.F_upper - loading.F_lower).abs().max() / peak.F_c) if len(loading) else float("nan")
+    residual = energy_residual(rec)
+    w_p_end = float(end.W_p)
+    measures = {
+        "F_c": peak.F_c, "sigma_c": characteristic_stress(peak.F_c, height), "height": height,
+        "u_c": peak.displacement, "W_p_at_F_c": work_to(rec.u, rec.F_upper, peak.index, work=rec.W_p),
+        "loading_stiffness": stiff.slope if stiff else None,
+        "loading_stiffness_stderr": stiff.sigma if stiff else None,
+        "loading_stiffness_samples": stiff.n if stiff else 0,
+        "dropped": peak.dropped, "drop_u": float(rec.u.iloc[peak.drop_index]) if peak.dropped else None,
+        "broken_at_F_c": int(at.broken), "D_w_at_F_c": float(at.D_w),
+        "broken_end": int(end.broken), "D_w_end": float(end.D_w),
+        "u_end": float(end.u), "strain_end": float(end.u) / height, "time_end": float(end.time),
+        "F_end": float(end.F_upper), "F_end_over_F_c": float(end.F_upper) / peak.F_c,
+        "force_mismatch_loading": mismatch,
+        "W_p": w_p_end, "W_f": float(end.W_f), "kinetic_end": float(end.kinetic), "elastic_end": float(end.elastic),
+        "dissipated": float(end.dissipated), "W_damping": float(end.dissipated_damping),
+        "W_friction": float(end.dissipated_friction), "W_switch": float(end.W_switch),
+        "balance_residual": float(residual.iloc[-1]) / w_p_end if w_p_end > 0 else float("nan"),
+        "balance_residual_max": float(residual.abs().max()) / w_p_end if w_p_end > 0 else float("nan"),
+        "F_c_rule": CRUSH_RULE,
+    }
+    rec["energy_residual"] = residual
+    return measures, rec, peak, stiff
+
+
+def plot_broken(rec: pd.DataFrame, u_c: float, path: Path, title: str = "") -> None:
+    """Broken interfaces and D_w against the platen's travel, F_c's travel marked."""
+    fig = Figure(figsize=(5.0, 3.6), dpi=150)
+    ax = fig.subplots()
+    ax.plot(rec.u * 1e6, rec.broken, "k-", lw=1.0)
+    ax.axvline(u_c * 1e6, color="0.5", ls="--", lw=1.0, label="$F_c$")
+    ax.set_xlabel("platen displacement from first contact [µm]")
+    ax.set_ylabel("broken interfaces")
+    ax2 = ax.twinx()
+    ax2.plot(rec.u * 1e6, rec.D_w, alpha=0)  # the D_w scale of the same curve
+    ax2.set_ylabel("$D_w$")
+    ax.legend(fontsize=7, frameon=False)
+    if title:
+        ax.set_title(title, fontsize=8)
+    fig.tight_layout()
+    atomic_save(Path(path), lambda p: fig.savefig(p, format="png"))
+
+
+class BcmCrushAnalysis(RunAnalysis):
+    """F_c and the crush measures, the energy account, the fragments at the end, figures and
+    report of a BCM crush run (cut short: on the record so far and its last periodic snapshot,
+    flagged; refused without one)."""
+
+    def _prepare(self) -> None:
+        self.model, self.scen = self.cfg["model"], self.cfg["scenario"]
+        self.system = json.loads((self.run_dir / "system.json").read_text())
+        cells_dump, ifaces_dump, note = last_state_dumps(self.run_dir, self.cut_short)
+        self.cells = read_atom_dump(cells_dump)[-1]
+        self.ifaces = read_interfaces(ifaces_dump)
+        self.record = read_crush_record(self.run_dir / "thermo.dat")
+        if note is not None:
+            self.cut_short_note = note
+
+    def _conclude(self) -> None:
+        system, cells = self.system, self.cells
+        gap0 = system["platen_start"] - system["highest_z"]
+        measures, rec, peak, stiff = crush_measures(self.record, system["height"], gap0)
+        if not peak.dropped:
+            self.warnings.append(f"no drop: the platen force never fell below {DROP:g} of its running maximum; F_c "
+                                 "is only the largest force recorded (raise scenario.max_strain or max_time)")
+        if stiff is None:
+            self.warnings.append("too few records on the loading branch for a loading stiffness (lower "
+                                 "scenario.thermo_every)")
+        if measures["force_mismatch_loading"] > QUASI_STATIC_TOLERANCE:
+            self.warnings.append(f"the platens' forces differ by up to {measures['force_mismatch_loading']:.3g} of "
+                                 "F_c while loading: not quasi-static (lower scenario.platen_speed)")
+        if abs(measures["balance_residual_max"]) > BALANCE_TOLERANCE:
+            self.warnings.append(f"the energy account closes only to {measures['balance_residual_max']:.2g} of W_p")
+        # fragments at the end: the impact's fragment analysis
+        n = len(cells.ids)
+        labels = fragments_of(n, self.ifaces)
+        masses = cells.extra["mass"]
+        body, faces, warning = cell_shapes(self.run_dir)
+        if warning:
+            self.warnings.append(warning)
+        offsets = np.concatenate([[0], np.cumsum([len(v) for v in body])])
+        space = vertices_in_space(np.concatenate(body), offsets, cells.positions, cells.quaternions())
+        frags = fragment_table(labels, masses, masses / self.model["density"], (space, offsets))
+        outcome = settle_outcome(self.run_dir, system, int(rec.step.iloc[-1]))
+        measures.update({
+            **fragment_counts(frags, system["mass"]),
+            **{f"shape_{k}": v for k, v in shape_averages(frags).items()},
+            "stopped_by_drop": outcome["settled"], "end_step": outcome["end_step"],
+            "stop_rule": (f"stopped at a check (every {system['window_steps']} steps) once an interface had broken "
+                          f"and the upper platen's force was below {self.scen['stop_after_drop']:g} of the largest "
+                          f"force at the checks; else at the strain limit {self.scen['max_strain']:g} or max_time "
+                          f"{self.scen['max_time']:g} s"),
+            "platen_speed": self.scen["platen_speed"], "timestep": system["timestep"],
+        })
+        self.results.summary = measures
+        self.results.tables.update(crush=rec, fragments=frags, interfaces=self.ifaces)
+        self.rec, self.peak, self.stiff, self.frags = rec, peak, stiff, frags
+        self.picture = (space, offsets, faces, labels)
+        self.title = (f"BCM crush, N_c = {system['n_cells']}, v_p = {self.scen['platen_speed']:g} m/s, "
+                      f"G_c = {self.model['interface']['G_c']:g} J/m²")
+
+    def _plot(self) -> None:
+        s = self.results.summary
+        self.draw("force_displacement", plot_force_displacement, self.rec.u, self.rec.F_upper, self.peak, self.stiff,
+                  self.png("force_displacement"), self.title)
+        self.draw("broken", plot_broken, self.rec, self.peak.displacement, self.png("broken"), self.title)
+        self.draw("fragments", _fragment_picture, *self.picture, self.png("fragments"),
+                  f"{self.title}\n{len(self.frags)} fragments, D_w = {s['D_w_end']:.3f}")
+
+    def _plots_failed(self) -> list[dict[str, str]]:
+        return self.system.get("plots_failed", []) + self.guard.failed
+
+    def _report(self) -> Report:
+        s = self.results.summary
+        rep = Report(f"{self.cfg['name']}: {self.title}", provenance_line(self.run_dir))
+        shown = ("F_c", "sigma_c", "height", "u_c", "W_p_at_F_c", "loading_stiffness", "dropped", "broken_at_F_c",
+                 "D_w_at_F_c", "broken_end", "D_w_end", "n_fragments", "largest_fragment_mass_fraction",
+                 "force_mismatch_loading", "balance_residual_max", "stopped_by_drop", "strain_end")
+        rep.values({k: s[k] for k in shown if k in s}, "SPEC 4.1 measures (SI units; all in summary.json)")
+        rep.text(f"Rule: {CRUSH_RULE}; sigma_c = F_c / d², d the particle's height between the platens at contact.")
+        rep.text(s["stop_rule"] + f"; time step {self.system['timestep']:.4g} s.")
+        for msg in self.warnings:
+            rep.text(f"Warning: {msg}")
+        for name, caption in (("force_displacement", "upper platen force against its travel, F_c marked"),
+                              ("broken", "broken interfaces against the platen's travel"),
+                              ("fragments", "cells coloured by fragment at the end"),
+                              ("cells", "cell statistics of the tessellation")):
+            rep.figure(self.png(name), caption)
+        rep.table(self.frags[["fragment", "n_cells", "mass", "a", "b", "c"]],
+                  "largest fragments (results/fragments.csv has all)", max_rows=10)
+        return rep
+
+
+def analyse_crush_set(runs: list[dict], out: Path, plots: bool = True, left_out: list[dict] | None = None, *,
+                      params: Callable[[dict], dict]) -> dict:
+    """F_c and sigma_c of each grain (runs table) and, over the grains that dropped, the Weibull
+    fit of sigma_c (analysis.strength.weibull_fit; flagged under MIN_WEIBULL_GRAINS grains)."""
+    rows = [{"run": r["cfg"]["name"], "run_dir": str(r["dir"]), **params(r["cfg"]),
+             **{k: r["summary"].get(k) for k in ("F_c", "sigma_c", "height", "u_c", "dropped", "D_w_end")}}
+            for r in runs]
+    table = pd.DataFrame(rows)
+    out = Path(out)
+    save_table(table, out / "runs")
+    broke = table[table.dropped.astype(bool)]
+    figures: dict = {"grains": len(table), "grains_dropped": len(broke)}
+    rep = Report(f"Crush set of {len(table)} grains", "F_c, sigma_c per grain (runs.csv)")
+    rep.table(table, "grains")
+    if len(broke) >= 2:
+        fit = weibull_fit(broke.sigma_c.to_numpy())
+        figures.update(weibull_m=fit.m, weibull_sigma_0=fit.sigma_0)
+        if len(broke) < MIN_WEIBULL_GRAINS:
+            rep.text(f"Only {len(broke)} grains: the Weibull intervals are unreliable (fewer than "
+                     f"{MIN_WEIBULL_GRAINS}).")
+        if plots:
+            plot_weibull(broke.sigma_c.to_numpy(), fit, out / "weibull.png")
+            rep.figure(out / "weibull.png", "Weibull plot of sigma_c")
+    elif not len(table):
+        raise RunSetError("no crush runs to analyse")
+    write_report(rep, out)
+    return figures
