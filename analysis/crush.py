@@ -246,7 +246,11 @@ def analyse_crush_set(runs: list[dict], out: Path, plots: bool = True, left_out:
     rep.table(table, "grains")
     if len(broke) >= 2:
         fit = weibull_fit(broke.sigma_c.to_numpy())
-        figures.update(weibull_m=fit.m, weibull_sigma_0=fit.sigma_0)
+        figures.update(weibull_m=fit.m, weibull_sigma_0=fit.sigma_0, weibull_m_interval=list(fit.m_interval),
+                       weibull_sigma_0_interval=list(fit.sigma_0_interval), weibull_flag=fit.flag)
+        rep.values({"m": fit.m, "sigma_0": fit.sigma_0, "m interval": fit.m_interval,
+                    "sigma_0 interval": fit.sigma_0_interval},
+                   f"Weibull fit of sigma_c over the {len(broke)} grains that dropped ({fit.confidence:.0%} intervals)")
         if len(broke) < MIN_WEIBULL_GRAINS:
             rep.text(f"Only {len(broke)} grains: the Weibull intervals are unreliable (fewer than "
                      f"{MIN_WEIBULL_GRAINS}).")

@@ -175,3 +175,47 @@ def test_crush_is_registered_for_bcm_only(tmp_path):
     cfg["model"] = {"kind": "bpm"}
     with pytest.raises(ConfigError, match="bcm \\+ crush"):
         parse_config(cfg)
+
+
+@pytest.mark.slow
+def test_crush_interrupted_and_resumed_is_identical(tmp_path, plugin_path):
+    """A crush stopped by SIGINT half way to its drop and resumed gives the very results of the
+    uninterrupted run: the platen's position comes back from the checkpoint (fix bcm/wall's
+    restart data), its velocity from the command, the stop rule's peak from the checkpoint's
+    variables. About 40 s."""
+    from test_resume import assert_same_results, config_file, reference_interrupted_resumed  # noqa: PLC0415
+
+    base = crush_config(tmp_path / "unused", **SMALL, plots=False)
+    base.pop("output")
+    base["output"] = {"plots": False}
+    base["execution"] = {}
+    ref, out = reference_interrupted_resumed(config_file(tmp_path, base, "crush"), tmp_path, at_fraction=0.5)
+    assert_same_results(ref, out)
+    assert summary_of(out)["stopped_by_drop"] is True
+
+
+def test_crush_set_fits_the_grains_that_dropped(tmp_path):
+    """The set analysis tables every grain and fits the Weibull law to the sigma_c of those that
+    dropped only: a grain that never dropped (its F_c only the largest force recorded) is
+    listed but left out of the fit, whose m and sigma_0 are those of the others alone."""
+    from analysis.crush import analyse_crush_set  # noqa: PLC0415
+    from analysis.strength import weibull_fit  # noqa: PLC0415
+    from driver.scenarios.bcm_crush import UNIT  # noqa: PLC0415
+
+    rng = np.random.default_rng(0)
+    sigma = 1e7 * rng.weibull(5.0, size=12)
+    runs = []
+    for k, s in enumerate(sigma):
+        cfg = crush_config(tmp_path, 80, k, 0.02)
+        cfg["name"] = f"grain{k}"
+        cfg["model"]["diameter"] = 2e-3
+        runs.append({"dir": tmp_path / f"grain{k}", "cfg": cfg,
+                     "summary": {"F_c": s * 4e-6, "sigma_c": s, "height": 2e-3, "u_c": 1e-6, "dropped": k != 3,
+                                 "D_w_end": 0.2}})
+    out = tmp_path / "set"
+    figures = UNIT.analyse_set(runs, out, False, [], {})
+    table = pd.read_csv(out / "runs.csv")
+    assert len(table) == 12 and figures["grains"] == 12 and figures["grains_dropped"] == 11
+    fit = weibull_fit(np.delete(sigma, 3))
+    assert figures["weibull_m"] == pytest.approx(fit.m) and figures["weibull_sigma_0"] == pytest.approx(fit.sigma_0)
+    assert (out / "report.md").exists()
