@@ -44,18 +44,20 @@ class CrushScenario(_Strict):
     kind: Literal["crush"] = Field("crush", description="crush: one particle squeezed between two platens, the "
                                                          "upper one moving down at constant speed")
     # Quasi-static (SPEC 4.1: F_c unchanged when v_p is halved) needs the time to the peak to be
-    # many times the particle's slowest elastic period. The 2 mm, 100-300-cell particle of the
-    # default model breaks after a platen travel u_c of about 1-2 micrometres (F_c ~ 10-30 N on
-    # a particle stiffness of ~1e7 N/m, measured: docs/scenarios/bcm-crush.md); its slowest
-    # mode, the particle ringing between the platens, has a period of ~1e-5 s (mass 2.5e-5 kg
-    # on ~1e7 N/m) and a wave crosses it in ~1e-6 s (c = sqrt(E / rho) ~ 2 km/s). At 0.02 m/s
-    # the peak comes after ~1e-4 s: ten ringing periods, a hundred wave crossings.
+    # many times the particle's slowest elastic period. The 2 mm, 80-200-cell particle of the
+    # default model breaks after a platen travel u_c of 2-3 micrometres (44-58 N on a loading
+    # stiffness of ~2e7 N/m); its slowest mode, its own compression (half its 2.5e-5 kg on
+    # 2e7 N/m), has a period of ~5e-6 s, its ringing between the platens' contacts ~2e-6 s
+    # (measured in the platens' force difference), and a wave crosses it in ~1e-6 s. At
+    # 0.02 m/s the peak comes after ~1.3e-4 s, some 25 of those periods; halving it moves F_c by
+    # 1 % (tests/test_bcm_crush.py, docs/scenarios/bcm-crush.md).
     platen_speed: float = Field(0.02, gt=0.0, le=10.0,
                                 description="speed v_p of the upper platen towards the lower one, m/s; the default "
                                             "0.02 is quasi-static for the default 2 mm particle: the peak comes "
-                                            "after ~1e-4 s, about ten of its slowest elastic periods (~1e-5 s, "
-                                            "the particle ringing between the platens) and a hundred wave "
-                                            "crossings (~1e-6 s); scale it with the particle's size and wave speed")
+                                            "after ~1.3e-4 s (a travel of 2-3 µm), some 25 of its slowest elastic "
+                                            "periods (~5e-6 s: its own compression) and a hundred wave crossings "
+                                            "(~1e-6 s); halving it moves F_c by about 1 %. Scale it with the "
+                                            "particle's size and wave speed")
     stop_after_drop: float = Field(0.2, gt=0.0, lt=1.0,
                                    description="stop once, after the peak, the upper platen's force has fallen "
                                                "below this fraction of the largest force so far (and at least one "
