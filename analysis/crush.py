@@ -1,7 +1,8 @@
 """The analysis of one crush run (SPEC 4.1): the platen force against the platen's travel, F_c by
 analysis.strength.first_peak, the work and loading stiffness up to it, sigma_c = F_c / d², the
 damage at F_c and at the end, the energy account and the fragments at the end (the impact's
-fragment analysis, analysis/bcm_impact.py) (`BcmCrushAnalysis`); and a set of crush runs, the
+fragment analysis, analysis/bcm_impact.py and bpm_impact.py) (`BcmCrushAnalysis`,
+`BpmCrushAnalysis`, on what they share, `CrushAnalysis`); and a set of crush runs, the
 F_c and sigma_c of its grains with a Weibull fit (`analyse_crush_set`).
 
 Displacement u: the upper platen's travel from first contact (its travel since the start less
@@ -20,8 +21,11 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from analysis.bcm_impact import _fragment_picture, cell_shapes, fragments_of, last_state_dumps, read_interfaces
-from analysis.dumps import read_atom_dump
+from analysis.bpm_impact import break_series, particle_fragments
+from analysis.breaks import read_break_log
+from analysis.dumps import read_atom_dump, read_local_dump
 from analysis.fragment_shapes import fragment_table, shape_averages, vertices_in_space
+from analysis.grains import grain_labels
 from analysis.impact_measures import fragment_counts, settle_outcome
 from analysis.report import Report, provenance_line, write_report
 from analysis.run_analysis import RunAnalysis
@@ -31,7 +35,7 @@ from analysis.strength import (DROP, MIN_WEIBULL_GRAINS, NOISE_FLOOR, characteri
 from analysis.strength_plots import plot_force_displacement, plot_weibull
 from analysis.tables import save_table
 from runfiles.atomic import atomic_save
-from runfiles.records import CRUSH_RECORD, read_record
+from runfiles.records import BPM_CRUSH_RECORD, CRUSH_RECORD, read_record
 
 #: The rule of F_c, quoted in every summary and report (analysis.strength.first_peak).
 CRUSH_RULE = (f"F_c is the largest upper-platen force before the force first falls below {DROP:g} times its "
@@ -70,8 +74,10 @@ def energy_residual(record: pd.DataFrame) -> pd.Series:
 
 
 def crush_measures(record: pd.DataFrame, height: float, gap0: float) -> tuple[dict, pd.DataFrame, object, object]:
-    """(measures, record with u, Peak, Stiffness or None) of one crush record; `height` is d
-    (the particle between the platens at contact), `gap0` the upper platen's initial gap."""
+    """(measures, record with u, Peak, Stiffness or None) of one crush record in SI, of either
+    model: columns step, time, displacement, F_upper, F_lower, W_p, broken, D_w and the energy
+    account's kinetic, elastic, W_f, dissipated; `height` is d (the particle between the
+    platens at contact), `gap0` the upper platen's initial gap."""
     rec = record.copy()
     rec["u"] = rec.displacement - gap0
     peak = first_peak(rec.u, rec.F_upper)
@@ -108,8 +114,7 @@ def crush_measures(record: pd.DataFrame, height: float, gap0: float) -> tuple[di
         "F_max": f_max, "F_max_over_F_c": f_max / peak.F_c,
         "force_mismatch_loading": mismatch, "force_mismatch_loading_max": mismatch_max,
         "W_p": w_p_end, "W_f": float(end.W_f), "kinetic_end": float(end.kinetic), "elastic_end": float(end.elastic),
-        "dissipated": float(end.dissipated), "W_damping": float(end.dissipated_damping),
-        "W_friction": float(end.dissipated_friction), "W_switch": float(end.W_switch),
+        "dissipated": float(end.dissipated),
         "balance_residual": float(residual.iloc[-1]) / w_p_end if w_p_end > 0 else float("nan"),
         "balance_residual_max": float(residual.abs().max()) / w_p_end if w_p_end > 0 else float("nan"),
         "F_c_rule": CRUSH_RULE,
@@ -118,14 +123,14 @@ def crush_measures(record: pd.DataFrame, height: float, gap0: float) -> tuple[di
     return measures, rec, peak, stiff
 
 
-def plot_broken(rec: pd.DataFrame, u_c: float, path: Path, title: str = "") -> None:
-    """Broken interfaces and D_w against the platen's travel, F_c's travel marked."""
+def plot_broken(rec: pd.DataFrame, u_c: float, path: Path, title: str = "", label: str = "broken interfaces") -> None:
+    """Broken elements (interfaces, bonds) and D_w against the platen's travel, F_c's travel marked."""
     fig = Figure(figsize=(5.0, 3.6), dpi=150)
     ax = fig.subplots()
     ax.plot(rec.u * 1e6, rec.broken, "k-", lw=1.0)
     ax.axvline(u_c * 1e6, color="0.5", ls="--", lw=1.0, label="$F_c$")
     ax.set_xlabel("platen displacement from first contact [µm]")
-    ax.set_ylabel("broken interfaces")
+    ax.set_ylabel(label)
     ax2 = ax.twinx()
     ax2.plot(rec.u * 1e6, rec.D_w, alpha=0)  # the D_w scale of the same curve
     ax2.set_ylabel("$D_w$")
@@ -136,24 +141,26 @@ def plot_broken(rec: pd.DataFrame, u_c: float, path: Path, title: str = "") -> N
     atomic_save(Path(path), lambda p: fig.savefig(p, format="png"))
 
 
-class BcmCrushAnalysis(RunAnalysis):
-    """F_c and the crush measures, the energy account, the fragments at the end, figures and
-    report of a BCM crush run (cut short: on the record so far and its last periodic snapshot,
-    flagged; refused without one)."""
+class CrushAnalysis(RunAnalysis):
+    """What the crush analyses of both models share: the measures of crush_measures and their
+    flags, the stop, the figures and the report. A model's subclass reads its run in
+    `_prepare` (self.record in SI, crush_measures' columns) and gives `_fragments()`, the
+    fragment table at the end with what its picture needs, and `model_measures`."""
 
-    def _prepare(self) -> None:
-        self.model, self.scen = self.cfg["model"], self.cfg["scenario"]
-        self.system = json.loads((self.run_dir / "system.json").read_text())
-        cells_dump, ifaces_dump, note = last_state_dumps(self.run_dir, self.cut_short)
-        self.cells = read_atom_dump(cells_dump)[-1]
-        self.ifaces = read_interfaces(ifaces_dump)
-        self.record = read_crush_record(self.run_dir / "thermo.dat")
-        if note is not None:
-            self.cut_short_note = note
+    #: what an element and a broken one are called in the figures and report
+    broken_name = "broken interfaces"
+    model_name = "BCM"
+
+    def _fragments(self) -> pd.DataFrame:
+        raise NotImplementedError
+
+    def model_measures(self, end: pd.Series) -> dict:
+        """The model's own entries of the summary (its energy channels at the end)."""
+        return {}
 
     def _conclude(self) -> None:
-        system, cells = self.system, self.cells
-        gap0 = system["platen_start"] - system["highest_z"]
+        system = self.system
+        gap0 = system["platen_start"] - system["height_top"]
         measures, rec, peak, stiff = crush_measures(self.record, system["height"], gap0)
         if not peak.dropped:
             self.warnings.append(f"no drop: the platen force never fell below {DROP:g} of its running maximum; F_c "
@@ -168,43 +175,33 @@ class BcmCrushAnalysis(RunAnalysis):
             self.warnings.append(f"the largest force, {measures['F_max']:.4g} N, is {measures['F_max_over_F_c']:.3g} "
                                  "times F_c: the first drop was a local failure (a contact crushing) and the particle "
                                  "carried more afterwards")
-        if abs(measures["balance_residual_max"]) > BALANCE_TOLERANCE:
+        if abs(measures["balance_residual_max"]) > self.balance_tolerance:
             self.warnings.append(f"the energy account closes only to {measures['balance_residual_max']:.2g} of W_p")
-        # fragments at the end: the impact's fragment analysis
-        n = len(cells.ids)
-        labels = fragments_of(n, self.ifaces)
-        masses = cells.extra["mass"]
-        body, faces, warning = cell_shapes(self.run_dir)
-        if warning:
-            self.warnings.append(warning)
-        offsets = np.concatenate([[0], np.cumsum([len(v) for v in body])])
-        space = vertices_in_space(np.concatenate(body), offsets, cells.positions, cells.quaternions())
-        frags = fragment_table(labels, masses, masses / self.model["density"], (space, offsets))
+        frags = self._fragments()
         outcome = settle_outcome(self.run_dir, system, int(rec.step.iloc[-1]))
         measures.update({
+            **self.model_measures(self.record.iloc[-1]),
             **fragment_counts(frags, system["mass"]),
             **{f"shape_{k}": v for k, v in shape_averages(frags).items()},
             "stopped_by_drop": outcome["settled"], "end_step": outcome["end_step"],
-            "stop_rule": (f"stopped at a check (every {system['window_steps']} steps) once an interface had broken "
+            "stop_rule": (f"stopped at a check (every {system['window_steps']} steps) once an element had broken "
                           f"and the upper platen's force was below {self.scen['stop_after_drop']:g} of the largest "
                           f"force at the checks; else at the strain limit {self.scen['max_strain']:g} or max_time "
                           f"{self.scen['max_time']:g} s"),
-            "platen_speed": self.scen["platen_speed"], "timestep": system["timestep"],
+            "platen_speed": self.scen["platen_speed"], "timestep": self.timestep_s,
         })
         self.results.summary = measures
-        self.results.tables.update(crush=rec, fragments=frags, interfaces=self.ifaces)
+        self.results.tables.update(crush=rec, fragments=frags)
         self.rec, self.peak, self.stiff, self.frags = rec, peak, stiff, frags
-        self.picture = (space, offsets, faces, labels)
-        self.title = (f"BCM crush, N_c = {system['n_cells']}, v_p = {self.scen['platen_speed']:g} m/s, "
-                      f"G_c = {self.model['interface']['G_c']:g} J/m²")
+
+    #: the energy account is flagged above this fraction of W_p
+    balance_tolerance = BALANCE_TOLERANCE
 
     def _plot(self) -> None:
-        s = self.results.summary
         self.draw("force_displacement", plot_force_displacement, self.rec.u, self.rec.F_upper, self.peak, self.stiff,
                   self.png("force_displacement"), self.title)
-        self.draw("broken", plot_broken, self.rec, self.peak.displacement, self.png("broken"), self.title)
-        self.draw("fragments", _fragment_picture, *self.picture, self.png("fragments"),
-                  f"{self.title}\n{len(self.frags)} fragments, D_w = {s['D_w_end']:.3f}")
+        self.draw("broken", plot_broken, self.rec, self.peak.displacement, self.png("broken"), self.title,
+                  self.broken_name)
 
     def _plots_failed(self) -> list[dict[str, str]]:
         return self.system.get("plots_failed", []) + self.guard.failed
@@ -217,17 +214,142 @@ class BcmCrushAnalysis(RunAnalysis):
                  "force_mismatch_loading", "balance_residual_max", "stopped_by_drop", "strain_end")
         rep.values({k: s[k] for k in shown if k in s}, "SPEC 4.1 measures (SI units; all in summary.json)")
         rep.text(f"Rule: {CRUSH_RULE}; sigma_c = F_c / d², d the particle's height between the platens at contact.")
-        rep.text(s["stop_rule"] + f"; time step {self.system['timestep']:.4g} s.")
+        rep.text(s["stop_rule"] + f"; time step {self.timestep_s:.4g} s.")
         for msg in self.warnings:
             rep.text(f"Warning: {msg}")
         for name, caption in (("force_displacement", "upper platen force against its travel, F_c marked"),
-                              ("broken", "broken interfaces against the platen's travel"),
+                              ("broken", f"{self.broken_name} against the platen's travel"),
                               ("fragments", "cells coloured by fragment at the end"),
                               ("cells", "cell statistics of the tessellation")):
-            rep.figure(self.png(name), caption)
+            if self.png(name).exists():
+                rep.figure(self.png(name), caption)
         rep.table(self.frags[["fragment", "n_cells", "mass", "a", "b", "c"]],
                   "largest fragments (results/fragments.csv has all)", max_rows=10)
         return rep
+
+
+class BcmCrushAnalysis(CrushAnalysis):
+    """F_c and the crush measures, the energy account, the fragments at the end, figures and
+    report of a BCM crush run (cut short: on the record so far and its last periodic snapshot,
+    flagged; refused without one)."""
+
+    def _prepare(self) -> None:
+        self.model, self.scen = self.cfg["model"], self.cfg["scenario"]
+        self.system = json.loads((self.run_dir / "system.json").read_text())
+        self.system["height_top"] = self.system["highest_z"]
+        self.timestep_s = self.system["timestep"]
+        cells_dump, ifaces_dump, note = last_state_dumps(self.run_dir, self.cut_short)
+        self.cells = read_atom_dump(cells_dump)[-1]
+        self.ifaces = read_interfaces(ifaces_dump)
+        self.record = read_crush_record(self.run_dir / "thermo.dat")
+        if note is not None:
+            self.cut_short_note = note
+            self.record = self.record[self.record.step <= self.cells.timestep].reset_index(drop=True)
+        self.title = (f"BCM crush, N_c = {self.system['n_cells']}, v_p = {self.scen['platen_speed']:g} m/s, "
+                      f"G_c = {self.model['interface']['G_c']:g} J/m²")
+
+    def model_measures(self, end: pd.Series) -> dict:
+        return {"W_damping": float(end.dissipated_damping), "W_friction": float(end.dissipated_friction),
+                "W_switch": float(end.W_switch)}
+
+    def _fragments(self) -> pd.DataFrame:
+        """The impact's fragment analysis (analysis/bcm_impact.py) on the end state."""
+        cells = self.cells
+        labels = fragments_of(len(cells.ids), self.ifaces)
+        masses = cells.extra["mass"]
+        body, faces, warning = cell_shapes(self.run_dir)
+        if warning:
+            self.warnings.append(warning)
+        offsets = np.concatenate([[0], np.cumsum([len(v) for v in body])])
+        space = vertices_in_space(np.concatenate(body), offsets, cells.positions, cells.quaternions())
+        self.picture = (space, offsets, faces, labels)
+        self.results.tables["interfaces"] = self.ifaces
+        return fragment_table(labels, masses, masses / self.model["density"], (space, offsets))
+
+    def _plot(self) -> None:
+        super()._plot()
+        self.draw("fragments", _fragment_picture, *self.picture, self.png("fragments"),
+                  f"{self.title}\n{len(self.frags)} fragments, D_w = {self.results.summary['D_w_end']:.3f}")
+
+
+def read_bpm_crush_record(path: Path, units: dict) -> pd.DataFrame:
+    """The record of a BPM crush (runfiles/records.py BPM_CRUSH_RECORD) in SI (m, N, J, s) with
+    crush_measures' columns: kinetic; elastic (repulsion, bonds, angles, both planes' normal
+    springs); dissipated = the planes' (each: the work its motion put in, less the work of its
+    forces on the particles and its springs' energy; tangential springs included, as for the
+    impact) + the damping of Eq. 5 on pairs and bonds. W_f, broken, D_w come from the break log
+    (BpmCrushAnalysis)."""
+    df = read_record(path, BPM_CRUSH_RECORD.names)
+    a, u = units["a"], units["u"]
+    out = pd.DataFrame({"step": df.step, "time": df.time, "displacement": df.displacement * a, "gap": df.gap * a,
+                        "F_upper": df.F_upper * u / a, "F_lower": df.F_lower * u / a})
+    for col in ("W_p", "ke", "E_pair", "E_bonds", "E_angles", "E_wall_lower", "E_wall_upper", "work_lower",
+                "work_upper", "W_damp_pair", "W_damp_bond"):
+        out[col] = df[col] * u
+    out["kinetic"] = out.ke
+    out["elastic"] = out.E_pair + out.E_bonds + out.E_angles + out.E_wall_lower + out.E_wall_upper
+    out["W_c_lower"] = -out.work_lower - out.E_wall_lower
+    out["W_c_upper"] = out.W_p - out.work_upper - out.E_wall_upper
+    out["dissipated"] = out.W_c_lower + out.W_c_upper + out.W_damp_pair + out.W_damp_bond
+    for col in ("lower_contacts", "upper_contacts", "bonds_broken", "angles_broken"):
+        out[col] = df[col].astype(int)
+    out["broken"] = out.bonds_broken
+    return out
+
+
+class BpmCrushAnalysis(CrushAnalysis):
+    """The crush measures of a BPM run (SI), its energy account with the energy the breaks took
+    (W_f = W_f_held, the break log's) and the fragments (grains of intact bonds) at the end. Cut
+    short: refused (measured on the end state, as the BPM impact)."""
+
+    broken_name = "broken bonds"
+    refuses_cut_short = ("a BPM crush is measured on its end state, which a run cut short does not have: resume it "
+                         "(driver run CONFIG -o DIR --resume)")
+    # the breaks of bonds whose particles overlap switch the repulsion on (driver/bpm/network.py):
+    # energy the account cannot hold, flagged with the system's count
+    balance_tolerance = 1e-2
+
+    def _prepare(self) -> None:
+        run_dir = self.run_dir
+        self.model, self.scen = self.cfg["model"], self.cfg["scenario"]
+        self.system = json.loads((run_dir / "system.json").read_text())
+        self.units = un = self.system["units"]
+        self.system["height_top"] = self.system["height_a"] * un["a"]
+        self.system["platen_start"] = self.system["platen_start"] * un["a"]
+        self.timestep_s = self.system["timestep_s"]
+        atoms_path, bonds_path = run_dir / "dumps" / "atoms.end.lammpstrj", run_dir / "dumps" / "bonds.end.lammpstrj"
+        if not atoms_path.exists():
+            raise FileNotFoundError(f"{atoms_path}: the end state of the run is missing")
+        self.atoms = read_atom_dump(atoms_path)[-1]
+        bonds = read_local_dump(bonds_path)[-1].columns
+        self.intact = np.column_stack([bonds["batom1"], bonds["batom2"]]).astype(np.int64) - 1
+        table = np.loadtxt(run_dir / "bond_areas.txt", ndmin=2)
+        all_bonds, area = table[:, :2].astype(np.int64) - 1, table[:, 2]
+        self.volumes = np.loadtxt(run_dir / "particle_volumes.txt", ndmin=1) * un["a"] ** 3
+        record = read_bpm_crush_record(run_dir / "thermo.dat", un)
+        breaks = read_break_log(run_dir / "breaks.dat") if (run_dir / "breaks.dat").exists() else None
+        break_series(record, breaks, all_bonds, area, len(self.atoms.ids), un)
+        record["W_f"] = record.W_f_held
+        record["D_w"] = record.broken_area / self.system["A0"]
+        self.record = record
+        self.title = (f"BPM crush, N = {len(self.atoms.ids)}, v_p = {self.scen['platen_speed']:g} m/s, "
+                      f"k_A = {self.model['k_A']:g}, lambda_c = {self.model['lambda_c']:g}")
+        if self.system.get("bonds_breaking_in_repulsion"):
+            self.warnings.append(f"{self.system['bonds_breaking_in_repulsion']} bonds break inside the non-bonded "
+                                 "repulsion (lambda_c r0 < a): each such break creates energy the account cannot hold")
+
+    def model_measures(self, end: pd.Series) -> dict:
+        return {"W_c_lower": float(end.W_c_lower), "W_c_upper": float(end.W_c_upper),
+                "W_c_pair_damping": float(end.W_damp_pair), "W_c_bond_damping": float(end.W_damp_bond),
+                "angles_broken_end": int(end.angles_broken)}
+
+    def _fragments(self) -> pd.DataFrame:
+        """Grains of the intact bonds at the end (analysis/bpm_impact.py particle_fragments)."""
+        un, atoms = self.units, self.atoms
+        labels = grain_labels(len(atoms.ids), self.intact)
+        return particle_fragments(labels, np.asarray(atoms.positions, float) * un["a"],
+                                  np.asarray(atoms.velocities, float) * un["a"] / un["tau"], un["m"], self.volumes,
+                                  un["a"], self.intact)
 
 
 def analyse_crush_set(runs: list[dict], out: Path, plots: bool = True, left_out: list[dict] | None = None, *,

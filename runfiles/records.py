@@ -183,6 +183,34 @@ BPM_IMPACT_RECORD = Record("bpm_impact", (
     Field("vcm_z", "a/tau", "centre-of-mass velocity along the plane normal", _g("vcm(all,z)")),
 ))
 
+# ------------------------------------------------------------------ BPM crush (SPEC 4.1, 3)
+# LJ units but the time, as BPM_IMPACT_RECORD. The lower plane z = 0 is fix wall/gran `plane`
+# (c_wall as the impact's); the upper platen fix wall/gran/region `upper` (driver/bpm/platen.py:
+# c_upper_f, v_upper_load, c_upper_springs); the running integrals are lammps_inputs/bpm_crush.in's.
+BPM_CRUSH_RECORD = Record("bpm_crush", (
+    Field("step", "", "time step", "step"),
+    Field("time", "s", "simulated time (time tau)", _g("v_time_s", 10)),
+    Field("displacement", "a", "the upper platen's travel since the start (closing positive)", _g("-v_upper_dz", 12)),
+    Field("gap", "a", "distance between the platens", _g("v_upper_z", 15)),
+    Field("F_upper", "u/a", "normal force on the upper (moving) platen", _g("v_upper_load")),
+    Field("F_lower", "u/a", "normal force on the lower (fixed) plane", _g("c_wall[4]")),
+    Field("W_p", "u", "work of the platen, integral of F_p . v_p dt (the energy input)", _g("v_platen_work")),
+    Field("ke", "u", "kinetic energy of the particles (translation: point particles)", _g("c_ket")),
+    Field("E_pair", "u", "non-bonded repulsion energy (Eq. 1)", _g("c_pep")),
+    Field("E_bonds", "u", "energy stored in intact bonds (Eq. 2)", _g("c_peb")),
+    Field("E_angles", "u", "energy stored in intact angles (Eq. 3-4)", _g("c_pea")),
+    Field("lower_contacts", "", "particles touching the lower plane", "c_wall[1]"),
+    Field("upper_contacts", "", "particles touching the upper platen", "c_upper_f[1]"),
+    Field("E_wall_lower", "u", "energy of the lower plane's normal springs", _g("c_wall[2]")),
+    Field("E_wall_upper", "u", "energy of the upper platen's normal springs", _g("c_upper_springs")),
+    Field("work_lower", "u", "work of the lower plane's forces on the particles", _g("v_wall_work")),
+    Field("work_upper", "u", "work of the upper platen's forces on the particles", _g("v_upper_work")),
+    Field("W_damp_pair", "u", "energy dissipated by the damping of non-bonded pairs (Eq. 5)", _g("v_damp_pair")),
+    Field("W_damp_bond", "u", "energy dissipated by the damping of bonds (Eq. 5)", _g("v_damp_bond")),
+    Field("bonds_broken", "", "broken bonds", "f_BREAKABLE_SPECIAL[1]"),
+    Field("angles_broken", "", "broken angles", "f_BREAKABLE_SPECIAL[2]"),
+))
+
 # ------------------------------------------------------------------------ BPM shear (SPEC 2.4-2.5)
 # pressure tensor: virial + kinetic parts (compute pressure of thermo_style), LJ units
 SHEAR_RECORD = Record("shear", (

@@ -168,13 +168,13 @@ def test_crush_config_errors(tmp_path, field, value, message):
     assert message in str(err.value)
 
 
-def test_crush_is_registered_for_bcm_only(tmp_path):
-    """(bcm, crush) is a pair; a BPM crush is not (yet): refused with the pairs that exist."""
-    cfg = crush_config(tmp_path, 80, 1, 0.02)
-    assert parse_config(cfg).scenario.kind == "crush"
-    cfg["model"] = {"kind": "bpm"}
-    with pytest.raises(ConfigError, match="bcm \\+ crush"):
-        parse_config(cfg)
+def test_crush_is_registered_for_both_models(tmp_path):
+    """(bcm, crush) and (bpm, crush) are pairs, sharing the crush section; the BPM one refuses
+    a 2D model (tests/test_bpm_crush.py)."""
+    from driver.registry import unit  # noqa: PLC0415
+
+    assert parse_config(crush_config(tmp_path, 80, 1, 0.02)).scenario.kind == "crush"
+    assert unit("bcm", "crush").section is unit("bpm", "crush").section
 
 
 @pytest.mark.slow

@@ -50,7 +50,7 @@ class CrushScenario(_Strict):
     # 2e7 N/m), has a period of ~5e-6 s, its ringing between the platens' contacts ~2e-6 s
     # (measured in the platens' force difference), and a wave crosses it in ~1e-6 s. At
     # 0.02 m/s the peak comes after ~1.3e-4 s, some 25 of those periods; halving it moves F_c by
-    # 1 % (tests/test_bcm_crush.py, docs/scenarios/bcm-crush.md).
+    # 1 % (tests/test_bcm_crush.py, docs/scenarios/crush.md).
     platen_speed: float = Field(0.02, gt=0.0, le=10.0,
                                 description="speed v_p of the upper platen towards the lower one, m/s; the default "
                                             "0.02 is quasi-static for the default 2 mm particle: the peak comes "
