@@ -115,3 +115,28 @@ def test_bpm_crush_refuses_a_2d_model(tmp_path):
     cfg["model"]["dimension"] = 2
     with pytest.raises((ConfigError, ValueError), match="3D only"):
         parse_config(cfg)
+
+
+@pytest.mark.slow
+def test_bpm_crush_interrupted_and_resumed(tmp_path, plugin_path):
+    """A BPM crush stopped by SIGINT half way and resumed: the platen is where its step puts it
+    (its record's gap and travel continue the line), W_p and the integrals carry on from the
+    checkpoint, and F_c, u_c and the energy account agree with the uninterrupted run. Not to the
+    bit: the resumed run's first set-up sees the platen at rest for one force evaluation
+    (driver/bpm/platen.py). The chunks are `run N pre no`. About 80 s."""
+    from test_resume import config_file, reference_interrupted_resumed  # noqa: PLC0415
+
+    base = bpm_crush_config(tmp_path / "unused", plots=False)
+    base["output"] = {"plots": False}
+    base["execution"] = {}
+    ref, out = reference_interrupted_resumed(config_file(tmp_path, base, "bpm_crush"), tmp_path, at_fraction=0.5)
+    assert "run             500 pre no" in (ref / "in.lammps").read_text()
+    assert json.loads((ref / "session.json").read_text())["schedule"]["pre_no"] is True
+    a, b = summary_of(ref), summary_of(out)
+    assert b["stopped_by_drop"] is True
+    assert b["F_c"] == pytest.approx(a["F_c"], rel=1e-3) and b["u_c"] == pytest.approx(a["u_c"], rel=1e-3)
+    assert abs(b["balance_residual_max"]) < 1e-3
+    system = json.loads((out / "system.json").read_text())
+    rec = read_bpm_crush_record(out / "thermo.dat", system["units"])
+    np.testing.assert_allclose(rec.displacement, 0.25 * rec.time, rtol=1e-6, atol=1e-15)
+    assert np.all(np.diff(rec.W_p) > -1e-6 * rec.W_p.iloc[-1])
