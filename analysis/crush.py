@@ -144,7 +144,8 @@ def plot_broken(rec: pd.DataFrame, u_c: float, path: Path, title: str = "", labe
 class CrushAnalysis(RunAnalysis):
     """What the crush analyses of both models share: the measures of crush_measures and their
     flags, the stop, the figures and the report. A model's subclass reads its run in
-    `_prepare` (self.record in SI, crush_measures' columns) and gives `_fragments()`, the
+    `_prepare` (self.record in SI, crush_measures' columns; self.gap0, the upper platen's
+    initial gap, m; self.timestep_s; self.title) and gives `_fragments()`, the
     fragment table at the end with what its picture needs, and `model_measures`."""
 
     #: what an element and a broken one are called in the figures and report
@@ -160,8 +161,7 @@ class CrushAnalysis(RunAnalysis):
 
     def _conclude(self) -> None:
         system = self.system
-        gap0 = system["platen_start"] - system["height_top"]
-        measures, rec, peak, stiff = crush_measures(self.record, system["height"], gap0)
+        measures, rec, peak, stiff = crush_measures(self.record, system["height"], self.gap0)
         if not peak.dropped:
             self.warnings.append(f"no drop: the platen force never fell below {DROP:g} of its running maximum; F_c "
                                  "is only the largest force recorded (raise scenario.max_strain or max_time)")
@@ -236,7 +236,7 @@ class BcmCrushAnalysis(CrushAnalysis):
     def _prepare(self) -> None:
         self.model, self.scen = self.cfg["model"], self.cfg["scenario"]
         self.system = json.loads((self.run_dir / "system.json").read_text())
-        self.system["height_top"] = self.system["highest_z"]
+        self.gap0 = self.system["platen_start"] - self.system["highest_z"]  # the upper platen's initial gap, m
         self.timestep_s = self.system["timestep"]
         cells_dump, ifaces_dump, note = last_state_dumps(self.run_dir, self.cut_short)
         self.cells = read_atom_dump(cells_dump)[-1]
@@ -314,8 +314,7 @@ class BpmCrushAnalysis(CrushAnalysis):
         self.model, self.scen = self.cfg["model"], self.cfg["scenario"]
         self.system = json.loads((run_dir / "system.json").read_text())
         self.units = un = self.system["units"]
-        self.system["height_top"] = self.system["height_a"] * un["a"]
-        self.system["platen_start"] = self.system["platen_start"] * un["a"]
+        self.gap0 = (self.system["platen_start"] - self.system["height_a"]) * un["a"]  # the platen's initial gap, m
         self.timestep_s = self.system["timestep_s"]
         atoms_path, bonds_path = run_dir / "dumps" / "atoms.end.lammpstrj", run_dir / "dumps" / "bonds.end.lammpstrj"
         if not atoms_path.exists():
