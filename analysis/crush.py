@@ -353,32 +353,45 @@ class BpmCrushAnalysis(CrushAnalysis):
 
 def analyse_crush_set(runs: list[dict], out: Path, plots: bool = True, left_out: list[dict] | None = None, *,
                       params: Callable[[dict], dict]) -> dict:
-    """F_c and sigma_c of each grain (runs table) and, over the grains that dropped, the Weibull
-    fit of sigma_c (analysis.strength.weibull_fit; flagged under MIN_WEIBULL_GRAINS grains)."""
+    """F_c and sigma_c of each grain (runs table) and, per group of grains that differ only by
+    their seed (one size, one material, one speed: SPEC 4.1's set of grains of one size), the
+    Weibull fit of sigma_c over the grains that dropped (analysis.strength.weibull_fit; flagged
+    under MIN_WEIBULL_GRAINS grains). Returns {grains, grains_dropped, groups: [{group, n,
+    weibull_m, weibull_sigma_0, their intervals, weibull_flag}]}."""
     rows = [{"run": r["cfg"]["name"], "run_dir": str(r["dir"]), **params(r["cfg"]),
-             **{k: r["summary"].get(k) for k in ("F_c", "sigma_c", "height", "u_c", "dropped", "D_w_end")}}
+             **{k: r["summary"].get(k) for k in ("F_c", "sigma_c", "height", "u_c", "dropped", "F_max", "D_w_end")}}
             for r in runs]
+    if not rows:
+        raise RunSetError("no crush runs to analyse")
     table = pd.DataFrame(rows)
+    keys = [k for k in params(runs[0]["cfg"]) if k != "seed"]
+    table["group"] = [", ".join(f"{k} = {row[k]:g}" if isinstance(row[k], float) else f"{k} = {row[k]}"
+                                for k in keys) for _, row in table.iterrows()]
     out = Path(out)
     save_table(table, out / "runs")
-    broke = table[table.dropped.astype(bool)]
-    figures: dict = {"grains": len(table), "grains_dropped": len(broke)}
-    rep = Report(f"Crush set of {len(table)} grains", "F_c, sigma_c per grain (runs.csv)")
-    rep.table(table, "grains")
-    if len(broke) >= 2:
-        fit = weibull_fit(broke.sigma_c.to_numpy())
-        figures.update(weibull_m=fit.m, weibull_sigma_0=fit.sigma_0, weibull_m_interval=list(fit.m_interval),
-                       weibull_sigma_0_interval=list(fit.sigma_0_interval), weibull_flag=fit.flag)
-        rep.values({"m": fit.m, "sigma_0": fit.sigma_0, "m interval": fit.m_interval,
-                    "sigma_0 interval": fit.sigma_0_interval},
-                   f"Weibull fit of sigma_c over the {len(broke)} grains that dropped ({fit.confidence:.0%} intervals)")
-        if len(broke) < MIN_WEIBULL_GRAINS:
-            rep.text(f"Only {len(broke)} grains: the Weibull intervals are unreliable (fewer than "
-                     f"{MIN_WEIBULL_GRAINS}).")
-        if plots:
-            plot_weibull(broke.sigma_c.to_numpy(), fit, out / "weibull.png")
-            rep.figure(out / "weibull.png", "Weibull plot of sigma_c")
-    elif not len(table):
-        raise RunSetError("no crush runs to analyse")
+    figures: dict = {"grains": len(table), "grains_dropped": int(table.dropped.astype(bool).sum()), "groups": []}
+    rep = Report(f"Crush set of {len(table)} grains", "F_c, sigma_c per grain (runs.csv); a Weibull fit of sigma_c "
+                                                      "per group of grains that differ by their seed only")
+    rep.table(table.drop(columns=["run_dir"]), "grains")
+    for k, (group, members) in enumerate(table.groupby("group", sort=True)):
+        broke = members[members.dropped.astype(bool)]
+        entry = {"group": group, "n": len(members), "n_dropped": len(broke)}
+        if len(broke) >= 2:
+            fit = weibull_fit(broke.sigma_c.to_numpy())
+            entry.update(weibull_m=fit.m, weibull_sigma_0=fit.sigma_0, weibull_m_interval=list(fit.m_interval),
+                         weibull_sigma_0_interval=list(fit.sigma_0_interval), weibull_flag=fit.flag)
+            rep.values({"m": fit.m, "sigma_0": fit.sigma_0, "m interval": fit.m_interval,
+                        "sigma_0 interval": fit.sigma_0_interval},
+                       f"{group}: Weibull fit of sigma_c over the {len(broke)} grains that dropped "
+                       f"({fit.confidence:.0%} intervals)")
+            if fit.flag:
+                rep.text(f"Flag: {fit.flag}.")
+            if plots:
+                png = out / f"weibull_{k}.png"
+                plot_weibull(broke.sigma_c.to_numpy(), fit, png, group)
+                rep.figure(png, f"Weibull plot of sigma_c, {group}")
+        else:
+            rep.text(f"{group}: {len(broke)} grain(s) dropped, no Weibull fit (2 or more needed).")
+        figures["groups"].append(entry)
     write_report(rep, out)
     return figures

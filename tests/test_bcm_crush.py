@@ -195,9 +195,10 @@ def test_crush_interrupted_and_resumed_is_identical(tmp_path, plugin_path):
 
 
 def test_crush_set_fits_the_grains_that_dropped(tmp_path):
-    """The set analysis tables every grain and fits the Weibull law to the sigma_c of those that
-    dropped only: a grain that never dropped (its F_c only the largest force recorded) is
-    listed but left out of the fit, whose m and sigma_0 are those of the others alone."""
+    """The set analysis tables every grain and fits the Weibull law, per group of grains that
+    differ by their seed only, to the sigma_c of those that dropped: a grain that never dropped
+    (its F_c only the largest force recorded) is listed but left out of the fit, whose m and
+    sigma_0 are those of the others alone; a grain of another size is a group of its own."""
     from analysis.crush import analyse_crush_set  # noqa: PLC0415
     from analysis.strength import weibull_fit  # noqa: PLC0415
     from driver.scenarios.bcm_crush import UNIT  # noqa: PLC0415
@@ -212,10 +213,19 @@ def test_crush_set_fits_the_grains_that_dropped(tmp_path):
         runs.append({"dir": tmp_path / f"grain{k}", "cfg": cfg,
                      "summary": {"F_c": s * 4e-6, "sigma_c": s, "height": 2e-3, "u_c": 1e-6, "dropped": k != 3,
                                  "D_w_end": 0.2}})
+    # a 13th grain of another size: a group of its own, not in the fit of the 12
+    other = crush_config(tmp_path, 80, 99, 0.02)
+    other["name"], other["model"]["diameter"] = "big", 4e-3
+    runs.append({"dir": tmp_path / "big", "cfg": other,
+                 "summary": {"F_c": 10.0, "sigma_c": 1e9, "height": 4e-3, "u_c": 1e-6, "dropped": True}})
     out = tmp_path / "set"
     figures = UNIT.analyse_set(runs, out, False, [], {})
     table = pd.read_csv(out / "runs.csv")
-    assert len(table) == 12 and figures["grains"] == 12 and figures["grains_dropped"] == 11
+    assert len(table) == 13 and figures["grains"] == 13 and figures["grains_dropped"] == 12
+    assert [g["n"] for g in figures["groups"]] == [12, 1]
+    group = figures["groups"][0]
     fit = weibull_fit(np.delete(sigma, 3))
-    assert figures["weibull_m"] == pytest.approx(fit.m) and figures["weibull_sigma_0"] == pytest.approx(fit.sigma_0)
+    assert group["n_dropped"] == 11
+    assert group["weibull_m"] == pytest.approx(fit.m) and group["weibull_sigma_0"] == pytest.approx(fit.sigma_0)
+    assert "weibull_m" not in figures["groups"][1]
     assert (out / "report.md").exists()
