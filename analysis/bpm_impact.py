@@ -98,6 +98,33 @@ def particle_fragments(labels, positions, velocities, mass, volumes, diameter, i
     return frags
 
 
+def break_series(thermo: pd.DataFrame, breaks: pd.DataFrame | None, all_bonds: np.ndarray, area: np.ndarray, n: int,
+                 units: dict) -> tuple[dict[str, float], float]:
+    """From the break log: the columns W_f_held (J, the energy the broken bonds and angles held)
+    and broken_area (m², the Voronoi areas of the broken bonds) of `thermo` at each record
+    (added in place); returns (held energy by kind, "bond" and "angle", J; logged area, m²)."""
+    held = {k: 0.0 for k in ("bond", "angle")}
+    thermo["W_f_held"] = 0.0
+    thermo["broken_area"] = 0.0
+    logged_area = 0.0
+    if breaks is not None and len(breaks):
+        a, u = units["a"], units["u"]
+        for kind in held:
+            held[kind] = float(breaks.loc[breaks.kind == kind, "energy"].sum()) * u
+        # each broken bond's Voronoi area, from the log's pair of ids
+        bond_rows = breaks[breaks.kind == "bond"]
+        pairs = np.column_stack([bond_rows.id1, bond_rows.id2]).astype(np.int64) - 1
+        areas = pd.Series(area_of_pairs(all_bonds, area, pairs, n) * a ** 2, index=bond_rows.index)
+        logged_area = float(areas.sum())
+        for col, per_event in (("W_f_held", breaks.energy * u),
+                               ("broken_area", areas.reindex(breaks.index).fillna(0.0))):
+            cum = per_event.groupby(breaks.step).sum().cumsum()
+            # records at a step hold that step's breaks (the break happens in its force evaluation)
+            idx = np.searchsorted(cum.index.to_numpy(), thermo.step.to_numpy(), side="right") - 1
+            thermo[col] = np.where(idx >= 0, cum.to_numpy()[np.clip(idx, 0, None)], 0.0)
+    return held, logged_area
+
+
 class BpmImpactAnalysis(RunAnalysis):
     """Measures, tables, figures and report of a BPM impact run, on its end state. Cut short:
     refused (the end state is missing and the periodic snapshots are not analysed)."""
@@ -130,24 +157,7 @@ class BpmImpactAnalysis(RunAnalysis):
                                                           self.thermo, self.breaks)
         n = len(atoms.ids)
         broken = broken_bonds(all_bonds, intact, n)
-        held = {k: 0.0 for k in ("bond", "angle")}
-        thermo["W_f_held"] = 0.0
-        thermo["broken_area"] = 0.0
-        logged_area = 0.0
-        if breaks is not None and len(breaks):
-            for kind in held:
-                held[kind] = float(breaks.loc[breaks.kind == kind, "energy"].sum()) * u
-            # each broken bond's Voronoi area, from the log's pair of ids
-            bond_rows = breaks[breaks.kind == "bond"]
-            pairs = np.column_stack([bond_rows.id1, bond_rows.id2]).astype(np.int64) - 1
-            areas = pd.Series(area_of_pairs(all_bonds, area, pairs, n) * a ** 2, index=bond_rows.index)
-            logged_area = float(areas.sum())
-            for col, per_event in (("W_f_held", breaks.energy * u),
-                                   ("broken_area", areas.reindex(breaks.index).fillna(0.0))):
-                cum = per_event.groupby(breaks.step).sum().cumsum()
-                # records at a step hold that step's breaks (the break happens in its force evaluation)
-                idx = np.searchsorted(cum.index.to_numpy(), thermo.step.to_numpy(), side="right") - 1
-                thermo[col] = np.where(idx >= 0, cum.to_numpy()[np.clip(idx, 0, None)], 0.0)
+        held, logged_area = break_series(thermo, breaks, all_bonds, area, n, un)
 
         m_p = un["m"]
         wk_minus = 0.5 * system["mass"] * scen["velocity"] ** 2

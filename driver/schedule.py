@@ -89,20 +89,28 @@ def settle_windows(window_steps: int, chunk: int) -> tuple[int, int]:
 
 
 def settle(window: int, chunk: int, max_windows: int, check: list[str], settled_variable: str,
-           advance: list[str], end: list[str], never: tuple[str, str] | None = None) -> dict[str, Any]:
+           advance: list[str], end: list[str], never: tuple[str, str] | None = None,
+           pre_no: bool = False) -> dict[str, Any]:
     """Windows of `window` steps (a multiple of `chunk`); after each, `check`, then stop if the
     equal-style variable `settled_variable` is > 0, else `advance`; `end` after the last.
     never = (variable, message): a run that never settled and whose variable is still 0 at the
-    end is an error with that message, not a result."""
+    end is an error with that message, not a result.
+    pre_no: chunks are `run N pre no` (LAMMPS still sets up the first run of an instance), for a
+    run whose set-up would disturb it: the BPM platen's velocity (driver/bpm/platen.py)."""
     if window % chunk:
         raise ValueError(f"window {window} is not a multiple of the chunk {chunk}")
     return {"kind": "settle", "window": int(window), "chunk": int(chunk), "max_windows": int(max_windows),
             "check": check, "settled_variable": settled_variable, "advance": advance, "end": end,
-            "never": list(never) if never else None}
+            "never": list(never) if never else None, **({"pre_no": True} if pre_no else {})}
+
+
+def run_command(steps: int, sched: dict[str, Any]) -> str:
+    """The `run` command of a chunk of `steps` steps under schedule `sched` (settle: pre_no)."""
+    return f"run             {steps}" + (" pre no" if sched.get("pre_no") else "")
 
 
 def settle_script(sched: dict[str, Any]) -> str:
-    inner = _loop("k", sched["window"] // sched["chunk"], f"run             {sched['chunk']}").rstrip()
+    inner = _loop("k", sched["window"] // sched["chunk"], run_command(sched["chunk"], sched)).rstrip()
     lines = ["label           settle", f"variable        w loop {sched['max_windows']}", inner, *sched["check"],
              'if              "${' + sched["settled_variable"] + '} > 0" then "jump SELF finished"',
              *sched["advance"], "next            w", "jump            SELF settle", "label           finished",

@@ -104,9 +104,11 @@ class Session:
         else:
             raise ValueError(f"unknown schedule kind {sched['kind']!r}")
 
-    def _advance_to(self, target: int, chunk: int) -> None:
+    def _advance_to(self, target: int, chunk: int, pre: bool = True) -> None:
+        """Run to step `target` in chunks; pre=False: `run N pre no` (LAMMPS still sets up the
+        first run of an instance)."""
         for end in chunk_bounds(self.step, target, chunk):
-            self.lmp.command(f"run {end - self.step}")
+            self.lmp.command(f"run {end - self.step}" + ("" if pre else " pre no"))
             self.step = end
             if end != target:
                 self._boundary()
@@ -129,7 +131,7 @@ class Session:
     def _run_settle(self, sched: dict[str, Any]) -> None:
         window, chunk = int(sched["window"]), int(sched["chunk"])
         while (w := int(self.state.get("windows_done", 0))) < int(sched["max_windows"]):
-            self._advance_to((w + 1) * window, chunk)
+            self._advance_to((w + 1) * window, chunk, pre=not sched.get("pre_no", False))
             self._commands(sched["check"])
             settled = self.lmp.extract_variable(sched["settled_variable"]) > 0
             self.state["windows_done"] = w + 1

@@ -146,12 +146,13 @@ def bcm_interfaces(n_cells: int) -> int:
     return int(round(max(per_cell, 0.5) * n_cells))
 
 
-def bcm_impact(cfg: RunConfig, ranks: int) -> SizeEstimate:
+def bcm_impact(cfg: RunConfig, ranks: int, max_time: float | None = None) -> SizeEstimate:
     """A BCM impact: the cells, interfaces and contact points of the tessellation, at most
-    max_time / dt steps."""
+    max_time / dt steps (max_time: the scenario's unless given)."""
     from driver.bcm.particle import parent_shape  # noqa: PLC0415 (geometry; not needed to validate)
 
     m, sc = cfg.model, cfg.scenario
+    max_time = sc.max_time if max_time is None else max_time
     n = m.n_cells
     interfaces = bcm_interfaces(n)
     points = int(round(interfaces * BCM_POINTS_PER_INTERFACE))
@@ -165,7 +166,14 @@ def bcm_impact(cfg: RunConfig, ranks: int) -> SizeEstimate:
         bond_name=f"interfaces ({points:,} contact points)",
         memory_bytes=int(max(base + per_cell * n for base, per_cell in BCM_MEMORY_LINES) + _ranks_memory(ranks)),
         seconds_per_1000_steps=BCM_SECONDS_PER_CELL * n / ranks,
-        steps=int(math.ceil(sc.max_time / dt)), ranks=ranks)
+        steps=int(math.ceil(max_time / dt)), ranks=ranks)
+
+
+def bcm_crush(cfg: RunConfig, ranks: int) -> SizeEstimate:
+    """A BCM crush: the impact's particle, at most the time to the strain limit or max_time
+    (the diameter standing for the height between the platens)."""
+    sc = cfg.scenario
+    return bcm_impact(cfg, ranks, min(sc.max_time, sc.max_strain * cfg.model.diameter / sc.platen_speed))
 
 
 def bpm_size(cfg: RunConfig, ranks: int, steps: int, thickness: float | None = None) -> SizeEstimate:

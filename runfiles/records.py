@@ -107,6 +107,38 @@ IMPACT_RECORD = Record("impact", (
 #: IMPACT_RECORD fields that records of runs made before them lack (read when present)
 IMPACT_DIAGNOSTICS = ("broken_closed", "closed_points", "closed_force", "slip", "W_damp_broken")
 
+# ------------------------------------------------------------ BCM crush (SPEC 4.1)
+# f_upper, f_lower: the two platens, fix bcm/wall zhi (moving) and zlo (fixed); v_top0: the
+# upper platen's position at the start, v_A0: the bonded interface area (lammps_inputs/bcm_crush.in).
+# The interface and contact fields are the impact's.
+_IMPACT_FIELDS = {f.name: f for f in IMPACT_RECORD.fields}
+CRUSH_RECORD = Record("crush", (
+    Field("step", "", "time step", "step"),
+    Field("time", "s", "simulated time", _g("time", 10)),
+    Field("platen_z", "m", "the upper platen's position", _g("f_upper[9]", 15)),
+    Field("displacement", "m", "the upper platen's travel since the start (closing positive)",
+          _g("v_top0-f_upper[9]", 12)),
+    Field("gap", "m", "distance between the platens", _g("f_upper[9]-f_lower[9]", 15)),
+    Field("F_upper", "N", "normal force on the upper (moving) platen", _g("f_upper[2]")),
+    Field("F_lower", "N", "normal force on the lower (fixed) platen", _g("f_lower[2]")),
+    Field("W_p", "J", "work of the platens on the cells, integral of F v_p dt (the energy input)",
+          _g("f_upper[11]+f_lower[11]")),
+    *(_IMPACT_FIELDS[n] for n in ("ke_trans", "ke_rot", "intact", "broken", "broken_area")),
+    Field("D_w", "", "damage: broken interface area / bonded area A_0", _g("f_BCM_GRIFFITH[3]/v_A0")),
+    *(_IMPACT_FIELDS[n] for n in ("W_f", "E_interfaces", "W_damp", "W_friction", "W_switch")),
+    Field("upper_contacts", "", "cells touching the upper platen", "f_upper[1]"),
+    Field("lower_contacts", "", "cells touching the lower platen", "f_lower[1]"),
+    Field("W_wall", "J", "energy dissipated by the platens (all channels, both)", _g("f_upper[3]+f_lower[3]")),
+    Field("E_wall", "J", "elastic energy stored in the platens' contacts", _g("f_upper[4]+f_lower[4]")),
+    Field("W_wall_damp", "J", "platens: damping", _g("f_upper[5]+f_lower[5]")),
+    Field("W_wall_friction", "J", "platens: friction", _g("f_upper[6]+f_lower[6]")),
+    Field("W_wall_npoints", "J", "platens: changes of a contact's number of points (0 under the per-point law)",
+          _g("f_upper[7]+f_lower[7]")),
+    Field("work_wall", "J", "work of the platens' forces on the cells (a check)", _g("f_upper[8]+f_lower[8]")),
+    *(_IMPACT_FIELDS[n] for n in ("E_contacts", "W_contact_damp", "W_contact_friction", "W_contact_npoints",
+                                  "work_contacts")),
+))
+
 # ------------------------------------------------- BCM block calibration (SPEC 3, cells of SPEC 1.1-1.2)
 # pressure tensor: virial (rigid-body virial of the interfaces and contacts, from the cell
 # centres) plus kinetic parts, SI units; the f_BCM_GRIFFITH sums as in IMPACT_RECORD.
@@ -149,6 +181,34 @@ BPM_IMPACT_RECORD = Record("bpm_impact", (
     Field("bonds_broken", "", "broken bonds", "f_BREAKABLE_SPECIAL[1]"),
     Field("angles_broken", "", "broken angles", "f_BREAKABLE_SPECIAL[2]"),
     Field("vcm_z", "a/tau", "centre-of-mass velocity along the plane normal", _g("vcm(all,z)")),
+))
+
+# ------------------------------------------------------------------ BPM crush (SPEC 4.1, 3)
+# LJ units but the time, as BPM_IMPACT_RECORD. The lower plane z = 0 is fix wall/gran `plane`
+# (c_wall as the impact's); the upper platen fix wall/gran/region `upper` (driver/bpm/platen.py:
+# c_upper_f, v_upper_load, c_upper_springs); the running integrals are lammps_inputs/bpm_crush.in's.
+BPM_CRUSH_RECORD = Record("bpm_crush", (
+    Field("step", "", "time step", "step"),
+    Field("time", "s", "simulated time (time tau)", _g("v_time_s", 10)),
+    Field("displacement", "a", "the upper platen's travel since the start (closing positive)", _g("-v_upper_dz", 12)),
+    Field("gap", "a", "distance between the platens", _g("v_upper_z", 15)),
+    Field("F_upper", "u/a", "normal force on the upper (moving) platen", _g("v_upper_load")),
+    Field("F_lower", "u/a", "normal force on the lower (fixed) plane", _g("c_wall[4]")),
+    Field("W_p", "u", "work of the platen, integral of F_p . v_p dt (the energy input)", _g("v_platen_work")),
+    Field("ke", "u", "kinetic energy of the particles (translation: point particles)", _g("c_ket")),
+    Field("E_pair", "u", "non-bonded repulsion energy (Eq. 1)", _g("c_pep")),
+    Field("E_bonds", "u", "energy stored in intact bonds (Eq. 2)", _g("c_peb")),
+    Field("E_angles", "u", "energy stored in intact angles (Eq. 3-4)", _g("c_pea")),
+    Field("lower_contacts", "", "particles touching the lower plane", "c_wall[1]"),
+    Field("upper_contacts", "", "particles touching the upper platen", "c_upper_f[1]"),
+    Field("E_wall_lower", "u", "energy of the lower plane's normal springs", _g("c_wall[2]")),
+    Field("E_wall_upper", "u", "energy of the upper platen's normal springs", _g("c_upper_springs")),
+    Field("work_lower", "u", "work of the lower plane's forces on the particles", _g("v_wall_work")),
+    Field("work_upper", "u", "work of the upper platen's forces on the particles", _g("v_upper_work")),
+    Field("W_damp_pair", "u", "energy dissipated by the damping of non-bonded pairs (Eq. 5)", _g("v_damp_pair")),
+    Field("W_damp_bond", "u", "energy dissipated by the damping of bonds (Eq. 5)", _g("v_damp_bond")),
+    Field("bonds_broken", "", "broken bonds", "f_BREAKABLE_SPECIAL[1]"),
+    Field("angles_broken", "", "broken angles", "f_BREAKABLE_SPECIAL[2]"),
 ))
 
 # ------------------------------------------------------------------------ BPM shear (SPEC 2.4-2.5)

@@ -116,8 +116,9 @@ def write_sphere_data(path: Path, x: np.ndarray, net: Network, box: tuple[np.nda
     write_references(path.with_suffix(".refs"), x, net.bonds, net.angles)
 
 
-def build_particle(cfg, seed: int) -> dict:
-    """The clipped, bonded, oriented and placed particle (LJ units) and its facts."""
+def build_particle(cfg, seed: int, gap: float | None = None) -> dict:
+    """The clipped, bonded, oriented and placed particle (LJ units) and its facts; its lowest
+    sphere `gap` m above the plane (default: scenario.gap diameters, the impact's)."""
     m, p = cfg.model, cfg.model.particle
     un = lj_units(p.units)
     parent = parent_in_a(p.shape, p.diameter, p.diameter_kind, un["a"])
@@ -128,17 +129,19 @@ def build_particle(cfg, seed: int) -> dict:
     cells = voronoi_cells(parent, clipped.positions, clipped.network.bonds)
     rotation = random_rotation(np.random.default_rng([seed, 1]))  # the BCM impact's orientation stream
     x = clipped.positions @ rotation.T
-    gap = cfg.scenario.gap * p.diameter / un["a"]
+    gap = (cfg.scenario.gap * p.diameter if gap is None else gap) / un["a"]
     x[:, 2] += gap + 0.5 * DIAMETER - x[:, 2].min()
     return {"positions": x, "network": clipped.network, "cells": cells, "parent": parent, "rotation": rotation,
             "facts": clipped.facts, "units": un}
 
 
-def build_system(cfg, rd) -> dict:
-    """Particle -> data, references and bond-area files; the run's facts (system.json)."""
+def build_system(cfg, rd, gap: float | None = None) -> dict:
+    """Particle (its lowest sphere `gap` m above the plane z = 0: build_particle) -> data,
+    references and bond-area files; the run's facts (system.json) but the impact's velocity
+    (run_impact adds it; the crush, driver/bpm/crush.py, shares the rest)."""
     m, p, sc = cfg.model, cfg.model.particle, cfg.scenario
     t0 = time.perf_counter()
-    part = build_particle(cfg, cfg.seed)
+    part = build_particle(cfg, cfg.seed, gap)
     x, net, cells, un = part["positions"], part["network"], part["cells"], part["units"]
     lo = np.array([x[:, 0].min() - 2.0, x[:, 1].min() - 2.0, -1.0])
     hi = np.array([x[:, 0].max() + 2.0, x[:, 1].max() + 2.0, x[:, 2].max() + 2.0])
@@ -161,12 +164,11 @@ def build_system(cfg, rd) -> dict:
         "parent_volume_m3": float(part["parent"].volume) * un["a"] ** 3,
         "mass": n * un["m"], "density": n * un["m"] / (float(part["parent"].volume) * un["a"] ** 3),
         "A0_a2": A0, "A0": A0 * un["a"] ** 2, "bonds_without_face": cells.n_bonds_without_face,
-        "rotation": part["rotation"].tolist(), "initial_velocity": sc.velocity,
-        "velocity_lj": sc.velocity * un["tau"] / un["a"],
-        "plane": law, "timestep": dt, "timestep_s": dt * un["tau"],
+        "rotation": part["rotation"].tolist(), "plane": law, "timestep": dt, "timestep_s": dt * un["tau"],
         "timestep_rule": (f"dt = min(model.timestep = {m.timestep:g}, 2 pi sqrt(m / k_n) / {sc.steps_per_period:g}) "
                           f"tau, k_n = {law['kn']:.6g} u/a^2"),
-        "contact_radius": 0.5 * DIAMETER, "build_seconds": time.perf_counter() - t0}
+        "contact_radius": 0.5 * DIAMETER, "centres_z": [float(x[:, 2].min()), float(x[:, 2].max())],
+        "build_seconds": time.perf_counter() - t0}
     n_in, u_max, u_sum = repulsion_at_break(net.r0, DIAMETER, m.lambda_c)
     system.update(bonds_breaking_in_repulsion=n_in, repulsion_energy_per_break_max=u_max,
                   repulsion_energy_if_all_break=u_sum, repulsion_energy_if_all_break_J=u_sum * un["u"])
@@ -248,6 +250,8 @@ def render_inputs(cfg, plugin_path: Path, system: dict) -> tuple[str, str, dict]
 def run_impact(cfg, rd, plugin_path: Path):
     """Build the particle and write the run's inputs; returns (system facts, progress spec)."""
     system = build_system(cfg, rd)
+    un = system["units"]
+    system.update(initial_velocity=cfg.scenario.velocity, velocity_lj=cfg.scenario.velocity * un["tau"] / un["a"])
     setup, resume, schedule = render_inputs(cfg, plugin_path, system)
     system.update(window_steps=schedule["window"], chunk_steps=schedule["chunk"],
                   max_windows=schedule["max_windows"], max_steps=schedule["window"] * schedule["max_windows"])

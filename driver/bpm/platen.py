@@ -97,8 +97,8 @@ from __future__ import annotations
 
 from driver.bpm.impact import plane_law, plane_law_args
 
-__all__ = ["plane_law", "plane_measures", "platen_region", "platen_fix", "platen_measures", "platen_lines",
-           "platen_hold"]
+__all__ = ["plane_law", "plane_measures", "platen_region", "platen_fix", "platen_force", "platen_measures",
+           "platen_lines", "platen_hold"]
 
 
 def _motion(name: str, held: bool) -> list[str]:
@@ -119,15 +119,19 @@ def _motion(name: str, held: bool) -> list[str]:
     ]
 
 
-def platen_region(name: str, h0: float, speed: float, hold_after: int | None = None) -> list[str]:
+def platen_region(name: str, h0: float, speed: float, hold_after: int | None = None,
+                  n0: int | None = None) -> list[str]:
     """The platen as a region: the plane z = h0 + dz facing down (`side in` = below it), moved by
     the equal-style displacement {name}_dz (_motion) from the step at which these lines are read
-    ({name}_n0, `$(step)`): towards the lower plane at `speed` (a / tau; 0 = at rest; < 0 =
-    away), and held from `hold_after` steps after the start if given (SPEC 4.1)."""
+    ({name}_n0, `$(step)`), or from step `n0` when given (a run resumed from a checkpoint reads
+    them again later: its platen is where the step puts it): towards the lower plane at `speed`
+    (a / tau; 0 = at rest; < 0 = away), and held from `hold_after` steps after the start if
+    given (SPEC 4.1)."""
     if hold_after is not None and hold_after < 0:
         raise ValueError(f"hold_after = {hold_after}: a number of steps after the start, >= 0")
     hold = [] if hold_after is None else [f"variable        {name}_hold equal v_{name}_n0+{int(hold_after)}"]
-    return [f"variable        {name}_n0 equal $(step)",
+    start = "$(step)" if n0 is None else str(int(n0))
+    return [f"variable        {name}_n0 equal {start}",
             f"variable        {name}_h0 equal {h0!r}",
             f"variable        {name}_speed equal {speed!r}",
             *hold,
@@ -162,6 +166,15 @@ def plane_measures(law: dict, fix_id: str = "plane", group: str = "all") -> list
             *_springs(law, fix_id, group, "z")]
 
 
+def platen_force(law: dict, name: str, group: str = "all") -> list[str]:
+    """The platen's force and stored energy (platen_measures without the work):
+    c_{name}_f = [1] particles touching, [2-4] the platen's force on them (F_p);
+    v_{name}_load = -F_p,z; c_{name}_springs = the elastic energy of its normal springs."""
+    return [f"compute         {name}_f {group} reduce sum f_{name}[1] f_{name}[2] f_{name}[3] f_{name}[4]",
+            f"variable        {name}_load equal -c_{name}_f[4]",
+            *_springs(law, name, group, f"v_{name}_z-z")]
+
+
 def platen_measures(law: dict, name: str, group: str = "all") -> list[str]:
     """The platen's force, stored energy and work (module docstring), read after platen_fix:
     c_{name}_f = [1] particles touching, [2-4] the platen's force on them (F_p);
@@ -171,9 +184,7 @@ def platen_measures(law: dict, name: str, group: str = "all") -> list[str]:
     fix {name}_work_sum holds its running sum (one sample per step from the start step on, the
     first at the set-up of the first run)."""
     return [
-        f"compute         {name}_f {group} reduce sum f_{name}[1] f_{name}[2] f_{name}[3] f_{name}[4]",
-        f"variable        {name}_load equal -c_{name}_f[4]",
-        *_springs(law, name, group, f"v_{name}_z-z"),
+        *platen_force(law, name, group),
         f"variable        {name}_power_c equal c_{name}_f[4]*v_{name}_c",
         f"fix             {name}_work_sum {group} ave/time 1 1 1 v_{name}_power_c ave running",
         f'variable        {name}_work equal "dt*(f_{name}_work_sum*(step-v_{name}_n0+1)'

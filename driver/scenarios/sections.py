@@ -1,6 +1,6 @@
 """The scenario sections several units share (a config holds one section per scenario kind):
-`impact` (the BCM and BPM impacts, driver/scenarios/bcm_impact.py and bpm_impact.py) and
-`calibrate` (the BPM calibration tests, driver/scenarios/bpm_calibrate.py; the BCM block's
+`impact` (the BCM and BPM impacts, driver/scenarios/bcm_impact.py and bpm_impact.py), `crush`
+(a particle between platens, driver/scenarios/bcm_crush.py) and `calibrate` (the BPM calibration tests, driver/scenarios/bpm_calibrate.py; the BCM block's
 tests extend it, driver/scenarios/bcm_calibrate.py). Here, below the units, so that no unit
 imports a sibling unit for its section."""
 
@@ -32,6 +32,54 @@ class ImpactScenario(_Strict):
                                             "over a window with no break and the plane unloaded")
     thermo_every: int = Field(10, ge=1, description="steps between energy records: 10 samples a 2 µs contact "
                                                    "at 50 points or more for time steps up to 4e-9 s")
+    dump_every: int = Field(0, ge=0, description="steps between cell dumps; 0 = start and end only")
+
+    _stable = field_validator("steps_per_period")(check_steps_per_period)
+
+
+class CrushScenario(_Strict):
+    """One particle crushed between a fixed lower platen and an upper one coming down at constant
+    speed until it breaks (SPEC 4.1)."""
+
+    kind: Literal["crush"] = Field("crush", description="crush: one particle squeezed between two platens, the "
+                                                         "upper one moving down at constant speed")
+    # Quasi-static (SPEC 4.1: F_c unchanged when v_p is halved) needs the time to the peak to be
+    # many times the particle's slowest elastic period. The 2 mm, 80-200-cell particle of the
+    # default model breaks after a platen travel u_c of 2-3 micrometres (44-58 N on a loading
+    # stiffness of ~2e7 N/m); its slowest mode, its own compression (half its 2.5e-5 kg on
+    # 2e7 N/m), has a period of ~5e-6 s, its ringing between the platens' contacts ~2e-6 s
+    # (measured in the platens' force difference), and a wave crosses it in ~1e-6 s. At
+    # 0.02 m/s the peak comes after ~1.3e-4 s, some 25 of those periods; halving it moves F_c by
+    # 1 % (tests/test_bcm_crush.py, docs/scenarios/crush.md).
+    platen_speed: float = Field(0.02, gt=0.0, le=10.0,
+                                description="speed v_p of the upper platen towards the lower one, m/s; the default "
+                                            "0.02 is quasi-static for the default 2 mm particle: the peak comes "
+                                            "after ~1.3e-4 s (a travel of 2-3 µm), some 25 of its slowest elastic "
+                                            "periods (~5e-6 s: its own compression) and a hundred wave crossings "
+                                            "(~1e-6 s); halving it moves F_c by about 1 %. Scale it with the "
+                                            "particle's size and wave speed")
+    stop_after_drop: float = Field(0.2, gt=0.0, lt=1.0,
+                                   description="stop once, after the peak, the upper platen's force has fallen "
+                                               "below this fraction of the largest force so far (and at least one "
+                                               "interface has broken: chatter at first touch is no peak)")
+    max_strain: float = Field(0.3, gt=0.0, le=0.9,
+                              description="stop when the platen has travelled this fraction of the particle's "
+                                          "height between the platens (a particle that never drops)")
+    max_time: float = Field(2e-3, gt=0.0, description="hard stop on simulated time, s (with max_strain: the "
+                                                       "earlier of the two); the default is 15 times the BCM "
+                                                       "example's time to its drop (1.3e-4 s at 0.02 m/s) and 10 "
+                                                       "times the BPM example's (2e-4 s at 0.25 m/s): raise it "
+                                                       "with a slower platen")
+    gap: float = Field(0.0, ge=0.0, lt=0.01,
+                       description="initial gap between the upper platen and the particle's highest point, "
+                                   "fraction of the diameter (the lower platen touches the lowest point at zero "
+                                   "overlap)")
+    # as the impact's (ImpactScenario): the time-step study holds for the same contacts
+    steps_per_period: float = Field(50.0, gt=0.0, description="time step = shortest contact period / this")
+    check_every: int = Field(500, ge=1, description="steps between two checks of the stop rule (the peak is "
+                                                    "tracked at the checks, so the stop is conservative; the "
+                                                    "analysis reads the full record)")
+    thermo_every: int = Field(20, ge=1, description="steps between records (force, energies, breaks)")
     dump_every: int = Field(0, ge=0, description="steps between cell dumps; 0 = start and end only")
 
     _stable = field_validator("steps_per_period")(check_steps_per_period)
