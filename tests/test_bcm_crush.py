@@ -199,7 +199,6 @@ def test_crush_set_fits_the_grains_that_dropped(tmp_path):
     differ by their seed only, to the sigma_c of those that dropped: a grain that never dropped
     (its F_c only the largest force recorded) is listed but left out of the fit, whose m and
     sigma_0 are those of the others alone; a grain of another size is a group of its own."""
-    from analysis.crush import analyse_crush_set  # noqa: PLC0415
     from analysis.strength import weibull_fit  # noqa: PLC0415
     from driver.scenarios.bcm_crush import UNIT  # noqa: PLC0415
 
@@ -228,4 +227,8 @@ def test_crush_set_fits_the_grains_that_dropped(tmp_path):
     assert group["n_dropped"] == 11
     assert group["weibull_m"] == pytest.approx(fit.m) and group["weibull_sigma_0"] == pytest.approx(fit.sigma_0)
     assert "weibull_m" not in figures["groups"][1]
+    # two sizes of one family: a size effect, from the medians of the two sizes
+    (effect,) = figures["size_effects"]
+    med = np.median(np.delete(sigma, 3))
+    assert effect["b"] == pytest.approx(-np.log(1e9 / med) / np.log(2.0), rel=1e-9)
     assert (out / "report.md").exists()
