@@ -356,8 +356,9 @@ def analyse_crush_set(runs: list[dict], out: Path, plots: bool = True, left_out:
     """F_c and sigma_c of each grain (runs table) and, per group of grains that differ only by
     their seed (one size, one material, one speed: SPEC 4.1's set of grains of one size), the
     Weibull fit of sigma_c over the grains that dropped (analysis.strength.weibull_fit; flagged
-    under analysis.strength.MIN_WEIBULL_GRAINS grains). Returns {grains, grains_dropped, groups: [{group, n,
-    weibull_m, weibull_sigma_0, their intervals, weibull_flag}]}."""
+    under analysis.strength.MIN_WEIBULL_GRAINS grains), and the size effects (_size_effects).
+    Returns {grains, grains_dropped, groups: [{group, n, n_dropped, weibull_m, weibull_sigma_0,
+    their intervals, weibull_flag}], size_effects: [...]}."""
     rows = [{"run": r["cfg"]["name"], "run_dir": str(r["dir"]), **params(r["cfg"]),
              **{k: r["summary"].get(k) for k in ("F_c", "sigma_c", "height", "u_c", "dropped", "F_max", "D_w_end")}}
             for r in runs]
