@@ -30,9 +30,9 @@ from analysis.impact_measures import fragment_counts, settle_outcome
 from analysis.report import Report, provenance_line, write_report
 from analysis.run_analysis import RunAnalysis
 from analysis.runset import RunSetError
-from analysis.strength import (DROP, MIN_WEIBULL_GRAINS, NOISE_FLOOR, characteristic_stress, first_peak,
-                               loading_stiffness, weibull_fit, work_to)
-from analysis.strength_plots import plot_force_displacement, plot_weibull
+from analysis.strength import (DROP, NOISE_FLOOR, characteristic_stress, first_peak,
+                               loading_stiffness, size_effect, weibull_fit, work_to)
+from analysis.strength_plots import plot_force_displacement, plot_size_effect, plot_weibull
 from analysis.tables import save_table
 from runfiles.atomic import atomic_save
 from runfiles.records import BPM_CRUSH_RECORD, CRUSH_RECORD, read_record
@@ -356,8 +356,9 @@ def analyse_crush_set(runs: list[dict], out: Path, plots: bool = True, left_out:
     """F_c and sigma_c of each grain (runs table) and, per group of grains that differ only by
     their seed (one size, one material, one speed: SPEC 4.1's set of grains of one size), the
     Weibull fit of sigma_c over the grains that dropped (analysis.strength.weibull_fit; flagged
-    under MIN_WEIBULL_GRAINS grains). Returns {grains, grains_dropped, groups: [{group, n,
-    weibull_m, weibull_sigma_0, their intervals, weibull_flag}]}."""
+    under analysis.strength.MIN_WEIBULL_GRAINS grains), and the size effects (_size_effects).
+    Returns {grains, grains_dropped, groups: [{group, n, n_dropped, weibull_m, weibull_sigma_0,
+    their intervals, weibull_flag}], size_effects: [...]}."""
     rows = [{"run": r["cfg"]["name"], "run_dir": str(r["dir"]), **params(r["cfg"]),
              **{k: r["summary"].get(k) for k in ("F_c", "sigma_c", "height", "u_c", "dropped", "F_max", "D_w_end")}}
             for r in runs]
@@ -393,5 +394,36 @@ def analyse_crush_set(runs: list[dict], out: Path, plots: bool = True, left_out:
         else:
             rep.text(f"{group}: {len(broke)} grain(s) dropped, no Weibull fit (2 or more needed).")
         figures["groups"].append(entry)
+    figures["size_effects"] = _size_effects(table, keys, out, plots, rep)
     write_report(rep, out)
     return figures
+
+
+#: the parameters that make a grain's size: grains that differ in these (and their seed) only
+#: are one family of sizes (the BCM's cell count grows with d³ at a fixed element size)
+SIZE_KEYS = ("diameter", "n_cells")
+
+
+def _size_effects(table: pd.DataFrame, keys: list[str], out: Path, plots: bool, rep: Report) -> list[dict]:
+    """Per family of grains that differ only by their size (SIZE_KEYS) and seed, with two sizes
+    or more among the grains that dropped: median sigma_c ~ d^(-b) and 3/m
+    (analysis.strength.size_effect; d per grain, the sizes grouped by `diameter`)."""
+    family_keys = [k for k in keys if k not in SIZE_KEYS]
+    broke = table[table.dropped.astype(bool)].copy()
+    broke["family"] = [", ".join(f"{k} = {row[k]}" for k in family_keys) for _, row in broke.iterrows()]
+    found = []
+    for k, (family, members) in enumerate(broke.groupby("family", sort=True)):
+        if members.diameter.nunique() < 2:
+            continue
+        effect = size_effect(members.height.to_numpy(), members.sigma_c.to_numpy(), groups=members.diameter.to_numpy())
+        found.append({"family": family, "b": effect.b, "b_interval": list(effect.b_interval),
+                      "b_weibull": effect.b_weibull, "b_weibull_interval": list(effect.b_weibull_interval),
+                      "sizes": effect.groups.d.tolist(), "grains": effect.groups.n.tolist()})
+        rep.values({"b": effect.b, "b interval": effect.b_interval, "3/m": effect.b_weibull,
+                    "3/m interval": effect.b_weibull_interval},
+                   f"{family}: size effect, median sigma_c ~ d^-b over {len(effect.groups)} sizes")
+        if plots:
+            png = out / f"size_effect_{k}.png"
+            plot_size_effect(effect, png, family)
+            rep.figure(png, f"size effect, {family}")
+    return found

@@ -34,8 +34,8 @@ def crush_config(out: Path, n_cells: int, seed: int, platen_speed: float, plots:
     }
 
 
-def run_crush(out: Path, **kw) -> dict:
-    execute(parse_config(crush_config(out, **kw)), np_ranks=1, show_progress=False)
+def run_crush(out: Path, ranks: int = 1, **kw) -> dict:
+    execute(parse_config(crush_config(out, **kw)), np_ranks=ranks, show_progress=False)
     return json.loads((out / "results" / "summary.json").read_text())
 
 
@@ -199,7 +199,6 @@ def test_crush_set_fits_the_grains_that_dropped(tmp_path):
     differ by their seed only, to the sigma_c of those that dropped: a grain that never dropped
     (its F_c only the largest force recorded) is listed but left out of the fit, whose m and
     sigma_0 are those of the others alone; a grain of another size is a group of its own."""
-    from analysis.crush import analyse_crush_set  # noqa: PLC0415
     from analysis.strength import weibull_fit  # noqa: PLC0415
     from driver.scenarios.bcm_crush import UNIT  # noqa: PLC0415
 
@@ -228,4 +227,25 @@ def test_crush_set_fits_the_grains_that_dropped(tmp_path):
     assert group["n_dropped"] == 11
     assert group["weibull_m"] == pytest.approx(fit.m) and group["weibull_sigma_0"] == pytest.approx(fit.sigma_0)
     assert "weibull_m" not in figures["groups"][1]
+    # two sizes of one family: a size effect, from the medians of the two sizes
+    (effect,) = figures["size_effects"]
+    med = np.median(np.delete(sigma, 3))
+    assert effect["b"] == pytest.approx(-np.log(1e9 / med) / np.log(2.0), rel=1e-9)
     assert (out / "report.md").exists()
+
+
+@pytest.mark.mpi
+def test_crush_one_vs_two_ranks(small_crush, tmp_path):
+    """The reference crush on 2 MPI ranks: both platens act across the domains (fix bcm/wall
+    sums its force over the ranks), so the records agree with the 1-rank run to round-off and
+    the stop rule fires at the same check: measured, F_c to 2e-12, the same breaks and end
+    step. A platen force counted on one rank only, or twice, shows at once. About 25 s."""
+    two = run_crush(tmp_path / "r2", ranks=2, plots=False, **SMALL)
+    one = summary_of(small_crush)
+    assert two["F_c"] == pytest.approx(one["F_c"], rel=1e-9)
+    for key in ("broken_at_F_c", "broken_end", "end_step", "n_fragments"):
+        assert two[key] == one[key], key
+    a = read_crush_record(small_crush / "thermo.dat")
+    b = read_crush_record(tmp_path / "r2" / "thermo.dat")
+    assert len(a) == len(b)
+    np.testing.assert_allclose(b.F_upper, a.F_upper, rtol=1e-9, atol=1e-9 * a.F_upper.max())

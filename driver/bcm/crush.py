@@ -136,7 +136,8 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
         window, chunk, max_windows,
         check=["variable        f_now equal ${force}",
                # max() of a LAMMPS formula is a special function of computes: the larger by booleans
-               'variable        peak_now equal "(v_peak_prev >= v_f_now)*v_peak_prev + (v_peak_prev < v_f_now)*v_f_now"',
+               'variable        peak_now equal "(v_peak_prev >= v_f_now)*v_peak_prev + '
+               '(v_peak_prev < v_f_now)*v_f_now"',
                "variable        peak_now equal ${peak_now}",
                "variable        nb_now equal ${nb}",
                f'variable        dropped equal "(v_nb_now > 0) && (v_peak_now > 0) && '

@@ -81,7 +81,8 @@ def render_inputs(cfg, plugin_path: Path, system: dict) -> tuple[str, str, dict]
     schedule = settle(
         window, chunk, max_windows,
         check=["variable        f_now equal ${force}",
-               'variable        peak_now equal "(v_peak_prev >= v_f_now)*v_peak_prev + (v_peak_prev < v_f_now)*v_f_now"',
+               'variable        peak_now equal "(v_peak_prev >= v_f_now)*v_peak_prev + '
+               '(v_peak_prev < v_f_now)*v_f_now"',
                "variable        peak_now equal ${peak_now}",
                "variable        nb_now equal ${nb}",
                f'variable        dropped equal "(v_nb_now > 0) && (v_peak_now > 0) && '

@@ -1,8 +1,9 @@
 """The scenario sections several units share (a config holds one section per scenario kind):
 `impact` (the BCM and BPM impacts, driver/scenarios/bcm_impact.py and bpm_impact.py), `crush`
-(a particle between platens, driver/scenarios/bcm_crush.py) and `calibrate` (the BPM calibration tests, driver/scenarios/bpm_calibrate.py; the BCM block's
-tests extend it, driver/scenarios/bcm_calibrate.py). Here, below the units, so that no unit
-imports a sibling unit for its section."""
+(a particle between platens, driver/scenarios/bcm_crush.py and bpm_crush.py) and `calibrate`
+(the BPM calibration tests, driver/scenarios/bpm_calibrate.py; the BCM block's tests extend it,
+driver/scenarios/bcm_calibrate.py). Here, below the units, so that no unit imports a sibling
+unit for its section."""
 
 from __future__ import annotations
 
