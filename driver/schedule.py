@@ -137,3 +137,22 @@ def write_session(root: Path, setup: str, resume: str, schedule: dict[str, Any],
         "schedule": schedule, "checkpoint_every_steps": checkpoint_every_steps,
         "checkpoint_variables": list(checkpoint_variables),
         **({"checkpoint_restore_as": dict(restore_as)} if restore_as else {})})
+
+
+def peak_drop_check(stop_after_drop: float) -> dict:
+    """settle() keywords of the crush's stop rule (SPEC 4.1), both models: at each check the
+    force `${force}` is compared with the largest seen at the checks (peak_prev, which the input
+    defines; it can only be below the true peak, so a stop is never early); once an element has
+    broken (`${nb}` > 0: chatter at first touch, before any damage, is no peak) a force below
+    stop_after_drop x peak settles the run."""
+    return dict(
+        check=["variable        f_now equal ${force}",
+               # max() of a LAMMPS formula is a special function of computes: the larger by booleans
+               'variable        peak_now equal "(v_peak_prev >= v_f_now)*v_peak_prev + '
+               '(v_peak_prev < v_f_now)*v_f_now"',
+               "variable        peak_now equal ${peak_now}",
+               "variable        nb_now equal ${nb}",
+               f'variable        dropped equal "(v_nb_now > 0) && (v_peak_now > 0) && '
+               f'(v_f_now < {stop_after_drop!r}*v_peak_now)"'],
+        settled_variable="dropped",
+        advance=["variable        peak_prev equal ${peak_now}"])

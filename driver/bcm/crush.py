@@ -18,12 +18,12 @@ from analysis.rotations import quat_to_matrix
 from analysis.tables import save_table
 from driver.bcm import styles
 from driver.bcm.cellstats import cell_statistics, plot_cell_stats
-from driver.bcm.impact import SYSTEM_FRESH, SYSTEM_RESUME, _dump_commands, bonded_interfaces
+from driver.bcm.impact import SYSTEM_FRESH, SYSTEM_RESUME, _dump_commands, bonded_interfaces, particle_facts
 from driver.bcm.lammps_files import write_particle
-from driver.bcm.particle import build_particle, contact_timestep, particle_tessellation
+from driver.bcm.particle import build_particle, particle_tessellation
 from driver.cache import cache_base
 from driver.runner import ProgressSpec
-from driver.schedule import settle, settle_windows, write_session
+from driver.schedule import peak_drop_check, settle, settle_windows, write_session
 from driver.templates import render
 from runfiles.atomic import atomic_write_json
 from runfiles.cells import write_cells
@@ -62,26 +62,9 @@ def build_system(cfg: RunConfig, rd: RunDir) -> dict:
     lowest, highest = particle_extent(particle)
     height = highest - lowest  # d of SPEC 4.1: the height between the platens at first contact
     top0 = highest + sc.gap * m.diameter
-    areas = tess.iface_area[bonded]
-    k_iface = m.interface.kn * (areas.max() / areas.mean() if m.interface_stiffness == "per_area" else 1.0)
-    k_max = max(m.contact.kn, k_iface)
-    dt, period = contact_timestep(particle.masses, k_max, sc.steps_per_period)
-    return {
-        "n_cells": tess.n_cells, "n_interfaces": int(bonded.sum()),
-        "n_faces_unbonded": int((~bonded).sum()),
-        "contact_points": int(np.diff(tess.iface_ptr)[bonded].sum()),
-        "A0": float(areas.sum()), "mean_interface_area": float(areas.mean()),
-        "interface_stiffness": m.interface_stiffness,
-        "mass": float(particle.masses.sum()),
-        "volume": float(tess.volume.sum()), "mean_cell_size": float(tess.mean_cell_size),
-        "r_m": float(particle.r_m), "lloyd_iterations": int(tess.n_iter), "lloyd_residual": float(tess.residual),
-        "lloyd_converged": bool(tess.converged), "tessellation_key": tess.key,
-        "tessellation_seconds": t_tess, "timestep": dt, "shortest_period": period,
-        "timestep_rule": f"dt = 2 pi sqrt((m_min/2) / k_max) / {sc.steps_per_period:g}, k_max = {k_max:g} N/m",
-        "max_bound_radius": float(particle.bound_radius.max()),
-        "lowest_z": lowest, "highest_z": highest, "height": height, "platen_start": top0,
-        "platen_speed": sc.platen_speed, "plots_failed": guard.failed,
-    }
+    return {**particle_facts(m, tess, particle, bonded, sc.steps_per_period, t_tess),
+            "lowest_z": lowest, "highest_z": highest, "height": height, "platen_start": top0,
+            "platen_speed": sc.platen_speed, "plots_failed": guard.failed}
 
 
 def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str, str, dict]:
@@ -134,16 +117,7 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
     # the run. The strain limit and max_time end it through the number of checks.
     schedule = settle(
         window, chunk, max_windows,
-        check=["variable        f_now equal ${force}",
-               # max() of a LAMMPS formula is a special function of computes: the larger by booleans
-               'variable        peak_now equal "(v_peak_prev >= v_f_now)*v_peak_prev + '
-               '(v_peak_prev < v_f_now)*v_f_now"',
-               "variable        peak_now equal ${peak_now}",
-               "variable        nb_now equal ${nb}",
-               f'variable        dropped equal "(v_nb_now > 0) && (v_peak_now > 0) && '
-               f'(v_f_now < {sc.stop_after_drop!r}*v_peak_now)"'],
-        settled_variable="dropped",
-        advance=["variable        peak_prev equal ${peak_now}"],
+        **peak_drop_check(sc.stop_after_drop),
         end=_dump_commands("end").splitlines())
     return setup, resume, schedule
 

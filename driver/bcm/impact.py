@@ -46,6 +46,31 @@ def bonded_interfaces(areas: np.ndarray, min_fraction: float) -> np.ndarray:
     return areas >= min_fraction * float(np.median(areas)) if min_fraction > 0 else np.ones(len(areas), bool)
 
 
+def particle_facts(m, tess, particle, bonded: np.ndarray, steps_per_period: float, t_tess: float) -> dict:
+    """system.json's facts of a BCM particle (impact and crush): cells, interfaces, A_0, mass,
+    the tessellation and the time step (dt from the stiffest contact or interface)."""
+    areas = tess.iface_area[bonded]
+    # per_area: the stiffest interface is the largest, k_n S_max / <S>
+    k_iface = m.interface.kn * (areas.max() / areas.mean() if m.interface_stiffness == "per_area" else 1.0)
+    k_max = max(m.contact.kn, k_iface)
+    dt, period = contact_timestep(particle.masses, k_max, steps_per_period)
+    return {
+        "n_cells": tess.n_cells, "n_interfaces": int(bonded.sum()),
+        "n_faces_unbonded": int((~bonded).sum()),
+        "contact_points": int(np.diff(tess.iface_ptr)[bonded].sum()),
+        # A_0: the bonded interfaces only (faces below min_interface_area are never glued)
+        "A0": float(areas.sum()), "mean_interface_area": float(areas.mean()),
+        "interface_stiffness": m.interface_stiffness,
+        "mass": float(particle.masses.sum()),
+        "volume": float(tess.volume.sum()), "mean_cell_size": float(tess.mean_cell_size),
+        "r_m": float(particle.r_m), "lloyd_iterations": int(tess.n_iter), "lloyd_residual": float(tess.residual),
+        "lloyd_converged": bool(tess.converged), "tessellation_key": tess.key,
+        "tessellation_seconds": t_tess, "timestep": dt, "shortest_period": period,
+        "timestep_rule": f"dt = 2 pi sqrt((m_min/2) / k_max) / {steps_per_period:g}, k_max = {k_max:g} N/m",
+        "max_bound_radius": float(particle.bound_radius.max()),
+    }
+
+
 def build_system(cfg: RunConfig, rd: RunDir) -> dict:
     """Tessellation (cached) -> rounded cells -> placement -> data, interfaces and cells files."""
     m, sc = cfg.model, cfg.scenario
@@ -63,27 +88,8 @@ def build_system(cfg: RunConfig, rd: RunDir) -> dict:
     write_particle(root, tess, particle, bonded, m.diameter)
     # the Voronoi cells themselves, for the analysis: fragment boxes from the cells' own vertices
     write_cells(root / "voronoi_cells.txt", particle.cell_vertices, particle.cell_faces)
-    areas = tess.iface_area[bonded]
-    # per_area: the stiffest interface is the largest, k_n S_max / <S>
-    k_iface = m.interface.kn * (areas.max() / areas.mean() if m.interface_stiffness == "per_area" else 1.0)
-    k_max = max(m.contact.kn, k_iface)
-    dt, period = contact_timestep(particle.masses, k_max, sc.steps_per_period)
-    return {
-        "n_cells": tess.n_cells, "n_interfaces": int(bonded.sum()),
-        "n_faces_unbonded": int((~bonded).sum()),
-        "contact_points": int(np.diff(tess.iface_ptr)[bonded].sum()),
-        # A_0: the bonded interfaces only (faces below min_interface_area are never glued)
-        "A0": float(areas.sum()), "mean_interface_area": float(areas.mean()),
-        "interface_stiffness": m.interface_stiffness,
-        "mass": float(particle.masses.sum()),
-        "volume": float(tess.volume.sum()), "mean_cell_size": float(tess.mean_cell_size),
-        "r_m": float(particle.r_m), "lloyd_iterations": int(tess.n_iter), "lloyd_residual": float(tess.residual),
-        "lloyd_converged": bool(tess.converged), "tessellation_key": tess.key,
-        "tessellation_seconds": t_tess, "timestep": dt, "shortest_period": period,
-        "timestep_rule": f"dt = 2 pi sqrt((m_min/2) / k_max) / {sc.steps_per_period:g}, k_max = {k_max:g} N/m",
-        "max_bound_radius": float(particle.bound_radius.max()),
-        "initial_velocity": sc.velocity, "plots_failed": guard.failed,
-    }
+    return {**particle_facts(m, tess, particle, bonded, sc.steps_per_period, t_tess),
+            "initial_velocity": sc.velocity, "plots_failed": guard.failed}
 
 
 SYSTEM_FRESH = """units           si

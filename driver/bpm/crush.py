@@ -20,7 +20,7 @@ from driver.bpm.impact import DIAMETER, SYSTEM_FRESH, _dump_commands, build_syst
 from driver.bpm.input_blocks import SYSTEM_RESUME, comm_cutoff, common_values, periodic_dumps, styles
 from driver.bpm.platen import platen_fix, platen_force, platen_region
 from driver.runner import ProgressSpec
-from driver.schedule import settle, settle_windows, write_session
+from driver.schedule import peak_drop_check, settle, settle_windows, write_session
 from driver.templates import render
 from runfiles.atomic import atomic_write_json
 from runfiles.records import BPM_CRUSH_RECORD
@@ -80,15 +80,7 @@ def render_inputs(cfg, plugin_path: Path, system: dict) -> tuple[str, str, dict]
     # the BCM crush's stop rule (driver/bcm/crush.py), on the platen's load and the broken bonds
     schedule = settle(
         window, chunk, max_windows,
-        check=["variable        f_now equal ${force}",
-               'variable        peak_now equal "(v_peak_prev >= v_f_now)*v_peak_prev + '
-               '(v_peak_prev < v_f_now)*v_f_now"',
-               "variable        peak_now equal ${peak_now}",
-               "variable        nb_now equal ${nb}",
-               f'variable        dropped equal "(v_nb_now > 0) && (v_peak_now > 0) && '
-               f'(v_f_now < {sc.stop_after_drop!r}*v_peak_now)"'],
-        settled_variable="dropped",
-        advance=["variable        peak_prev equal ${peak_now}"],
+        **peak_drop_check(sc.stop_after_drop),
         end=_dump_commands("end").splitlines(), pre_no=True)
     return setup, resume, schedule
 
