@@ -18,6 +18,10 @@ write one directory:
 A grid point is a velocity (both models hit the plane at the same v_0) or, with grid.omega, a
 damage potential (each model's particle at the v_0 that gives that omega with the material's
 G_c: driver/compare/omega.py); the runs of a point are paired over its seeds.
+
+With `test: crush` a grid point is a particle size (runs/<model>/G_c<G_c>/diameter<d>..._seed<s>),
+and the crossovers and fragment distributions give way to the Weibull fits and size effects of
+driver/compare/crush.py (weibull.csv, size_effect.csv, strength_pairs.csv).
 """
 
 from __future__ import annotations
@@ -65,25 +69,26 @@ def calibrate_both(cmp: CompareFile, compare_path: Path, cache: Path, workers: i
             "grid": grid_parameters(bcm, bpm, grid)}, mat
 
 
-def tidy_table(runs: list[tuple[dict[str, Any], RunConfig]]) -> pd.DataFrame:
-    """Every run of both models (driver/sweep.py sweep_table) with its wall time, the G_c
-    measures with the material's G_c (stats.common_measures)."""
+def tidy_table(runs: list[tuple[dict[str, Any], RunConfig]], test: str = "impact") -> pd.DataFrame:
+    """Every run of both models (driver/sweep.py sweep_table) with its wall time; for the
+    impact, the G_c measures with the material's G_c (stats.common_measures)."""
     from driver.sweep import _wall_seconds, sweep_table  # noqa: PLC0415
 
     table = sweep_table(runs)
     table["wall_seconds"] = [_wall_seconds(cfg.run_dir()) if s == "finished" else None
                              for (_, cfg), s in zip(runs, table["state"])]
-    return stats.common_measures(table)
+    return stats.common_measures(table) if test == "impact" else table
 
 
-def fragment_tables(table: pd.DataFrame) -> tuple[dict[str, pd.DataFrame], dict[str, pd.DataFrame], pd.DataFrame]:
+def fragment_tables(table: pd.DataFrame, axis: str = "velocity"
+                    ) -> tuple[dict[str, pd.DataFrame], dict[str, pd.DataFrame], pd.DataFrame]:
     """p(m/m_max) per (model, G_c) and p(S_f) per model (multi-element fragments), over all
     finished runs; and the fragments of every run (model, G_c, run_dir columns added)."""
     parts = []
     for r in table[table.state == "finished"].itertuples():
         f = Path(r.run_dir) / "results" / "fragments.parquet"
         if f.exists():
-            parts.append(pd.read_parquet(f).assign(model=r.model, G_c=r.G_c, velocity=r.velocity,
+            parts.append(pd.read_parquet(f).assign(model=r.model, G_c=r.G_c, **{axis: getattr(r, axis)},
                                                    run_dir=r.run_dir))
     if not parts:
         return {}, {}, pd.DataFrame()
@@ -110,17 +115,19 @@ def _points(n: int) -> str:
 
 
 def point_label(axis: str, value: float) -> str:
-    """A grid point in words: `v = 2 m/s` or `omega = 0.2`."""
+    """A grid point in words: `v = 2 m/s`, `omega = 0.2` or `d = 2 mm`."""
+    if axis == "diameter":
+        return f"d = {value * 1e3:g} mm"
     return f"v = {value:g} m/s" if axis == "velocity" else f"omega = {value:g}"
 
 
 def agreement_words(points: pd.DataFrame, summary: pd.DataFrame, pairs: pd.DataFrame, z_agree: float,
-                    axis: str = "velocity") -> list[str]:
+                    axis: str = "velocity", measures: dict[str, tuple[str, str]] | None = None) -> list[str]:
     """The report's sentences, generated from the tables: per measure where the models agree
     within error bars and where they differ (the points and their z), then the crossovers."""
     out, silent = [], []
     for s in summary.itertuples():
-        label = stats.MEASURES.get(s.measure, (s.measure, s.measure))[1]
+        label = (measures or stats.MEASURES).get(s.measure, (s.measure, s.measure))[1]
         p = points[points.measure == s.measure]
         if s.agree + s.differ == 0:
             silent.append(s.measure)
@@ -170,14 +177,28 @@ def calibration_rows(cal: dict[str, Any]) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["model", "parameter", "value", "unit", "from"])
 
 
-def analyse_compare(cmp: CompareFile, cal: dict[str, Any], runs: list[tuple[dict[str, Any], RunConfig]],
-                    out: Path, plots: bool = True) -> dict[str, Any]:
-    """The tables, plots and report of the comparison into `out` (module docstring)."""
-    out = Path(out)
-    clear_report(out)
-    table = tidy_table(runs)
-    save_table(table.drop(columns=[c for c in table.columns if table[c].map(
-        lambda v: isinstance(v, (list, dict))).any()]), out / "runs")
+def _report_head(cmp: CompareFile, cal: dict[str, Any], table: pd.DataFrame) -> Report:
+    """The report's title and its calibration section (both tests)."""
+    done = table[table.state == "finished"]
+    rep = Report(f"Comparison {cmp.name}: BCM and BPM, {cmp.test}",
+                 f"material {cal['material_source']}; {len(table)} runs ({len(done)} finished, "
+                 f"{len(table) - len(done)} not)")
+    rep.heading("Calibration")
+    rep.text(f"Both models calibrated to density {cal['material']['material']['density']:g} kg/m³, E = "
+             f"{cal['material']['material']['E']:.4g} Pa, nu = {cal['material']['material']['nu']:g}, G_c = "
+             f"{cal['G_c_material']:.4g} J/m² (SPEC 3). The BPM's nu reached: {cal['bpm']['achieved']['nu']:.4g}"
+             + ("" if cal["bpm"]["reach"]["nu"]["reached"] else f" ({cal['bpm']['reach']['nu'].get('note', '')})")
+             + (". Measures holding G_c (W_f = 2 A G_c, W_s, omega, eta, chi, W_c) use the material's G_c in both "
+                "models; the BCM's own (its interface G_c) are the runs table's <name>_model columns."
+                if cmp.test == "impact" else "."))
+    rep.table(calibration_rows(cal), "calibration table")
+    rep.heading("Where the models agree")
+    return rep
+
+
+def _impact_analysis(cmp: CompareFile, table: pd.DataFrame, out: Path, plots: bool, guard: PlotGuard, title: str,
+                     rep: Report) -> tuple[dict[str, Any], dict[str, Path]]:
+    """The impact's side-by-side tables, crossovers, fragment distributions, figures and words."""
     axis = cmp.grid.axis
     # on an omega grid omega is the grid point itself (equal in both models by construction)
     measures = [m for m in stats.MEASURES if not (axis == "omega_target" and m == "omega")]
@@ -186,7 +207,7 @@ def analyse_compare(cmp: CompareFile, cal: dict[str, Any], runs: list[tuple[dict
     cross = stats.crossovers(table, cmp.breakup_fraction, axis) if (table.state == "finished").any() else pd.DataFrame(
         columns=["model", "G_c", "threshold", "value", "lo", "hi"])
     pairs = stats.crossover_pairs(cross)
-    mass, sf, _ = fragment_tables(table)
+    mass, sf, _ = fragment_tables(table, axis)
     save_table(points, out / "points")
     save_table(stats.wide(points, axis=axis), out / "points_wide")
     save_table(summary, out / "agreement")
@@ -196,28 +217,11 @@ def analyse_compare(cmp: CompareFile, cal: dict[str, Any], runs: list[tuple[dict
         save_table(pd.concat([t.assign(label=k) for k, t in mass.items()], ignore_index=True), out / "fragment_masses")
     if sf:
         save_table(pd.concat([t.assign(model=k) for k, t in sf.items()], ignore_index=True), out / "shape_factor")
-    guard = PlotGuard()
-    title = f"{cmp.name}: BCM and BPM, {cmp.test}"
     figures = {}
     if plots and (table.state == "finished").any():
         from driver.compare.plots import draw_all  # noqa: PLC0415
 
         figures = draw_all(guard, table, cross, mass, sf, out / "plots", title, axis)
-
-    done = table[table.state == "finished"]
-    failed = table[table.state != "finished"]
-    walls = done.groupby("model").wall_seconds.agg(["count", "mean", "min", "max"]).reset_index()
-    rep = Report(f"Comparison {cmp.name}: BCM and BPM, {cmp.test}",
-                 f"material {cal['material_source']}; {len(table)} runs ({len(done)} finished, {len(failed)} not)")
-    rep.heading("Calibration")
-    rep.text(f"Both models calibrated to density {cal['material']['material']['density']:g} kg/m³, E = "
-             f"{cal['material']['material']['E']:.4g} Pa, nu = {cal['material']['material']['nu']:g}, G_c = "
-             f"{cal['G_c_material']:.4g} J/m² (SPEC 3). The BPM's nu reached: {cal['bpm']['achieved']['nu']:.4g}"
-             + ("" if cal["bpm"]["reach"]["nu"]["reached"] else f" ({cal['bpm']['reach']['nu'].get('note', '')})")
-             + ". Measures holding G_c (W_f = 2 A G_c, W_s, omega, eta, chi, W_c) use the material's G_c in both "
-               "models; the BCM's own (its interface G_c) are the runs table's <name>_model columns.")
-    rep.table(calibration_rows(cal), "calibration table")
-    rep.heading("Where the models agree")
     rep.text(f"Agree within error bars: |z| <= {cmp.z_agree:g}, z = (BPM mean - BCM mean) / sqrt(s_BCM²/n_BCM + "
              "s_BPM²/n_BPM) over the seeds of a point; a point with one run of a model has no error bar "
              "(undetermined). Crossovers agree when their brackets between grid points overlap. "
@@ -231,6 +235,7 @@ def analyse_compare(cmp: CompareFile, cal: dict[str, Any], runs: list[tuple[dict
     if len(pairs):
         rep.table(pairs, "crossovers side by side (crossover_pairs.csv; brackets [lo, hi] on the common omega)")
     rep.table(points, "per point, side by side (points.csv)", max_rows=60)
+    done = table[table.state == "finished"]
     gained = done[done.e_k2 > 1.0] if "e_k2" in done else done.iloc[0:0]
     if len(gained):
         rep.text(f"Flag: in {len(gained)} runs the kinetic energy after the impact exceeds the impact's (e_k^2 > 1): "
@@ -238,6 +243,67 @@ def analyse_compare(cmp: CompareFile, cal: dict[str, Any], runs: list[tuple[dict
                              for r in gained.itertuples())
                  + ". Energy came from the model itself (broken elements releasing stored or overlap energy), not "
                    "from the impact: these points are not a result for that model.")
+    return {"agreement": summary.to_dict(orient="records"), "crossovers": pairs.to_dict(orient="records")}, figures
+
+
+def _crush_analysis(cmp: CompareFile, table: pd.DataFrame, out: Path, plots: bool, guard: PlotGuard, title: str,
+                    rep: Report) -> tuple[dict[str, Any], dict[str, Path]]:
+    """The crush's side-by-side tables, Weibull fits and size effects, figures and words
+    (driver/compare/crush.py)."""
+    from driver.compare import crush  # noqa: PLC0415
+
+    points = stats.side_by_side(table, list(crush.CRUSH_MEASURES), z_agree=cmp.z_agree, keys=("G_c", "diameter"))
+    summary = stats.agreement_summary(points, "diameter")
+    weibull = crush.weibull_table(table) if (table.state == "finished").any() else crush.weibull_table(table.iloc[0:0])
+    sizes, effects = crush.size_effect_table(table)
+    pairs = crush.interval_pairs(weibull, sizes)
+    for name, frame in (("points", points), ("points_wide", stats.wide(points, axis="diameter")),
+                        ("agreement", summary), ("weibull", weibull), ("size_effect", sizes),
+                        ("strength_pairs", pairs)):
+        save_table(frame, out / name)
+    figures = {}
+    if plots and (table.state == "finished").any():
+        from driver.compare.crush_plots import draw_crush  # noqa: PLC0415
+
+        figures = draw_crush(guard, table, weibull, effects, out / "plots", title)
+    rep.text(f"Both models crush grains of the same sizes (d, the parent's diameter) and seeds between two platens "
+             f"(SPEC 4.1), the upper one at the same speed. Agree within error bars: |z| <= {cmp.z_agree:g}, z = (BPM "
+             "mean - BCM mean) / sqrt(s_BCM²/n_BCM + s_BPM²/n_BPM) over the seeds of a point; a point with one run of "
+             "a model has no error bar (undetermined). The fitted figures (Weibull m and sigma_0 per point, the "
+             "size-effect b and 3/m per G_c) agree when their 95 % bootstrap intervals overlap. The strength "
+             "statistics take the grains whose force dropped (F_c a first peak).")
+    for line in agreement_words(points, summary, pd.DataFrame(columns=["threshold"]), cmp.z_agree, "diameter",
+                                crush.CRUSH_MEASURES):
+        rep.text(line)
+    for line in crush.strength_words(pairs, weibull):
+        rep.text(line)
+    for line in crush.crush_flags(table):
+        rep.text(f"Flag: {line}")
+    rep.table(summary, "verdicts per measure (agreement.csv)")
+    rep.table(pairs, "Weibull and size-effect figures side by side (strength_pairs.csv; intervals [lo, hi])")
+    rep.table(weibull, "Weibull fits of sigma_c per model and point (weibull.csv)")
+    rep.table(points, "per point, side by side (points.csv)", max_rows=60)
+    return {"agreement": summary.to_dict(orient="records"), "strength": pairs.to_dict(orient="records"),
+            "weibull": weibull.to_dict(orient="records"), "size_effect": sizes.to_dict(orient="records")}, figures
+
+
+def analyse_compare(cmp: CompareFile, cal: dict[str, Any], runs: list[tuple[dict[str, Any], RunConfig]],
+                    out: Path, plots: bool = True) -> dict[str, Any]:
+    """The tables, plots and report of the comparison into `out` (module docstring; the crush's:
+    driver/compare/crush.py)."""
+    out = Path(out)
+    clear_report(out)
+    table = tidy_table(runs, cmp.test)
+    save_table(table.drop(columns=[c for c in table.columns if table[c].map(
+        lambda v: isinstance(v, (list, dict))).any()]), out / "runs")
+    guard = PlotGuard()
+    title = f"{cmp.name}: BCM and BPM, {cmp.test}"
+    rep = _report_head(cmp, cal, table)
+    body = _crush_analysis if cmp.test == "crush" else _impact_analysis
+    result, figures = body(cmp, table, out, plots, guard, title, rep)
+    done = table[table.state == "finished"]
+    failed = table[table.state != "finished"]
+    walls = done.groupby("model").wall_seconds.agg(["count", "mean", "min", "max"]).reset_index()
     if len(failed):
         rep.text(f"{len(failed)} runs did not finish and are left out: "
                  + "; ".join(f"{r.run_dir} ({r.state}: {r.error})" for r in failed.itertuples()))
@@ -247,8 +313,7 @@ def analyse_compare(cmp: CompareFile, cal: dict[str, Any], runs: list[tuple[dict
     if guard.failed:
         rep.text("figures not drawn: " + "; ".join(f"{f['plot']}: {f['error']}" for f in guard.failed))
     write_report(rep, out)
-    return {"runs": len(table), "finished": len(done), "failed": failed.run_dir.tolist(),
-            "agreement": summary.to_dict(orient="records"), "crossovers": pairs.to_dict(orient="records"),
+    return {"runs": len(table), "finished": len(done), "failed": failed.run_dir.tolist(), **result,
             "wall_seconds": walls.to_dict(orient="records"), "plots_failed": guard.failed}
 
 

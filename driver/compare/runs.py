@@ -1,6 +1,7 @@
 """The runs of a comparison: one base config per model from its calibrated parameters, expanded
 over the grid by the sweep machinery (driver/sweep.py expand_groups) into
-`<out>/runs/<model>/G_c<G_c>/velocity<v>_seed<s>` (`omega<w>_seed<s>` on an omega grid), and
+`<out>/runs/<model>/G_c<G_c>/velocity<v>_seed<s>` (`omega<w>_seed<s>` on an omega grid;
+`diameter<d>[_n_cells<n>]_seed<s>` for the crush), and
 run together (finished runs kept, a re-run resumes, a failed run recorded and the others
 carried on: driver/calibration/curves.py run_pending, in-process or on a local Dask cluster)."""
 
@@ -27,6 +28,20 @@ def n_cells_of(mat: MaterialFile) -> int:
     from driver.bcm.particle import parent_shape  # noqa: PLC0415
 
     return max(2, int(round(parent_shape(res.shape, res.diameter, res.diameter_kind).volume / res.cell_size ** 3)))
+
+
+def n_cells_at(mat: MaterialFile, diameter: float) -> int:
+    """The BCM cell count of a particle of size `diameter` at the material's element size: the
+    material's count scaled by (d / d_material)^3 (the crush's size grid keeps h, SPEC 4.1)."""
+    return max(2, int(round(n_cells_of(mat) * (diameter / mat.bcm.diameter) ** 3)))
+
+
+def size_group(model: str, mat: MaterialFile, diameters: list[float]) -> Group:
+    """The crush's particle sizes as a sweep group of `model`'s keys: the BCM's diameter with
+    its cell count (n_cells_at), the BPM's diameter at its fixed particle size a (the units)."""
+    if model == "bcm":
+        return ("model.diameter", "model.n_cells"), [(float(d), n_cells_at(mat, d)) for d in diameters]
+    return ("model.particle.diameter",), [(float(d),) for d in diameters]
 
 
 def base_configs(cmp: CompareFile, mat: MaterialFile, bcm: dict[str, Any], bpm: dict[str, Any],
@@ -62,7 +77,7 @@ def g_values(cmp: CompareFile, mat: MaterialFile) -> list[float]:
 def grid_runs(cmp: CompareFile, mat: MaterialFile, bcm: dict[str, Any], bpm: dict[str, Any], out: Path,
               source: str) -> list[tuple[dict[str, Any], RunConfig]]:
     """Every run of both models: (its grid values {model, G_c, velocity, seed} and, on an omega
-    grid, omega_target; its config), each validated before anything runs (ConfigError naming
+    grid, omega_target; {model, G_c, diameter, seed} for the crush; its config), each validated before anything runs (ConfigError naming
     the run). A velocity grid gives both models the same v_0; an omega grid gives each particle
     the v_0 of the target omega with the material's G_c (driver/compare/omega.py)."""
     G_ref = mat.material.toughness(3)[0]
@@ -73,7 +88,12 @@ def grid_runs(cmp: CompareFile, mat: MaterialFile, bcm: dict[str, Any], bpm: dic
         for model, data in base_configs(cmp, mat, bcm, bpm, g, G_ref).items():
             where = Path(out) / "runs" / model / f"G_c{format_value(g)}"
             label = f"{source} ({model}, G_c = {g:g})"
-            if cmp.grid.omega is None:
+            if cmp.test == "crush":
+                sizes = size_group(model, mat, list(cmp.grid.diameter or [mat.bcm.diameter]))
+                for values, cfg in expand_groups(data, [sizes, seeds], where, label):
+                    runs.append(({"model": model, "G_c": g, "diameter": values[sizes[0][0]], "seed": values["seed"]},
+                                 cfg))
+            elif cmp.grid.omega is None:
                 velocities = value_list(cmp.grid.velocity, f"{source}: grid.velocity")
                 groups: list[Group] = [(("scenario.velocity",), [(float(v),) for v in velocities]), seeds]
                 for values, cfg in expand_groups(data, groups, where, label):

@@ -3,13 +3,16 @@
     name: compare_impact_small
     material: material_bcm_default.yaml   # a material file, or a calibration.json (driver calibrate);
                                           # a path relative to this file
-    test: impact                          # the only test for now (the shear test will join here)
+    test: impact                          # impact, or crush (SPEC 4.1: between two platens)
     grid:
       omega: [0.05, 0.2, 0.8, 3.0]        # damage potentials (or {logspace: [a, b, n]}): both models
                                           # at equal omega, v_0 = sqrt(4 omega A_0 G_c / M) per particle;
                                           # or velocity: [...] (m/s), both at equal v_0
       G_c: [3.3]                          # J/m^2, the material's fracture energy (default: the material's)
       seeds: 2                            # seeds 1..2, or a list
+      # test: crush: no velocity or omega; diameter: [1.5e-3, 2e-3, 3e-3] (m, optional) crushes
+      # grains of these sizes at the element sizes of the resolutions below (the BCM's cell count
+      # grows with d^3, the BPM's particle size stays); default: the material's diameter
     bcm: {n_cells: 300}                   # resolution: replaces the material file's (or cell_size)
     bpm: {particles_across: 8}            # lambda_c: calibrated, or given (below)
     scenario: {max_time: 2.0e-4}          # the shared impact section (velocity comes from the grid)
@@ -37,7 +40,7 @@ from driver.schema import ConfigError, _Strict
 
 
 class Grid(_Strict):
-    """The parameter points: velocities x G_c values x seeds."""
+    """The parameter points: velocities (impact) or particle sizes (crush) x G_c values x seeds."""
 
     velocity: Any = Field(None, description="impact velocities v_0, m/s: a list or {linspace|logspace: [a, b, n]}")
     omega: Any = Field(None, description="damage potentials omega = W_k^- / (2 A_0 G_c) instead of velocities "
@@ -45,21 +48,27 @@ class Grid(_Strict):
                                          "own particle's A_0 and mass")
     G_c: list[float] | None = Field(None, description="the material's fracture energy, J/m^2 (default: the "
                                                       "material's own)")
+    diameter: list[float] | None = Field(None, description="crush: particle sizes d, m (the parent's diameter as "
+                                                           "the material's diameter_kind), at the resolutions' "
+                                                           "element sizes (default: the material's diameter)")
     seeds: Any = Field(2, description="seeds 1..n, or a list of seeds (tessellations / packings per point)")
 
     @model_validator(mode="after")
-    def _velocities(self) -> "Grid":
-        if (self.velocity is None) == (self.omega is None):
-            raise ValueError("give grid.velocity (impact velocities, m/s: both models at equal v_0) or grid.omega "
-                             "(damage potentials: both models at equal omega), exactly one")
+    def _values(self) -> "Grid":
         if self.G_c is not None and (not self.G_c or any(g <= 0 for g in self.G_c)):
             raise ValueError("grid.G_c: a non-empty list of positive fracture energies (J/m^2)")
+        if self.diameter is not None and (not self.diameter or any(not d > 0 for d in self.diameter)
+                                          or len(set(self.diameter)) != len(self.diameter)):
+            raise ValueError("grid.diameter: a non-empty list of distinct positive particle sizes (m)")
         return self
 
     @property
     def axis(self) -> str:
-        """The column that pairs the two models' runs: `velocity` or `omega_target`."""
-        return "velocity" if self.omega is None else "omega_target"
+        """The column that pairs the two models' runs: `velocity` or `omega_target` (impact),
+        `diameter` (crush)."""
+        if self.velocity is not None:
+            return "velocity"
+        return "omega_target" if self.omega is not None else "diameter"
 
 
 class BpmCompare(_Strict):
@@ -104,14 +113,17 @@ class CompareFile(_Strict):
                       description="the comparison's name: the directory is runs/compare_<name> by default")
     material: str = Field(..., min_length=1, description="a material file or a calibration.json, relative to "
                                                          "the compare file")
-    test: Literal["impact"] = Field("impact", description="the test both models run (impact; shear to come)")
+    test: Literal["impact", "crush"] = Field("impact", description="the test both models run: impact (on a rigid "
+                                                                   "plane, SPEC 1.3) or crush (between two platens, "
+                                                                   "SPEC 4.1)")
     grid: Grid = Field(..., description="the parameter points both models run")
     bcm: BcmCompare = Field(default_factory=BcmCompare,
                             description="the BCM particle's resolution (replaces the material file's)")
     bpm: BpmCompare = Field(default_factory=BpmCompare,
                             description="the BPM particle's resolution and break stretch")
-    scenario: dict[str, Any] = Field(default_factory=dict, description="keys of the shared impact section "
-                                                                       "(not velocity: the grid's)")
+    scenario: dict[str, Any] = Field(default_factory=dict, description="keys of the shared scenario section "
+                                                                       "of the test (impact: not velocity, the "
+                                                                       "grid's)")
     base: Bases = Field(default_factory=Bases, description="further dotted keys of either model's run config")
     curves: dict[str, Any] = Field(default_factory=dict, description="changes to the calibration curves, as a "
                                                                      "material file's curves: (replace its entries)")
@@ -123,8 +135,20 @@ class CompareFile(_Strict):
 
     @model_validator(mode="after")
     def _scenario(self) -> "CompareFile":
-        if "velocity" in self.scenario or "kind" in self.scenario:
-            raise ValueError("scenario: velocity comes from grid.velocity and kind from test; leave them out")
+        if "kind" in self.scenario:
+            raise ValueError("scenario: kind comes from test; leave it out")
+        if self.test == "impact":
+            if "velocity" in self.scenario:
+                raise ValueError("scenario: velocity comes from grid.velocity and kind from test; leave them out")
+            if (self.grid.velocity is None) == (self.grid.omega is None):
+                raise ValueError("give grid.velocity (impact velocities, m/s: both models at equal v_0) or grid.omega "
+                                 "(damage potentials: both models at equal omega), exactly one")
+            if self.grid.diameter is not None:
+                raise ValueError("grid.diameter: particle sizes are a grid of test: crush; the impact's particle is "
+                                 "the material's")
+        elif self.grid.velocity is not None or self.grid.omega is not None:
+            raise ValueError("test: crush has no impact velocity: leave out grid.velocity and grid.omega (the grid is "
+                             "grid.diameter, grid.G_c and grid.seeds; the platen's speed is scenario.platen_speed)")
         return self
 
 

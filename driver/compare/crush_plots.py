@@ -1,0 +1,151 @@
+"""Both models' crushes on the same axes (driver/compare/crush.py): the force against the platen's
+travel of every grain, the crush measures against the grain size, the Weibull plots of sigma_c
+and the size effect. Styles as the impact comparison's (driver/compare/plots.py STYLE)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from analysis.strength import median_rank_survival  # noqa: E402
+from driver.compare.crush import CRUSH_MEASURES, force_curves  # noqa: E402
+from driver.compare.plots import STYLE, point_means  # noqa: E402
+from runfiles.atomic import atomic_save  # noqa: E402
+
+
+def _save(fig, path: Path, title: str) -> None:
+    if title:
+        fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    atomic_save(path, lambda p: fig.savefig(p, format="png"))
+    plt.close(fig)
+
+
+def _panels(n: int, width: float = 4.2, height: float = 3.4):
+    ncol = min(3, n)
+    nrow = int(np.ceil(n / ncol))
+    fig, axes = plt.subplots(nrow, ncol, figsize=(width * ncol, height * nrow), dpi=120, squeeze=False)
+    for k in range(n, nrow * ncol):
+        axes[k // ncol][k % ncol].set_visible(False)
+    return fig, [axes[k // ncol][k % ncol] for k in range(n)]
+
+
+def plot_force_curves(curves: dict[tuple[str, float], list[dict[str, Any]]], path: Path, title: str = "") -> None:
+    """One panel per grain size: every grain's upper-platen force against the platen's travel
+    from first contact, both models, F_c of each grain marked."""
+    sizes = sorted({d for _, d in curves})
+    fig, axes = _panels(len(sizes))
+    for ax, d in zip(axes, sizes):
+        for model, (name, marker, colour) in STYLE.items():
+            for k, c in enumerate(curves.get((model, d), [])):
+                ax.plot(c["u"] * 1e6, c["F"], color=colour, lw=0.8, alpha=0.7, label=name if k == 0 else None)
+                ax.plot(c["u_c"] * 1e6, c["F_c"], marker, color=colour, mfc="white", ms=5)
+        ax.set_xlabel("platen displacement from first contact [µm]")
+        ax.set_ylabel("upper platen force [N]")
+        ax.set_title(f"d = {d * 1e3:g} mm (markers: $F_c$)", fontsize=8)
+        ax.legend(fontsize=7, frameon=False)
+    _save(fig, path, title)
+
+
+def plot_measures_vs_size(table: pd.DataFrame, cols: list[str], path: Path, title: str = "") -> None:
+    """One panel per measure: means over the seeds against the grain size d, the standard
+    deviation as the error bar, one line style per G_c, both models."""
+    cols = [c for c in cols if c in table]
+    pts = point_means(table, cols, "diameter")
+    gcs = sorted(pts.G_c.unique())
+    fig, axes = _panels(len(cols))
+    for ax, col in zip(axes, cols):
+        for model, (name, marker, colour) in STYLE.items():
+            for j, g in enumerate(gcs):
+                p = pts[(pts.model == model) & (pts.G_c == g)].sort_values("diameter")
+                if p.empty:
+                    continue
+                ax.errorbar(p.diameter * 1e3, p[f"{col}_mean"], yerr=p[f"{col}_std"].fillna(0.0), marker=marker,
+                            mfc="white", color=colour, linestyle=["-", "--", "-.", ":"][j % 4], capsize=2,
+                            label=name + (f", $G_c$ = {g:g}" if len(gcs) > 1 else ""))
+        if pts.diameter.nunique() > 1:
+            ax.set_xscale("log")
+        ax.set_xlabel("grain size d [mm]")
+        ax.set_ylabel(CRUSH_MEASURES.get(col, (col,))[0])
+        if col == cols[0] and ax.has_data():
+            ax.legend(fontsize=7, frameon=False)
+    _save(fig, path, title)
+
+
+def plot_weibull_both(table: pd.DataFrame, weibull: pd.DataFrame, path: Path, title: str = "") -> None:
+    """One panel per (G_c, size): ln(-ln P_s) of each model's grains that dropped at Benard's
+    median ranks against sigma_c (log), and each model's fitted law, m and sigma_0 in the legend."""
+    done = table[(table.state == "finished") & table.dropped.astype(bool)] if "state" in table else table
+    points = sorted({(g, d) for g, d in zip(weibull.G_c, weibull.diameter)})
+    fig, axes = _panels(len(points))
+    for ax, (g, d) in zip(axes, points):
+        for model, (name, marker, colour) in STYLE.items():
+            s = done[(done.model == model) & (done.G_c == g) & (done.diameter == d)].sigma_c.to_numpy(float)
+            if len(s) == 0:
+                continue
+            xs, ps = median_rank_survival(s)
+            ax.plot(xs, np.log(-np.log(ps)), marker, color=colour, mfc="white", ms=5, label=f"{name}, {len(s)} grains")
+            fit = weibull[(weibull.model == model) & (weibull.G_c == g) & (weibull.diameter == d)]
+            if len(fit) and np.isfinite(fit.m.iloc[0]):
+                m, s0 = float(fit.m.iloc[0]), float(fit.sigma_0.iloc[0])
+                x = np.geomspace(xs.min(), xs.max(), 50)
+                ax.plot(x, m * np.log(x / s0), "-", color=colour, lw=1.0,
+                        label=rf"$m$ = {m:.3g}, $\sigma_0$ = {s0 / 1e6:.3g} MPa")
+        ax.axhline(0.0, color="0.6", lw=0.5)
+        ax.set_xscale("log")
+        ax.set_xlabel(r"$\sigma_c = F_c/d^2$ [Pa]")
+        ax.set_ylabel(r"$\ln(-\ln P_s)$ [-]")
+        ax.set_title(f"G_c = {g:g} J/m², d = {d * 1e3:g} mm", fontsize=8)
+        ax.legend(fontsize=7, frameon=False)
+    _save(fig, path, title)
+
+
+def plot_size_effects(effects: dict, path: Path, title: str = "") -> None:
+    """Median sigma_c against d (log-log) with each model's fitted d^(-b), one line style per G_c."""
+    fig, ax = plt.subplots(figsize=(5.0, 4.0), dpi=120)
+    gcs = sorted({g for _, g in effects})
+    for (model, g), eff in sorted(effects.items()):
+        name, marker, colour = STYLE[model]
+        grp = eff.groups
+        err = np.vstack([grp.sigma_median - grp.sigma_median_lo, grp.sigma_median_hi - grp.sigma_median]).clip(0)
+        ls = ["-", "--", "-.", ":"][gcs.index(g) % 4]
+        ax.errorbar(grp.d * 1e3, grp.sigma_median, yerr=np.nan_to_num(err), fmt=marker, color=colour, mfc="white",
+                    capsize=2)
+        d = np.geomspace(grp.d.min(), grp.d.max(), 30)
+        ax.plot(d * 1e3, eff.median(d), ls, color=colour,
+                label=f"{name}" + (f", $G_c$ = {g:g}" if len(gcs) > 1 else "")
+                      + f": b = {eff.b:.3g} [{eff.b_interval[0]:.3g}, {eff.b_interval[1]:.3g}], 3/m = {eff.b_weibull:.3g}")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("grain size d [mm]")
+    ax.set_ylabel(r"median $\sigma_c$ [Pa]")
+    ax.legend(fontsize=7, frameon=False)
+    _save(fig, path, title)
+
+
+def draw_crush(guard, table: pd.DataFrame, weibull: pd.DataFrame, effects: dict, plot_dir: Path, title: str
+               ) -> dict[str, Path]:
+    """Every figure of a crush comparison through `guard` (analysis.plots.PlotGuard), from the
+    runs table, the Weibull table and the size effects (driver/compare/crush.py); name -> path."""
+    files = {k: plot_dir / f"{k}.png" for k in ("force_displacement", "measures_vs_size", "fragments_vs_size",
+                                                 "weibull", "size_effect")}
+    guard.draw("force_displacement", files["force_displacement"], plot_force_curves, force_curves(table),
+               files["force_displacement"], title)
+    guard.draw("measures_vs_size", files["measures_vs_size"], plot_measures_vs_size, table,
+               ["F_c", "sigma_c", "u_c", "loading_stiffness", "W_p_at_F_c", "D_w_at_F_c"],
+               files["measures_vs_size"], title)
+    guard.draw("fragments_vs_size", files["fragments_vs_size"], plot_measures_vs_size, table,
+               ["D_w_end", "largest_fragment_mass_fraction", "n_fragments_multi_cell", "shape_elongation_mean",
+                "shape_flatness_mean", "F_max_over_F_c"], files["fragments_vs_size"], title)
+    if weibull.m.notna().any():
+        guard.draw("weibull", files["weibull"], plot_weibull_both, table, weibull, files["weibull"], title)
+    if effects:
+        guard.draw("size_effect", files["size_effect"], plot_size_effects, effects, files["size_effect"], title)
+    return {k: v for k, v in files.items() if v.exists()}
