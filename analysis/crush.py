@@ -3,7 +3,8 @@ analysis.strength.first_peak, the work and loading stiffness up to it, sigma_c =
 damage at F_c and at the end, the energy account and the fragments at the end (the impact's
 fragment analysis, analysis/bcm_impact.py and bpm_impact.py) (`BcmCrushAnalysis`,
 `BpmCrushAnalysis`, on what they share, `CrushAnalysis`); and a set of crush runs, the
-F_c and sigma_c of its grains with a Weibull fit (`analyse_crush_set`).
+F_c and sigma_c of its grains with a Weibull fit, the size effect and the half-speed check of
+quasi-static loading (`analyse_crush_set`).
 
 Displacement u: the upper platen's travel from first contact (its travel since the start less
 the initial gap), closing positive, m. Force: the normal force on the upper platen, N.
@@ -356,9 +357,13 @@ def analyse_crush_set(runs: list[dict], out: Path, plots: bool = True, left_out:
     """F_c and sigma_c of each grain (runs table) and, per group of grains that differ only by
     their seed (one size, one material, one speed: SPEC 4.1's set of grains of one size), the
     Weibull fit of sigma_c over the grains that dropped (analysis.strength.weibull_fit; flagged
-    under analysis.strength.MIN_WEIBULL_GRAINS grains), and the size effects (_size_effects).
-    Returns {grains, grains_dropped, groups: [{group, n, n_dropped, weibull_m, weibull_sigma_0,
-    their intervals, weibull_flag}], size_effects: [...]}."""
+    under analysis.strength.MIN_WEIBULL_GRAINS grains), the size effects (_size_effects) and
+    SPEC 4.1's quasi-static check between groups at a platen speed and half of it
+    (_half_speed_checks). The groups' keys are those of `params` but the seed: platen_speed
+    among them when `params` gives it (both crush units do), so grains at two speeds are two
+    groups. Returns {grains, grains_dropped, groups: [{group, n, n_dropped, weibull_m,
+    weibull_sigma_0, their intervals, weibull_flag}], size_effects: [...],
+    half_speed_checks: [...]}."""
     rows = [{"run": r["cfg"]["name"], "run_dir": str(r["dir"]), **params(r["cfg"]),
              **{k: r["summary"].get(k) for k in ("F_c", "sigma_c", "height", "u_c", "dropped", "F_max", "D_w_end")}}
             for r in runs]
@@ -395,6 +400,7 @@ def analyse_crush_set(runs: list[dict], out: Path, plots: bool = True, left_out:
             rep.text(f"{group}: {len(broke)} grain(s) dropped, no Weibull fit (2 or more needed).")
         figures["groups"].append(entry)
     figures["size_effects"] = _size_effects(table, keys, out, plots, rep)
+    figures["half_speed_checks"] = _half_speed_checks(table, keys, out, rep)
     write_report(rep, out)
     return figures
 
@@ -427,3 +433,70 @@ def _size_effects(table: pd.DataFrame, keys: list[str], out: Path, plots: bool, 
             plot_size_effect(effect, png, family)
             rep.figure(png, f"size effect, {family}")
     return found
+
+
+#: The tolerance of the half-speed check when fewer than 2 grains dropped at the faster speed (no
+#: seed scatter to compare with): the 5 % of the single-seed checks (tests/test_bcm_crush.py).
+HALF_SPEED_TOLERANCE = 0.05
+#: Two speeds are v and v/2 when v_slow / v_fast is 1/2 to this relative tolerance.
+HALF_SPEED_RTOL = 1e-9
+
+
+def _half_speed_checks(table: pd.DataFrame, keys: list[str], out: Path, rep: Report) -> list[dict]:
+    """SPEC 4.1's quasi-static check: per pair of groups that differ only by platen_speed, one
+    speed v, the other v/2 (to HALF_SPEED_RTOL), the grains paired by seed among those that
+    dropped at both speeds: the check passes when the mean paired |F_c(v/2) - F_c(v)| / F_c(v) is
+    at most the seed-to-seed scatter of F_c at v (std, ddof = 1, over mean, over the grains of
+    that group that dropped); with fewer than 2 such grains, at most HALF_SPEED_TOLERANCE. Returns
+    [{group_fast, group_slow, pairs, mean_relative_difference, seed_scatter, tolerance, passed}]
+    (no pair: mean_relative_difference and passed None), written to half_speed.csv (when there
+    is a check) and the report, a failed check flagged."""
+    if "platen_speed" not in keys or "seed" not in table:
+        return []
+    rest = [k for k in keys if k != "platen_speed"]
+    # the group without its speed: the same formatting as the groups' names
+    other = [", ".join(f"{k} = {row[k]:g}" if isinstance(row[k], float) else f"{k} = {row[k]}" for k in rest)
+             for _, row in table.iterrows()]
+    table = table.assign(_rest=other)
+    groups = [(name, members) for name, members in table.groupby("group", sort=True)]
+    checks = []
+    for fast_name, fast in groups:
+        v = float(fast.platen_speed.iloc[0])
+        for slow_name, slow in groups:
+            if (slow._rest.iloc[0] != fast._rest.iloc[0]
+                    or abs(float(slow.platen_speed.iloc[0]) / v - 0.5) > 0.5 * HALF_SPEED_RTOL):
+                continue
+            fast_broke = fast[fast.dropped.astype(bool)]
+            f_fast = fast_broke.groupby("seed").F_c.mean()
+            f_slow = slow[slow.dropped.astype(bool)].groupby("seed").F_c.mean()
+            seeds = f_fast.index.intersection(f_slow.index)
+            diff = (f_slow[seeds] - f_fast[seeds]).abs() / f_fast[seeds]
+            if len(fast_broke) >= 2:
+                fc = fast_broke.F_c.to_numpy(float)
+                scatter = float(np.std(fc, ddof=1) / np.mean(fc))
+                tolerance = scatter
+                basis = (f"the seed-to-seed scatter of F_c at {v:g} m/s, {scatter:.3g} (std / mean over its "
+                         f"{len(fc)} grains that dropped)")
+            else:
+                scatter, tolerance = None, HALF_SPEED_TOLERANCE
+                basis = (f"a fixed {HALF_SPEED_TOLERANCE:g} (fewer than 2 grains dropped at {v:g} m/s: no seed "
+                         "scatter to compare with)")
+            mean = float(diff.mean()) if len(seeds) else None
+            passed = None if mean is None else bool(mean <= tolerance)
+            checks.append({"group_fast": fast_name, "group_slow": slow_name, "pairs": int(len(seeds)),
+                           "mean_relative_difference": mean, "seed_scatter": scatter, "tolerance": tolerance,
+                           "passed": passed})
+            head = (f"half-speed check, {v:g} against {v / 2:g} m/s"
+                    + (f" ({fast._rest.iloc[0]})" if rest else ""))
+            if mean is None:
+                rep.text(f"H{head[1:]}: no seed dropped at both speeds, no check.")
+                continue
+            measured = (f"over {len(seeds)} seed{'s' if len(seeds) > 1 else ''} dropped at both speeds, the mean "
+                        f"|F_c(v/2) - F_c(v)| / F_c(v) is {mean:.3g}")
+            if passed:
+                rep.text(f"H{head[1:]}: {measured}, within {basis}: quasi-static (SPEC 4.1).")
+            else:
+                rep.text(f"Flag: not quasi-static: {head}: {measured}, above {basis} (lower scenario.platen_speed).")
+    if checks:
+        save_table(pd.DataFrame(checks), out / "half_speed")
+    return checks

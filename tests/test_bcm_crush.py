@@ -1,7 +1,9 @@
 """BCM crush end to end (SPEC 4.1, driver/bcm/crush.py, analysis/crush.py): a small particle
 between a fixed and a moving platen runs to its stop rule, the energy account closes, the two
 platens carry the same force while it loads (quasi-static), F_c follows the stated rule and
-does not change when the platen's speed is halved; bad fields are refused by name.
+does not change when the platen's speed is halved, an unbreakable particle's loading line halves
+with every stiffness; bad fields are refused by name. The set analysis fits the grains that
+dropped and checks F_c between groups at a speed and half of it (synthetic summaries).
 
 The reference run (`small_crush`, 80 cells, seed 1, 0.02 m/s) takes about 10 s: it breaks
 after 2.2 µm of platen travel at F_c = 44 N (81 interfaces broken) and stops once the force
@@ -47,6 +49,16 @@ def small_crush(shared_runs, plugin_path) -> Path:
 
 def summary_of(run_dir: Path) -> dict:
     return json.loads((run_dir / "results" / "summary.json").read_text())
+
+
+def force_ratio_on_common_grid(u_a, f_a, u_b, f_b, floor: float = 0.2, n: int = 200) -> tuple[np.ndarray, np.ndarray]:
+    """(grid, f_b / f_a): two force-displacement records interpolated on a common grid of u from
+    where f_a stays above `floor` times its last value to the end of the shorter record."""
+    u_a, f_a, u_b, f_b = (np.asarray(x, float) for x in (u_a, f_a, u_b, f_b))
+    below = np.flatnonzero(f_a < floor * f_a[-1])
+    lo = u_a[below[-1] + 1] if len(below) else u_a[0]
+    grid = np.linspace(lo, min(u_a[-1], u_b[-1]), n)
+    return grid, np.interp(grid, u_b, f_b) / np.interp(grid, u_a, f_a)
 
 
 def test_crush_runs_to_the_drop(small_crush):
@@ -147,6 +159,46 @@ def test_crush_half_speed(tmp_path, plugin_path, seed):
     assert half["F_c"] == pytest.approx(full["F_c"], rel=0.05)
 
 
+def test_crush_unbreakable_stiffness_halves(tmp_path, plugin_path):
+    """An unbreakable particle (G_c = 1e6 J/m², no interface can break) gives a loading line,
+    never a peak, whose stiffness halves when every stiffness of the system halves: the
+    interfaces' k_n, k_t (model.interface) and the frictional contact's k_n, k_t
+    (model.contact: the cell-cell contacts, and the platens, `fix bcm/wall` takes
+    model.contact's k_n, k_t at each touching vertex, driver/bcm/styles.py wall_setup). Every
+    force is then half at the same positions (friction too, mu f_n), so the quasi-static
+    force at equal displacement is exactly half; what departs from 1/2 is dynamic (the half-
+    stiffness particle's periods are sqrt(2) longer: the same platen speed is a little less
+    quasi-static for it; the restitution e_n sets the dashpots as 2 alpha sqrt(k m), so the
+    damping ratio is kept). The small particle (80 cells, seed 1, 0.02 m/s) is stopped at
+    max_time = 2e-4 s, a platen travel of 4 µm (the breaking particle's u_c is 2.2 µm): 90.3 N
+    at the end against 45.6 N.
+
+    Measured: loading_stiffness 2.078e7 and 1.043e7 N/m, ratio 0.5017; the force ratio on the
+    common u grid above 0.2 of the end force 0.4988-0.5029 (0.58 % at most from 1/2). The
+    tolerances, 1 % on the stiffness ratio and 2 % on the force ratio, are 3 times these, and
+    catch a stiffness left out: halving the interfaces alone gives 0.526 and a force ratio up
+    to 0.56. About 11 s for the two runs."""
+    curves, sums = [], []
+    for name, scale in (("full", 1.0), ("half", 0.5)):
+        cfg = crush_config(tmp_path / name, **SMALL, plots=False, max_time=2e-4)
+        cfg["model"]["interface"].update(G_c=1e6, kn=scale * 1e7, kt=scale * 0.8e7)
+        cfg["model"]["contact"] = {"kn": scale * 1e8, "kt": scale * 8e7}
+        execute(parse_config(cfg), np_ranks=1, show_progress=False)
+        run_dir = tmp_path / name
+        system = json.loads((run_dir / "system.json").read_text())
+        rec = read_crush_record(run_dir / "thermo.dat")
+        curves.append((rec.displacement - (system["platen_start"] - system["highest_z"]), rec.F_upper))
+        sums.append(summary_of(run_dir))
+    full, half = sums
+    for s in sums:
+        assert s["dropped"] is False and s["broken_end"] == 0 and s["stopped_by_drop"] is False
+        assert s["F_max"] == s["F_c"] and s["F_end_over_F_c"] == pytest.approx(1.0, abs=1e-3)
+        assert 3.9e-6 < s["u_end"] < 4.2e-6
+    assert half["loading_stiffness"] / full["loading_stiffness"] == pytest.approx(0.5, rel=0.01)
+    _, ratio = force_ratio_on_common_grid(*curves[0], *curves[1])
+    np.testing.assert_allclose(ratio, 0.5, rtol=0.02)
+
+
 @pytest.mark.parametrize("field,value,message", [
     ("platen_speed", 0.0, "scenario.platen_speed: Input should be greater than 0"),
     ("platen_speed", -0.01, "scenario.platen_speed: Input should be greater than 0"),
@@ -232,6 +284,69 @@ def test_crush_set_fits_the_grains_that_dropped(tmp_path):
     med = np.median(np.delete(sigma, 3))
     assert effect["b"] == pytest.approx(-np.log(1e9 / med) / np.log(2.0), rel=1e-9)
     assert (out / "report.md").exists()
+
+
+@pytest.mark.parametrize("slow_factor,passes", [(None, True), (0.7, False)])
+def test_crush_set_half_speed_check(tmp_path, slow_factor, passes):
+    """SPEC 4.1's quasi-static check in the set analysis: grains of 4 seeds at 0.02 m/s and the
+    same seeds at 0.01 m/s are two groups (platen_speed is one of the groups' keys), paired by
+    seed; the check passes when the mean |F_c(v/2) - F_c(v)| / F_c(v) is within the seed scatter
+    of F_c at v (std / mean, here 14 %). F_c at half speed within 1-2 % of the fast one's
+    passes; 30 % lower fails, flagged in the report."""
+    from driver.scenarios.bcm_crush import UNIT  # noqa: PLC0415
+
+    f_fast = {1: 40.0, 2: 45.0, 3: 50.0, 4: 55.0}
+    wiggle = {1: 1.01, 2: 0.99, 3: 1.02, 4: 1.0}
+    runs = []
+    for speed in (0.02, 0.01):
+        for seed, f in f_fast.items():
+            if speed == 0.01:
+                f *= wiggle[seed] if slow_factor is None else slow_factor
+            cfg = crush_config(tmp_path, 80, seed, speed)
+            cfg["name"] = f"grain{seed}_{speed:g}"
+            cfg["model"]["diameter"] = 2e-3
+            runs.append({"dir": tmp_path / cfg["name"], "cfg": cfg,
+                         "summary": {"F_c": f, "sigma_c": f / 4e-6, "height": 2e-3, "u_c": 2e-6, "dropped": True}})
+    out = tmp_path / "set"
+    figures = UNIT.analyse_set(runs, out, False, [], {})
+    assert [g["n"] for g in figures["groups"]] == [4, 4]
+    assert {g["group"] for g in figures["groups"]} == {
+        f"G_c = 1, platen_speed = {v:g}, n_cells = 80, diameter = 0.002" for v in (0.01, 0.02)}
+    (check,) = figures["half_speed_checks"]
+    assert "platen_speed = 0.02" in check["group_fast"]
+    assert "platen_speed = 0.01" in check["group_slow"] and check["pairs"] == 4
+    fc = np.array(list(f_fast.values()))
+    scatter = np.std(fc, ddof=1) / fc.mean()
+    assert check["seed_scatter"] == pytest.approx(scatter) and check["tolerance"] == check["seed_scatter"]
+    expected = np.mean([abs(w - 1.0) for w in wiggle.values()]) if slow_factor is None else 1.0 - slow_factor
+    assert check["mean_relative_difference"] == pytest.approx(expected)
+    assert check["passed"] is passes
+    table = pd.read_csv(out / "half_speed.csv")
+    assert len(table) == 1 and bool(table.passed.iloc[0]) is passes
+    report = (out / "report.md").read_text()
+    assert "Half-speed check" in report or "half-speed check" in report
+    assert ("Flag: not quasi-static" in report) is not passes
+
+
+def test_crush_set_half_speed_check_without_scatter(tmp_path):
+    """With one grain that dropped at the faster speed there is no seed scatter: the check uses
+    the fixed tolerance 0.05 and says so; a grain that did not drop is not paired."""
+    from analysis.crush import HALF_SPEED_TOLERANCE  # noqa: PLC0415
+    from driver.scenarios.bcm_crush import UNIT  # noqa: PLC0415
+
+    runs = []
+    for speed, seed, f, dropped in ((0.02, 1, 40.0, True), (0.02, 2, 60.0, False), (0.01, 1, 41.0, True),
+                                    (0.01, 2, 45.0, True)):
+        cfg = crush_config(tmp_path, 80, seed, speed)
+        cfg["name"], cfg["model"]["diameter"] = f"grain{seed}_{speed:g}", 2e-3
+        runs.append({"dir": tmp_path / cfg["name"], "cfg": cfg,
+                     "summary": {"F_c": f, "sigma_c": f / 4e-6, "height": 2e-3, "u_c": 2e-6, "dropped": dropped}})
+    out = tmp_path / "set"
+    (check,) = UNIT.analyse_set(runs, out, False, [], {})["half_speed_checks"]
+    assert check["pairs"] == 1 and check["seed_scatter"] is None
+    assert check["tolerance"] == HALF_SPEED_TOLERANCE == 0.05
+    assert check["mean_relative_difference"] == pytest.approx(1.0 / 40.0) and check["passed"] is True
+    assert "a fixed 0.05 (fewer than 2 grains dropped" in (out / "report.md").read_text()
 
 
 @pytest.mark.mpi

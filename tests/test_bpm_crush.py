@@ -1,8 +1,9 @@
 """BPM crush end to end (SPEC 4.1, 3; driver/bpm/crush.py, analysis/crush.py BpmCrushAnalysis):
 a small BPM particle between the fixed plane and the moving platen of driver/bpm/platen.py runs
 to its stop rule, the energy account closes, the two platens carry the same force while it
-loads, and a run interrupted and resumed (its platen placed by the step, its work carried on)
-finds the same F_c.
+loads, F_c does not change when the platen's speed is halved, an unbreakable particle's loading
+line halves with every stiffness, and a run interrupted and resumed (its platen placed by the
+step, its work carried on) finds the same F_c.
 
 The reference run (`small_bpm_crush`: d = 6 a = 1 mm, the placeholder units of
 examples/bpm_impact_quick.yaml, 0.25 m/s) takes about 35 s, so these tests are `slow`: the
@@ -105,6 +106,75 @@ def test_bpm_crush_quasi_static(small_bpm_crush):
     loading = loading[loading.F_upper >= 0.1 * s["F_c"]]
     diff = (loading.F_upper - loading.F_lower).to_numpy()
     assert len(diff) > 50 and np.sqrt(np.mean(diff ** 2)) < 0.05 * s["F_c"]
+
+
+@pytest.mark.slow
+def test_bpm_crush_unbreakable_stiffness_halves(tmp_path, plugin_path):
+    """An unbreakable BPM particle gives a loading line, never a peak, whose stiffness halves
+    when every stiffness of the system halves. Unbreakable: lambda_c = 1.5 (driver/bpm/mode2.py
+    UNBREAKABLE_LAMBDA: a 50 % stretch, where the breaking particle's bonds go at 5 %; the
+    schema allows up to 2) and theta_c = 179 degrees (the schema's limit is below 180), gamma
+    lowered to 1.02 so that the bonded damping gamma (1 - r / (lambda_c r0))^2 at r0 is the
+    breaking particle's (mode2.py unbreakable_gamma). Stiffness: the bonds' (Eq. 2), angles'
+    (k_A) and repulsion's stiffnesses are in LJ units of energy, so halving
+    model.particle.units.energy_u_J halves them all in SI; the platens' contact law,
+    model.particle.contact k_n, k_t, is in SI (driver/bpm/impact.py plane_law: k a^2 / u in LJ),
+    so it is halved too. The mass unit is kept. In LJ units the two runs are then the same but
+    for the platen's speed, sqrt(2) higher in a / tau for the softer one (tau = a sqrt(m / u)):
+    the quasi-static force is half at every displacement, what departs from 1/2 is the rate
+    effect between 0.25 and 0.35 m/s. Both stop at max_strain = 0.08, 83 µm of platen travel
+    (the breaking particle's F_c comes at 78 µm): 128 N and 64 N at the end. Short of that the
+    first-peak rule trips on the first touch: the particle, touched at one sphere, tips, leaves
+    both platens for some 15 µm of travel and rings to ~3 N on its way back, which falls below
+    0.8 of its running maximum once that is above 0.05 of the record's largest force (at
+    50 µm of travel: F_c = 2 N, `dropped`).
+
+    Measured: loading_stiffness 2.141e6 and 1.072e6 N/m, ratio 0.5007 (0.499 at max_strain
+    0.07); the force ratio on the common u grid above 0.2 of the end force 0.488-0.513 (the
+    ringing of the loading line, 2.5 % at most from 1/2). Tolerances: 1 % on the stiffness
+    ratio, 5 % on the force ratio. They catch the network's stiffness, not the platens': these
+    are 50 times stiffer than the particle (1e8 against 2e6 N/m), and left unhalved they move
+    the ratio to 0.505 only. About 55 s for the two runs."""
+    from driver.bpm.mode2 import UNBREAKABLE_LAMBDA, unbreakable_gamma  # noqa: PLC0415
+    from test_bcm_crush import force_ratio_on_common_grid  # noqa: PLC0415
+
+    curves, sums = [], []
+    for name, scale in (("full", 1.0), ("half", 0.5)):
+        cfg = bpm_crush_config(tmp_path / name, plots=False)
+        cfg["scenario"]["max_strain"] = 0.08
+        m = cfg["model"]
+        m.update(lambda_c=UNBREAKABLE_LAMBDA, theta_c_deg=179.0, gamma=unbreakable_gamma(50.0, 1.05))
+        m["particle"]["units"] = {**UNITS, "energy_u_J": scale * UNITS["energy_u_J"]}
+        m["particle"]["contact"].update(kn=scale * 1e8, kt=scale * 8e7)
+        execute(parse_config(cfg), np_ranks=1, show_progress=False)
+        run_dir = tmp_path / name
+        system = json.loads((run_dir / "system.json").read_text())
+        un = system["units"]
+        rec = read_bpm_crush_record(run_dir / "thermo.dat", un)
+        curves.append((rec.displacement - (system["platen_start"] - system["height_a"]) * un["a"], rec.F_upper))
+        sums.append(summary_of(run_dir))
+    full, half = sums
+    for s in sums:
+        assert s["dropped"] is False and s["stopped_by_drop"] is False
+        assert s["broken_end"] == 0 and s["angles_broken_end"] == 0
+        assert s["F_max"] == s["F_c"] and s["F_end_over_F_c"] == pytest.approx(1.0, abs=1e-2)
+        assert 8.0e-5 < s["u_end"] < 8.6e-5
+    assert half["loading_stiffness"] / full["loading_stiffness"] == pytest.approx(0.5, rel=0.01)
+    _, ratio = force_ratio_on_common_grid(*curves[0], *curves[1])
+    np.testing.assert_allclose(ratio, 0.5, rtol=0.05)
+
+
+@pytest.mark.slow
+def test_bpm_crush_half_speed(small_bpm_crush, tmp_path):
+    """SPEC 4.1's quasi-static test on the small BPM particle: F_c at 0.125 m/s within 5 % of
+    F_c at 0.25 m/s (the shared reference run). Measured (seed 1): 98.06 N after 78.2 µm at
+    0.25 m/s, 97.05 N after 78.0 µm at 0.125 m/s, 1.0 % apart (the platens' forces 0.3 % apart
+    while loading at the lower speed, 0.6 % at 0.25 m/s). About 50 s (349,000 steps) besides
+    the shared run."""
+    half = run_bpm_crush(tmp_path / "half", platen_speed=0.125, plots=False)
+    full = summary_of(small_bpm_crush)
+    assert full["dropped"] and half["dropped"]
+    assert half["F_c"] == pytest.approx(full["F_c"], rel=0.05)
 
 
 def test_bpm_crush_refuses_a_2d_model(tmp_path):
