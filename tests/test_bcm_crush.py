@@ -250,7 +250,9 @@ def test_crush_set_fits_the_grains_that_dropped(tmp_path):
     """The set analysis tables every grain and fits the Weibull law, per group of grains that
     differ by their seed only, to the sigma_c of those that dropped: a grain that never dropped
     (its F_c only the largest force recorded) is listed but left out of the fit, whose m and
-    sigma_0 are those of the others alone; a grain of another size is a group of its own."""
+    sigma_0 are those of the others alone; a grain of another size is a group of its own. The
+    second strength, sigma_max = F_max / d² (every other grain here carried twice its F_c after
+    a local first failure), is fitted beside it over the same grains."""
     from analysis.strength import weibull_fit  # noqa: PLC0415
     from driver.scenarios.bcm_crush import UNIT  # noqa: PLC0415
 
@@ -263,12 +265,13 @@ def test_crush_set_fits_the_grains_that_dropped(tmp_path):
         cfg["model"]["diameter"] = 2e-3
         runs.append({"dir": tmp_path / f"grain{k}", "cfg": cfg,
                      "summary": {"F_c": s * 4e-6, "sigma_c": s, "height": 2e-3, "u_c": 1e-6, "dropped": k != 3,
-                                 "D_w_end": 0.2}})
+                                 "D_w_end": 0.2, "F_max": s * 4e-6 * (2.0 if k % 2 else 1.0)}})
     # a 13th grain of another size: a group of its own, not in the fit of the 12
     other = crush_config(tmp_path, 80, 99, 0.02)
     other["name"], other["model"]["diameter"] = "big", 4e-3
     runs.append({"dir": tmp_path / "big", "cfg": other,
-                 "summary": {"F_c": 10.0, "sigma_c": 1e9, "height": 4e-3, "u_c": 1e-6, "dropped": True}})
+                 "summary": {"F_c": 10.0, "sigma_c": 1e9, "height": 4e-3, "u_c": 1e-6, "dropped": True,
+                             "F_max": 10.0}})
     out = tmp_path / "set"
     figures = UNIT.analyse_set(runs, out, False, [], {})
     table = pd.read_csv(out / "runs.csv")
@@ -279,8 +282,13 @@ def test_crush_set_fits_the_grains_that_dropped(tmp_path):
     assert group["n_dropped"] == 11
     assert group["weibull_m"] == pytest.approx(fit.m) and group["weibull_sigma_0"] == pytest.approx(fit.sigma_0)
     assert "weibull_m" not in figures["groups"][1]
-    # two sizes of one family: a size effect, from the medians of the two sizes
-    (effect,) = figures["size_effects"]
+    split = weibull_fit(np.delete(sigma * np.where(np.arange(12) % 2, 2.0, 1.0), 3))
+    assert group["weibull_max_m"] == pytest.approx(split.m)
+    assert group["weibull_max_sigma_0"] == pytest.approx(split.sigma_0)
+    assert table.sigma_max.iloc[12] == pytest.approx(10.0 / 4e-3 ** 2)
+    # two sizes of one family: a size effect, from the medians of the two sizes, per strength
+    effect, effect_max = figures["size_effects"]
+    assert (effect["strength"], effect_max["strength"]) == ("sigma_c", "sigma_max")
     med = np.median(np.delete(sigma, 3))
     assert effect["b"] == pytest.approx(-np.log(1e9 / med) / np.log(2.0), rel=1e-9)
     assert (out / "report.md").exists()

@@ -36,7 +36,8 @@ def grains(model: str, m: float, sigma_0: float, sizes: list[float], n: int, b: 
         for s in range(1, n + 1):
             sigma = sigma_0 * (d / 2e-3) ** -b * rng.weibull(m)
             rows.append({"model": model, "G_c": G_c, "diameter": d, "seed": s, "state": "finished", "dropped": True,
-                         "sigma_c": sigma, "height": d, "F_c": sigma * d * d, "F_max_over_F_c": 1.0,
+                         "sigma_c": sigma, "height": d, "F_c": sigma * d * d, "F_max": 2 * sigma * d * d,
+                         "F_max_over_F_c": 1.0,
                          "force_mismatch_loading": 0.01, "run_dir": f"/nowhere/{model}/{d}/{s}"})
     return rows
 
@@ -48,7 +49,13 @@ def test_weibull_per_model_and_size_is_analysis_strengths_fit():
     rows[3]["dropped"] = False
     rows.append({**rows[0], "state": "failed", "sigma_c": 1.0})
     table = pd.DataFrame(rows)
-    w = crush.weibull_table(table).set_index("model")
+    both = crush.weibull_table(table)
+    assert set(both.strength) == {"sigma_c", "sigma_max"}
+    # sigma_max = F_max / d² where the summary has none: twice sigma_c here, the same m
+    w_max = both[both.strength == "sigma_max"].set_index("model")
+    w = both[both.strength == "sigma_c"].set_index("model")
+    assert w_max.loc["bcm", "m"] == pytest.approx(w.loc["bcm", "m"], rel=1e-6)
+    assert w_max.loc["bcm", "sigma_0"] == pytest.approx(2 * w.loc["bcm", "sigma_0"], rel=1e-6)
     assert w.loc["bcm", "n"] == 12 and w.loc["bcm", "n_dropped"] == 11 and w.loc["bpm", "n_dropped"] == 12
     s = np.array([r["sigma_c"] for r in rows[:12]])
     fit = weibull_fit(np.delete(s, 3))
@@ -57,7 +64,8 @@ def test_weibull_per_model_and_size_is_analysis_strengths_fit():
     assert w.loc["bcm", "flag"] is None
     # sigma_0 20 MPa against 40 MPa: their intervals do not overlap; m 5 against 10 over 12
     # grains: the intervals are wide
-    pairs = crush.interval_pairs(crush.weibull_table(table), crush.size_effect_table(table)[0]).set_index("quantity")
+    pairs = crush.interval_pairs(crush.weibull_table(table), crush.size_effect_table(table)[0])
+    pairs = pairs[pairs.strength == "sigma_c"].set_index("quantity")
     assert pairs.loc["sigma_0", "verdict"] == "differ"
     assert pairs.loc["sigma_0", "lo_bcm"] < 20e6 * 1.2 and pairs.loc["sigma_0", "hi_bpm"] > 40e6 * 0.8
     assert set(pairs.index) == {"m", "sigma_0"}  # one size: no size effect
@@ -69,12 +77,13 @@ def test_size_effect_per_model_recovers_its_exponent_and_verdicts_follow_interva
     sizes = [1.5e-3, 2e-3, 3e-3]
     table = pd.DataFrame(grains("bcm", 5.0, 20e6, sizes, 40, b=0.6) + grains("bpm", 5.0, 20e6, sizes, 40, b=0.2, seed=3))
     sizes_table, effects = crush.size_effect_table(table)
-    got = sizes_table.set_index("model")
+    got = sizes_table[sizes_table.strength == "sigma_c"].set_index("model")
     for model, b in (("bcm", 0.6), ("bpm", 0.2)):
         assert got.loc[model, "b_lo"] < b < got.loc[model, "b_hi"]
         assert got.loc[model, "sizes"] == 3 and got.loc[model, "grains"] == 120
-        assert effects[model, 3.3].b == pytest.approx(got.loc[model, "b"])
+        assert effects[model, 3.3, "sigma_c"].b == pytest.approx(got.loc[model, "b"])
     pairs = crush.interval_pairs(crush.weibull_table(table), sizes_table)
+    pairs = pairs[pairs.strength == "sigma_c"]
     b_row = pairs[pairs.quantity == "b"].iloc[0]
     assert math.isnan(b_row.diameter) and b_row.verdict == "differ"
     # m = 5 at every size in both: 3/m agrees
@@ -88,7 +97,8 @@ def test_interval_verdicts():
     assert crush.interval_verdict(1.0, 2.0, 2.5, 3.0) == "differ"
     assert crush.interval_verdict(1.0, math.nan, 0.0, 3.0) == "undetermined"
     one = pd.DataFrame(grains("bcm", 5.0, 20e6, [2e-3], 1) + grains("bpm", 5.0, 20e6, [2e-3], 6))
-    w = crush.weibull_table(one).set_index("model")
+    w = crush.weibull_table(one)
+    w = w[w.strength == "sigma_c"].set_index("model")
     assert math.isnan(w.loc["bcm", "m"]) and "no Weibull fit" in w.loc["bcm", "flag"]
     assert "unreliable" in w.loc["bpm", "flag"]  # 6 grains
     pairs = crush.interval_pairs(crush.weibull_table(one), crush.size_effect_table(one)[0])

@@ -15,7 +15,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from analysis.strength import median_rank_survival  # noqa: E402
-from driver.compare.crush import CRUSH_MEASURES, force_curves  # noqa: E402
+from driver.compare.crush import CRUSH_MEASURES, force_curves, with_strengths  # noqa: E402
 from driver.compare.plots import STYLE, point_means  # noqa: E402
 from runfiles.atomic import atomic_save  # noqa: E402
 
@@ -80,19 +80,23 @@ def plot_measures_vs_size(table: pd.DataFrame, cols: list[str], path: Path, titl
 
 
 def plot_weibull_both(table: pd.DataFrame, weibull: pd.DataFrame, path: Path, title: str = "") -> None:
-    """One panel per (G_c, size): ln(-ln P_s) of each model's grains that dropped at Benard's
-    median ranks against sigma_c (log), and each model's fitted law, m and sigma_0 in the legend."""
+    """One panel per (strength, G_c, size): ln(-ln P_s) of each model's grains that dropped at
+    Benard's median ranks against the strength (log), and each model's fitted law, m and sigma_0
+    in the legend."""
+    table = with_strengths(table)
     done = table[(table.state == "finished") & table.dropped.astype(bool)] if "state" in table else table
-    points = sorted({(g, d) for g, d in zip(weibull.G_c, weibull.diameter)})
+    points = sorted({(st, g, d) for st, g, d in zip(weibull.strength, weibull.G_c, weibull.diameter)})
     fig, axes = _panels(len(points))
-    for ax, (g, d) in zip(axes, points):
+    for ax, (strength, g, d) in zip(axes, points):
         for model, (name, marker, colour) in STYLE.items():
-            s = done[(done.model == model) & (done.G_c == g) & (done.diameter == d)].sigma_c.to_numpy(float)
+            s = done[(done.model == model) & (done.G_c == g) & (done.diameter == d)][strength].to_numpy(float)
+            s = s[np.isfinite(s)]
             if len(s) == 0:
                 continue
             xs, ps = median_rank_survival(s)
             ax.plot(xs, np.log(-np.log(ps)), marker, color=colour, mfc="white", ms=5, label=f"{name}, {len(s)} grains")
-            fit = weibull[(weibull.model == model) & (weibull.G_c == g) & (weibull.diameter == d)]
+            fit = weibull[(weibull.model == model) & (weibull.G_c == g) & (weibull.diameter == d)
+                          & (weibull.strength == strength)]
             if len(fit) and np.isfinite(fit.m.iloc[0]):
                 m, s0 = float(fit.m.iloc[0]), float(fit.sigma_0.iloc[0])
                 x = np.geomspace(xs.min(), xs.max(), 50)
@@ -100,18 +104,21 @@ def plot_weibull_both(table: pd.DataFrame, weibull: pd.DataFrame, path: Path, ti
                         label=rf"$m$ = {m:.3g}, $\sigma_0$ = {s0 / 1e6:.3g} MPa")
         ax.axhline(0.0, color="0.6", lw=0.5)
         ax.set_xscale("log")
-        ax.set_xlabel(r"$\sigma_c = F_c/d^2$ [Pa]")
+        ax.set_xlabel(r"$\sigma_c = F_c/d^2$ [Pa]" if strength == "sigma_c" else r"$\sigma_{max} = F_{max}/d^2$ [Pa]")
         ax.set_ylabel(r"$\ln(-\ln P_s)$ [-]")
-        ax.set_title(f"G_c = {g:g} J/m², d = {d * 1e3:g} mm", fontsize=8)
+        ax.set_title(f"{strength}, G_c = {g:g} J/m², d = {d * 1e3:g} mm", fontsize=8)
         ax.legend(fontsize=7, frameon=False)
     _save(fig, path, title)
 
 
 def plot_size_effects(effects: dict, path: Path, title: str = "") -> None:
-    """Median sigma_c against d (log-log) with each model's fitted d^(-b), one line style per G_c."""
-    fig, ax = plt.subplots(figsize=(5.0, 4.0), dpi=120)
-    gcs = sorted({g for _, g in effects})
-    for (model, g), eff in sorted(effects.items()):
+    """One panel per strength: the median against d (log-log) with each model's fitted d^(-b),
+    one line style per G_c."""
+    strengths = sorted({st for _, _, st in effects})
+    fig, axes = _panels(len(strengths), 5.0, 4.0)
+    gcs = sorted({g for _, g, _ in effects})
+    for (model, g, strength), eff in sorted(effects.items()):
+        ax = axes[strengths.index(strength)]
         name, marker, colour = STYLE[model]
         grp = eff.groups
         err = np.vstack([grp.sigma_median - grp.sigma_median_lo, grp.sigma_median_hi - grp.sigma_median]).clip(0)
@@ -122,11 +129,12 @@ def plot_size_effects(effects: dict, path: Path, title: str = "") -> None:
         ax.plot(d * 1e3, eff.median(d), ls, color=colour,
                 label=f"{name}" + (f", $G_c$ = {g:g}" if len(gcs) > 1 else "")
                       + f": b = {eff.b:.3g} [{eff.b_interval[0]:.3g}, {eff.b_interval[1]:.3g}], 3/m = {eff.b_weibull:.3g}")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("grain size d [mm]")
-    ax.set_ylabel(r"median $\sigma_c$ [Pa]")
-    ax.legend(fontsize=7, frameon=False)
+    for ax, strength in zip(axes, strengths):
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("grain size d [mm]")
+        ax.set_ylabel(r"median $\sigma_c$ [Pa]" if strength == "sigma_c" else r"median $\sigma_{max}$ [Pa]")
+        ax.legend(fontsize=7, frameon=False)
     _save(fig, path, title)
 
 
@@ -139,7 +147,7 @@ def draw_crush(guard, table: pd.DataFrame, weibull: pd.DataFrame, effects: dict,
     guard.draw("force_displacement", files["force_displacement"], plot_force_curves, force_curves(table),
                files["force_displacement"], title)
     guard.draw("measures_vs_size", files["measures_vs_size"], plot_measures_vs_size, table,
-               ["F_c", "sigma_c", "u_c", "loading_stiffness", "W_p_at_F_c", "D_w_at_F_c"],
+               ["F_c", "sigma_c", "F_max", "sigma_max", "u_c", "loading_stiffness", "W_p_at_F_c", "D_w_at_F_c"],
                files["measures_vs_size"], title)
     guard.draw("fragments_vs_size", files["fragments_vs_size"], plot_measures_vs_size, table,
                ["D_w_end", "largest_fragment_mass_fraction", "n_fragments_multi_cell", "shape_elongation_mean",
