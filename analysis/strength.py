@@ -14,11 +14,15 @@ Rules, each stated once here and in the docstring of its function:
   `floor` (0.05) of the record's largest force, so that chatter at first touch is no peak;
 - loading stiffness (loading_stiffness): the slope of the least-squares line of force against
   displacement over the last unbroken run of samples before the peak with force between
-  lo·F_c and hi·F_c (0.1 and 0.5).
+  lo·F_c and hi·F_c (0.1 and 0.5);
+- Weibull intervals (weibull_fit): pivotal (Thoman, Bain & Antle 1969; ASTM C1239), m_hat / m
+  and m_hat ln(sigma_0_hat / sigma_0) simulated on n_boot standard Weibull samples of the
+  data's size, so that the coverage is the nominal one at any n, up to Monte Carlo error.
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -36,10 +40,12 @@ NOISE_FLOOR = 0.05
 largest force: the first touch of a platen can chatter (the force rises and falls back to
 zero while the contact settles), at forces orders of magnitude below failure."""
 MIN_WEIBULL_GRAINS = 10
-"""Fewer grains than this and the Weibull intervals are flagged as unreliable: the percentile
-bootstrap rests on the sample's few distinct values, and the maximum-likelihood m is biased
-upwards: its mean over 4000 synthetic samples (m = 5) is 18 % high at n = 10, 5 % at n = 30,
-1.6 % at n = 100."""
+"""Fewer grains than this and the Weibull fit is flagged as unreliable. Not for the intervals'
+coverage: the pivotal intervals of weibull_fit cover at the nominal rate at any n, up to
+Monte Carlo error. For the estimate and the width: the maximum-likelihood m is biased upwards,
+its mean over 4000 standard samples 17 % high at n = 10 (4.4 % at n = 30, 0.6 % at n = 200;
+WeibullFit.m_unbiased removes it on average), and the 95 % interval of m spans a factor of 2.9
+at n = 10 (1.75 at n = 30)."""
 
 
 def _series(name: str, values: ArrayLike) -> np.ndarray:
@@ -215,9 +221,14 @@ def median_rank_survival(sigma: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
 class WeibullFit:
     """P_s(sigma) = exp(-(sigma / sigma_0)^m) fitted by maximum likelihood (weibull_fit).
 
-    m_interval, sigma_0_interval: percentile bootstrap intervals at `confidence` over n_boot
-    resamples (NaN with n_boot = 0); n: grains fitted; flag: why the intervals are not to be
-    trusted (fewer than MIN_WEIBULL_GRAINS grains), None otherwise.
+    m, sigma_0: the maximum-likelihood estimates; m_interval, sigma_0_interval: pivotal
+    intervals at `confidence` from n_boot simulated standard samples (NaN with n_boot = 0);
+    n: grains fitted; flag: why the fit is not to be trusted (fewer than MIN_WEIBULL_GRAINS
+    grains: m biased upwards, wide intervals), None otherwise; method: how it was fitted.
+    m_unbiased: m / mean(m_hat / m), the maximum-likelihood m divided by its bias factor at
+    this n, simulated on the same standard samples (ASTM C1239's unbiasing factor, 1/mean:
+    0.858 at n = 10, 0.958 at n = 30, 0.994 at n = 200); its mean over samples is m (to 1 %
+    at n >= 10), where that of the MLE is 17 % high at n = 10. NaN with n_boot = 0.
     """
 
     m: float
@@ -229,6 +240,7 @@ class WeibullFit:
     n_boot: int
     flag: str | None = None
     method: str = ""
+    m_unbiased: float = float("nan")
 
     def survival(self, sigma: ArrayLike) -> np.ndarray:
         """P_s at sigma under the fitted law."""
@@ -251,17 +263,55 @@ def _weibull_mle(sigma: np.ndarray) -> tuple[float, float]:
     return float(1.0 / scale), float(np.exp(loc + centre))
 
 
+@functools.lru_cache(maxsize=256)
+def _weibull_pivots(n: int, n_boot: int, seed: int, confidence: float) -> tuple[float, float, float, float, float]:
+    """Quantiles of the Weibull MLE's pivotal quantities for samples of n grains, by Monte Carlo.
+
+    For a two-parameter Weibull sample, ln sigma = ln sigma_0 + w / m with w standard (a
+    Gumbel law of minima), and the MLE is equivariant under that change of location and scale:
+    m_hat = m t1 and ln sigma_0_hat = ln sigma_0 + u / m, where t1 and u are the MLE's m and
+    ln sigma_0 of the standard sample w. So t1 = m_hat / m and t2 = t1 u = m_hat ln(sigma_0_hat
+    / sigma_0) have laws that depend on n only (Thoman, Bain & Antle 1969). Here n_boot standard
+    Weibull samples (m = 1, sigma_0 = 1) of size n, drawn by a numpy Generator seeded by `seed`,
+    are fitted by _weibull_mle, and t1 = m_hat_i, t2 = m_hat_i ln sigma_0_hat_i taken.
+
+    Returns (q_t1(alpha/2), q_t1(1 - alpha/2), q_t2(alpha/2), q_t2(1 - alpha/2), mean t1),
+    alpha = 1 - confidence. Cached: they depend on (n, n_boot, seed, confidence) only, not on
+    the data, so a second fit of n grains (another group of a set) costs one MLE.
+    """
+    rng = np.random.default_rng(seed)
+    est = np.array([_weibull_mle(w) for w in rng.weibull(1.0, size=(n_boot, n))])
+    t1 = est[:, 0]
+    t2 = t1 * np.log(est[:, 1])
+    q = [(1.0 - confidence) / 2, (1.0 + confidence) / 2]
+    (a1, b1), (a2, b2) = np.quantile(t1, q), np.quantile(t2, q)
+    return float(a1), float(b1), float(a2), float(b2), float(t1.mean())
+
+
 def weibull_fit(sigma: ArrayLike, n_boot: int = 1000, seed: int = 0, confidence: float = 0.95) -> WeibullFit:
     """m and sigma_0 (the stress at P_s = 1/e) of P_s = exp(-(sigma / sigma_0)^m) (SPEC 4.1).
 
-    Maximum likelihood with the location fixed at 0 (_weibull_mle); percentile bootstrap
-    intervals: the grains are resampled with replacement n_boot times (numpy Generator seeded
-    by `seed`, so the intervals are reproducible), the fit repeated, and the (1 - confidence)/2
-    and (1 + confidence)/2 quantiles of the estimates taken; a resample of one distinct value
-    (no finite m) is skipped. The MLE of m is biased upwards at small n (MIN_WEIBULL_GRAINS);
-    fewer grains than that are fitted but flagged. Measured on 400 synthetic samples of 30
-    grains (m = 5), the 95 % intervals covered the true m in 89 % and sigma_0 in 93 %: the
-    percentile intervals undercover somewhat at such n, m's the most (its estimate's bias).
+    Maximum likelihood with the location fixed at 0 (_weibull_mle). Intervals: pivotal
+    (Thoman, Bain & Antle 1969, the method of ASTM C1239 for the strength of ceramics):
+    m_hat / m and m_hat ln(sigma_0_hat / sigma_0) have laws that depend on n only, simulated
+    on n_boot standard Weibull samples of n grains (numpy Generator seeded by `seed`, so the
+    intervals are reproducible; _weibull_pivots, cached per (n, n_boot, seed, confidence)).
+    With q_t1, q_t2 their quantiles and alpha = 1 - confidence,
+
+        m in [m_hat / q_t1(1 - alpha/2), m_hat / q_t1(alpha/2)],
+        sigma_0 in [sigma_0_hat exp(-q_t2(1 - alpha/2) / m_hat), sigma_0_hat exp(-q_t2(alpha/2) / m_hat)].
+
+    Their coverage is the nominal one at any n, m and sigma_0, up to the Monte Carlo error of
+    the quantiles, which shrinks as 1/sqrt(n_boot): at n = 30 and n_boot = 1000 the coverage of
+    the 95 % interval of m is 94.6 % on average over seeds 0-19, with a standard deviation of
+    0.6 % (seed 0: 93.4 %, the lowest of the 20); that of sigma_0 94.7 ± 0.8 %. With the
+    defaults (n_boot = 1000, seed = 0), over 4000 samples each of m = 3 and 10, the 95 %
+    intervals covered the true m in 93.1-93.5 % of samples of 30 grains and 95.7 % of 200,
+    sigma_0 in 95.6-95.8 % and 93.9-94.9 % (400 samples each in tests/test_strength.py); the
+    percentile bootstrap that came before covered m in 86 % and sigma_0 in 91.5 % at n = 30
+    (400 samples, n_boot = 500; 94.5 and 93.8 % at n = 200). The m of the fit stays the MLE,
+    biased upwards at small n (MIN_WEIBULL_GRAINS); m_unbiased divides out its mean bias.
+    Fewer grains than MIN_WEIBULL_GRAINS are fitted but flagged.
 
     sigma: (n,) positive strengths of grains of one size, n >= 2 with two distinct values.
     """
@@ -274,22 +324,20 @@ def weibull_fit(sigma: ArrayLike, n_boot: int = 1000, seed: int = 0, confidence:
     if not 0.0 < confidence < 1.0:
         raise ValueError(f"confidence = {confidence:g}: must be in (0, 1)")
     m, s0 = _weibull_mle(s)
-    rng = np.random.default_rng(seed)
-    boot = []
-    for _ in range(n_boot):
-        sb = rng.choice(s, size=s.size, replace=True)
-        if np.ptp(sb) > 0:
-            boot.append(_weibull_mle(sb))
-    q = [(1.0 - confidence) / 2, (1.0 + confidence) / 2]
-    if boot:
-        mb, s0b = np.array(boot).T
-        m_int, s0_int = tuple(map(float, np.quantile(mb, q))), tuple(map(float, np.quantile(s0b, q)))
+    nan = float("nan")
+    if n_boot:
+        q1_lo, q1_hi, q2_lo, q2_hi, mean_t1 = _weibull_pivots(int(s.size), int(n_boot), int(seed), float(confidence))
+        m_int = (m / q1_hi, m / q1_lo)
+        s0_int = (s0 * float(np.exp(-q2_hi / m)), s0 * float(np.exp(-q2_lo / m)))
+        m_unbiased = m / mean_t1
     else:
-        m_int = s0_int = (float("nan"), float("nan"))
-    flag = (f"{s.size} grains, fewer than {MIN_WEIBULL_GRAINS}: the intervals are unreliable"
-            if s.size < MIN_WEIBULL_GRAINS else None)
-    method = "maximum likelihood, location 0" + (f"; percentile bootstrap x{len(boot)}" if n_boot else "")
-    return WeibullFit(m, s0, m_int, s0_int, int(s.size), float(confidence), len(boot), flag, method)
+        m_int = s0_int = (nan, nan)
+        m_unbiased = nan
+    flag = (f"{s.size} grains, fewer than {MIN_WEIBULL_GRAINS}: the fit is unreliable (the maximum-likelihood m "
+            "biased upwards, see m_unbiased; the intervals wide)" if s.size < MIN_WEIBULL_GRAINS else None)
+    method = "maximum likelihood, location 0" + (
+        f"; pivotal (Thoman-Bain-Antle), Monte Carlo x {n_boot}" if n_boot else "")
+    return WeibullFit(m, s0, m_int, s0_int, int(s.size), float(confidence), int(n_boot), flag, method, m_unbiased)
 
 
 # ---------------------------------------------------------------------------------------

@@ -203,7 +203,7 @@ def test_weibull_mle_is_the_closed_form_and_scipys_weibull_min():
         assert fit.m == pytest.approx(m, rel=1e-9) and fit.sigma_0 == pytest.approx(s0, rel=1e-9)
         c, loc, scale = weibull_min.fit(x, floc=0)
         assert loc == 0 and fit.m == pytest.approx(c, rel=1e-6) and fit.sigma_0 == pytest.approx(scale, rel=1e-6)
-        assert np.all(np.isnan(fit.m_interval)) and fit.n_boot == 0
+        assert np.all(np.isnan(fit.m_interval)) and np.isnan(fit.m_unbiased) and fit.n_boot == 0
 
 
 def test_weibull_fit_recovers_m_and_sigma_0_of_2000_grains():
@@ -216,24 +216,56 @@ def test_weibull_fit_recovers_m_and_sigma_0_of_2000_grains():
     assert fit.survival(fit.sigma_0) == pytest.approx(np.exp(-1.0))
 
 
-def test_weibull_intervals_cover_the_truth_in_most_samples_of_30_grains():
-    """50 samples of 30 grains: the 95 % intervals cover the true m and sigma_0 in most (the
-    percentile bootstrap undercovers at n = 30: 89 % for m, 93 % for sigma_0 over 400), and
-    their widths are those of the MLE's asymptotic errors, sd(m) = sqrt(6/pi^2) m / sqrt(n),
-    sd(ln sigma_0) = sqrt(1 + 6 (1 - euler_gamma)^2 / pi^2) / (m sqrt(n)), so that a uselessly
-    wide interval cannot pass."""
-    rng = np.random.default_rng(2024)
-    n, reps = 30, 50
-    fits = [weibull_fit(weibull_min.rvs(M, scale=SIGMA_0, size=n, random_state=rng), n_boot=200, seed=k)
-            for k in range(reps)]
-    cover_m = sum(f.m_interval[0] <= M <= f.m_interval[1] for f in fits)
-    cover_s = sum(f.sigma_0_interval[0] <= SIGMA_0 <= f.sigma_0_interval[1] for f in fits)
-    assert cover_m >= 0.7 * reps and cover_s >= 0.75 * reps, (cover_m, cover_s)
+@pytest.mark.parametrize("n", [30, 200])
+@pytest.mark.parametrize("m", [3.0, 10.0])
+def test_weibull_95_intervals_cover_the_truth_in_at_least_90_percent_of_draws(m, n):
+    """Issue 24: 400 samples of n grains from a Weibull law of modulus m, fitted with the
+    defaults (n_boot = 1000, seed = 0: one simulation of the pivots per n, cached): the 95 %
+    intervals cover the true m and sigma_0 in at least 90 % of draws. Measured: m 92.8, 93.8,
+    96.3, 95.8 % and sigma_0 94.0, 96.3, 94.0, 94.3 % for (m, n) = (3, 30), (10, 30), (3, 200),
+    (10, 200); the percentile bootstrap that came before covered m in 86 % and sigma_0 in
+    91.5 % of the (3, 30) draws (n_boot = 500; 94.5 and 93.8 % of the (3, 200) draws).
+
+    Their median widths are those of the MLE's asymptotic errors, sd(m) = sqrt(6/pi^2) m /
+    sqrt(n), sd(ln sigma_0) = sqrt(1 + 6 (1 - euler_gamma)^2 / pi^2) / (m sqrt(n)), so that a
+    uselessly wide interval cannot pass (measured ratios 0.96-1.05 for m, 0.99-1.07 for
+    sigma_0). m_unbiased's mean is m within 3 standard errors (measured: within 1.7), where the
+    MLE's is 5 % high at n = 30."""
+    rng = np.random.default_rng([24, n, int(m)])
+    reps = 400
+    fits = [weibull_fit(weibull_min.rvs(m, scale=SIGMA_0, size=n, random_state=rng)) for _ in range(reps)]
+    cover_m = np.mean([f.m_interval[0] <= m <= f.m_interval[1] for f in fits])
+    cover_s = np.mean([f.sigma_0_interval[0] <= SIGMA_0 <= f.sigma_0_interval[1] for f in fits])
+    assert cover_m >= 0.9 and cover_s >= 0.9, (cover_m, cover_s)
     width_m = np.median([f.m_interval[1] - f.m_interval[0] for f in fits])
     width_s = np.median([np.log(f.sigma_0_interval[1] / f.sigma_0_interval[0]) for f in fits])
-    expected_m = 2 * 1.96 * np.sqrt(6) / np.pi * M / np.sqrt(n)
-    expected_s = 2 * 1.96 * np.sqrt(1 + 6 * (1 - np.euler_gamma) ** 2 / np.pi ** 2) / (M * np.sqrt(n))
-    assert 0.75 < width_m / expected_m < 1.35 and 0.75 < width_s / expected_s < 1.35, (width_m, width_s)
+    expected_m = 2 * 1.96 * np.sqrt(6) / np.pi * m / np.sqrt(n)
+    expected_s = 2 * 1.96 * np.sqrt(1 + 6 * (1 - np.euler_gamma) ** 2 / np.pi ** 2) / (m * np.sqrt(n))
+    assert 0.9 < width_m / expected_m < 1.15 and 0.9 < width_s / expected_s < 1.15, (width_m, width_s)
+    unbiased = np.array([f.m_unbiased for f in fits]) / m
+    assert abs(unbiased.mean() - 1) < 3 * unbiased.std() / np.sqrt(reps)
+    if n == 30:
+        assert np.mean([f.m for f in fits]) / m > 1.02
+
+
+def test_weibull_pivotal_intervals_move_with_the_data_as_the_law_does():
+    """ln sigma is a location-scale family: multiplying the strengths by c multiplies sigma_0
+    and its interval by c and leaves m's; raising them to the power k divides m and its interval
+    by k and raises sigma_0's to the k. The pivotal intervals follow exactly (the
+    simulated quantiles depend on n alone), which is what makes their coverage independent of
+    m and sigma_0; and two samples of one size get intervals in the same ratio to m."""
+    x = weibull_min.rvs(M, scale=SIGMA_0, size=25, random_state=13)
+    fit = weibull_fit(x, n_boot=200, seed=1)
+    scaled, powered = weibull_fit(3.0 * x, n_boot=200, seed=1), weibull_fit(x ** 2, n_boot=200, seed=1)
+    assert np.allclose(scaled.m_interval, fit.m_interval, rtol=1e-9)
+    assert np.allclose(scaled.sigma_0_interval, 3.0 * np.array(fit.sigma_0_interval), rtol=1e-9)
+    assert np.allclose(powered.m_interval, np.array(fit.m_interval) / 2, rtol=1e-9)
+    assert np.allclose(powered.sigma_0_interval, np.array(fit.sigma_0_interval) ** 2, rtol=1e-9)
+    assert powered.m_unbiased == pytest.approx(fit.m_unbiased / 2, rel=1e-9)
+    other = weibull_fit(weibull_min.rvs(2.0, scale=1.0, size=25, random_state=14), n_boot=200, seed=1)
+    assert np.allclose(np.array(other.m_interval) / other.m, np.array(fit.m_interval) / fit.m, rtol=1e-12)
+    assert fit.m_interval[0] < fit.m_unbiased < fit.m < fit.m_interval[1]
+    assert "pivotal" in fit.method and "x 200" in fit.method and fit.n_boot == 200
 
 
 def test_weibull_fit_is_reproducible_from_its_seed():
