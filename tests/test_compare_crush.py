@@ -193,3 +193,53 @@ def test_crush_runs_keep_the_element_size_over_the_grain_sizes(tmp_path):
     names = sorted(cfg.run_dir().name for v, cfg in runs if v["model"] == "bcm")
     assert names[0] == "diameter0.0015_n_cells84_seed1"
     assert sorted(cfg.run_dir().name for v, cfg in runs if v["model"] == "bpm")[0] == "diameter0.0015_seed1"
+
+
+# ------------------------------------------------------------------------------ LAMMPS: a tiny crush grid
+TINY_CRUSH = """name: tiny_crush
+material: m.yaml
+test: crush
+grid: {diameter: [1.6e-3, 2.0e-3], seeds: 1}
+bcm: {n_cells: 80}
+bpm: {particles_across: 6}
+scenario: {platen_speed: 0.02}
+workers: 1
+"""
+
+
+@pytest.mark.slow
+def test_tiny_crush_grid_writes_tables_plots_report(tmp_path, monkeypatch, plugin_cache):
+    """Two sizes, one seed, both models (80 and 41 BCM cells, 6 and 4.8 BPM particles across):
+    the calibration (the small curves of tests/test_compare.py), 4 crushes that drop, the crush
+    measures side by side per size, the Weibull table (no fit: one grain a size), a size effect
+    per model and strength, the plots and the report."""
+    from typer.testing import CliRunner  # noqa: PLC0415
+
+    from driver.cli import app  # noqa: PLC0415
+    from tests.test_compare import TINY_MATERIAL  # noqa: PLC0415
+
+    monkeypatch.chdir(tmp_path)
+    write(tmp_path, "m.yaml", TINY_MATERIAL)
+    write(tmp_path, "c.yaml", TINY_CRUSH)
+    res = CliRunner().invoke(app, ["compare", "c.yaml", "--out", "cmp"])
+    assert res.exit_code == 0, res.output
+    out = tmp_path / "cmp"
+    table = pd.read_csv(out / "runs.csv")
+    assert len(table) == 4 and (table.state == "finished").all() and table.dropped.all()
+    assert sorted(table.diameter.unique()) == [1.6e-3, 2.0e-3] and set(table.model) == {"bcm", "bpm"}
+    assert (table.F_c > 0).all() and (table.F_max >= table.F_c).all()
+    assert table.sigma_max.to_numpy() == pytest.approx((table.F_max / table.height ** 2).to_numpy(), rel=1e-9)
+    bcm = table[table.model == "bcm"].sort_values("diameter")
+    assert [Path(d).name for d in bcm.run_dir] == ["diameter0.0016_n_cells41_seed1", "diameter0.002_n_cells80_seed1"]
+    points = pd.read_csv(out / "points.csv")
+    assert len(points) == 2 * points.measure.nunique() and {"F_c", "sigma_c", "sigma_max"} <= set(points.measure)
+    weibull = pd.read_csv(out / "weibull.csv")
+    assert len(weibull) == 8 and weibull.m.isna().all()  # 2 models x 2 sizes x 2 strengths, one grain each
+    sizes = pd.read_csv(out / "size_effect.csv")
+    assert len(sizes) == 4 and np.isfinite(sizes.b).all()  # per model and strength, over the two sizes
+    pairs = pd.read_csv(out / "strength_pairs.csv")
+    assert set(pairs.quantity) == {"m", "sigma_0", "b", "3/m"}
+    for f in ("force_displacement", "measures_vs_size", "fragments_vs_size", "size_effect"):
+        assert (out / "plots" / f"{f}.png").stat().st_size > 0, f
+    report = (out / "report.md").read_text()
+    assert "BCM and BPM, crush" in report and "wall time per run" in report and "size effect" in report

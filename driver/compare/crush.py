@@ -7,7 +7,7 @@ the fragments at the end), with the impact comparison's verdict on the differenc
 (driver/compare/stats.py side_by_side: |z| <= z_agree agrees). Per model, point and strength
 (analysis/crush.py STRENGTHS: sigma_c of the first peak, SPEC 4.1's, and sigma_max of the largest
 force, which differ where the first peak was a local failure), the Weibull fit over the grains
-that dropped (analysis.strength.weibull_fit: m, sigma_0 and their bootstrap intervals); per
+that dropped (analysis.strength.weibull_fit: m, sigma_0 and their pivotal intervals); per
 model, G_c and strength, over two sizes or more, the size effect median ~ d^(-b) with 3/m beside
 it (analysis.strength.size_effect). These fitted figures agree when their intervals overlap
 (`interval_pairs`), as the impact's crossovers do.
@@ -72,7 +72,7 @@ def with_strengths(table: pd.DataFrame) -> pd.DataFrame:
 
 def weibull_table(table: pd.DataFrame) -> pd.DataFrame:
     """Per (model, G_c, diameter, strength): grains finished and dropped, and the Weibull fit of
-    their strength (m, sigma_0 and 95 % bootstrap intervals; flag under MIN_WEIBULL_GRAINS grains
+    their strength (m, sigma_0 and 95 % pivotal intervals; flag under MIN_WEIBULL_GRAINS grains
     or when there is no fit)."""
     table = with_strengths(table)
     done = table[table.state == "finished"] if "state" in table else table
@@ -122,7 +122,7 @@ def size_effect_table(table: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
 
 def interval_verdict(lo_a: float, hi_a: float, lo_b: float, hi_b: float) -> str:
     """agree when the two intervals overlap, differ when they do not, undetermined when either
-    has no interval (NaN: too few grains for a fit or a bootstrap)."""
+    has no interval (NaN: too few grains for a fit)."""
     if not all(np.isfinite([lo_a, hi_a, lo_b, hi_b])):
         return "undetermined"
     return "agree" if max(lo_a, lo_b) <= min(hi_a, hi_b) else "differ"
