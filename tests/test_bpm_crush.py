@@ -217,7 +217,8 @@ def test_bpm_crush_one_vs_two_ranks(small_bpm_crush, tmp_path):
     """The reference BPM crush on 2 MPI ranks: the platen (fix wall/gran/region) and the plane
     act on the spheres of both domains, and the stop rule reads the force summed over the ranks,
     so the force curve agrees with the 1-rank run through the peak and the rule fires at the same
-    check (SPEC 4.1's check on ranks; measured below)."""
+    check: measured, the force to 2.8e-12 of F_c through the peak, F_c bit-identical, the same end
+    step (179,000), the whole record to 1.9e-9 of F_c. About 80 s with the 1-rank fixture."""
     two = tmp_path / "r2"
     b_sum = run_bpm_crush(two, ranks=2, plots=False)
     a_sum = summary_of(small_bpm_crush)
