@@ -233,7 +233,8 @@ workers: 1
 def test_tiny_grid_writes_tables_plots_report_and_resumes(tmp_path, monkeypatch, plugin_cache):
     """Two velocities, one seed, about 200 cells and 220 particles: calibration (small curves),
     4 runs, the tidy and side-by-side tables, the plots and the report; the second call finds
-    every run finished and the curves cached."""
+    every run finished and the curves cached; then an omega grid and a crush grid
+    (check_tiny_crush_grid) on the same cached curves."""
     monkeypatch.chdir(tmp_path)
     write(tmp_path, "m.yaml", TINY_MATERIAL)
     write(tmp_path, "c.yaml", TINY)
@@ -291,10 +292,56 @@ def test_tiny_grid_writes_tables_plots_report_and_resumes(tmp_path, monkeypatch,
     assert "omega_target" in points and len(points) == points.measure.nunique() and "omega" not in set(points.measure)
     assert "same damage potential omega" in (tmp_path / "cmpw" / "report.md").read_text()
 
+    # the crush (issue 24, point 5) on the same calibration, read from the cache
+    check_tiny_crush_grid(tmp_path)
 
-@pytest.mark.parametrize("name", ["compare_impact_small.yaml", "compare_impact.yaml"])
+
+# ------------------------------------------------------------------------------ LAMMPS: a tiny crush grid (run by the tiny grid test, on its cached curves)
+TINY_CRUSH = """name: tiny_crush
+material: m.yaml
+test: crush
+grid: {diameter: [1.6e-3, 2.0e-3], seeds: 1}
+bcm: {n_cells: 80}
+bpm: {particles_across: 6}
+scenario: {platen_speed: 0.02}
+workers: 1
+"""
+
+
+def check_tiny_crush_grid(tmp_path: Path) -> None:
+    """test: crush on the tiny material (its curves cached by the impact grid before): two
+    sizes, one seed, both models (80 and 41 BCM cells, 6 and 4.8 BPM particles across): 4
+    crushes that drop, the crush measures side by side per size, the Weibull table (no fit: one
+    grain a size), a size effect per model and strength, the plots and the report
+    (driver/compare/crush.py)."""
+    write(tmp_path, "k.yaml", TINY_CRUSH)
+    res = CliRunner().invoke(app, ["compare", "k.yaml", "--out", "cmpk"])
+    assert res.exit_code == 0, res.output
+    out = tmp_path / "cmpk"
+    table = pd.read_csv(out / "runs.csv")
+    assert len(table) == 4 and (table.state == "finished").all() and table.dropped.all()
+    assert sorted(table.diameter.unique()) == [1.6e-3, 2.0e-3] and set(table.model) == {"bcm", "bpm"}
+    assert (table.F_c > 0).all() and (table.F_max >= table.F_c).all()
+    assert table.sigma_max.to_numpy() == pytest.approx((table.F_max / table.height ** 2).to_numpy(), rel=1e-9)
+    bcm = table[table.model == "bcm"].sort_values("diameter")
+    assert [Path(d).name for d in bcm.run_dir] == ["diameter0.0016_n_cells41_seed1", "diameter0.002_n_cells80_seed1"]
+    points = pd.read_csv(out / "points.csv")
+    assert len(points) == 2 * points.measure.nunique() and {"F_c", "sigma_c", "sigma_max"} <= set(points.measure)
+    weibull = pd.read_csv(out / "weibull.csv")
+    assert len(weibull) == 8 and weibull.m.isna().all()  # 2 models x 2 sizes x 2 strengths, one grain each
+    sizes = pd.read_csv(out / "size_effect.csv")
+    assert len(sizes) == 4 and np.isfinite(sizes.b).all()  # per model and strength, over the two sizes
+    pairs = pd.read_csv(out / "strength_pairs.csv")
+    assert set(pairs.quantity) == {"m", "sigma_0", "b", "3/m"}
+    for f in ("force_displacement", "measures_vs_size", "fragments_vs_size", "size_effect"):
+        assert (out / "plots" / f"{f}.png").stat().st_size > 0, f
+    report = (out / "report.md").read_text()
+    assert "BCM and BPM, crush" in report and "wall time per run" in report and "size effect" in report
+
+
+@pytest.mark.parametrize("name", ["compare_impact_small.yaml", "compare_impact.yaml", "compare_crush_small.yaml"])
 def test_the_compare_examples_load_with_their_material(name):
     path = Path(__file__).resolve().parent.parent / "examples" / name
     cmp = load_compare(path)
     mat, _, _ = material_of(cmp, path)
-    assert cmp.grid.axis == "omega_target" and mat.bpm.dimension == 3
+    assert cmp.grid.axis == ("diameter" if cmp.test == "crush" else "omega_target") and mat.bpm.dimension == 3
