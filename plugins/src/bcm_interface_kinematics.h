@@ -44,7 +44,6 @@ struct Pair {
   double d12[3];    // x2 - x1
   double v12[3];    // v2 - v1
 
-  Pair() = default;
   Pair(const double *cell1, const double *cell2, const double *n_body) :
       R1(reinterpret_cast<const double(*)[3]>(cell1 + 9)),
       R2(reinterpret_cast<const double(*)[3]>(cell2 + 9)), w1(cell1 + 6), w2(cell2 + 6)

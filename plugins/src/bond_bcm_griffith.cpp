@@ -73,92 +73,6 @@ inline void store(double *p, V v) { __builtin_memcpy(p, &v, sizeof(v)); }
 inline V splat(double x) { return V{x, x, x, x}; }
 inline V positive_or_zero(V dn, V en) { return select_lt(V{}, dn, en, V{}); }    // dn > 0 ? en : 0
 #include "bcm_interface_kernel.h"
-
-/* Four intact interfaces of the same number of points at a time, one in each lane: the
-   operations of intact_interface() lane by lane, each lane summing its own interface's points
-   in their order, so that its sums are those of the one-interface kernels bit for bit. */
-struct QuadLane {
-  const Pair *p;
-  double kp, ktp, cp;
-  double *fd;
-  const double *b1, *b2;
-};
-
-inline void intact_quad(const QuadLane *L, int np, int P, IntactSums *out)
-{
-#define LANES4(expr) V{L[0].expr, L[1].expr, L[2].expr, L[3].expr}
-  V R1[3][3], R2[3][3], n[3], d12[3], v12[3], w1[3], w2[3];
-  for (int a = 0; a < 3; a++) {
-    for (int b = 0; b < 3; b++) {
-      R1[a][b] = LANES4(p->R1[a][b]);
-      R2[a][b] = LANES4(p->R2[a][b]);
-    }
-    n[a] = LANES4(p->n[a]);
-    d12[a] = LANES4(p->d12[a]);
-    v12[a] = LANES4(p->v12[a]);
-    w1[a] = LANES4(p->w1[a]);
-    w2[a] = LANES4(p->w2[a]);
-  }
-  const V kp_ = LANES4(kp), ktp_ = LANES4(ktp);
-  const V mcp = V{-L[0].cp, -L[1].cp, -L[2].cp, -L[3].cp};
-  const V hkp = V{0.5 * L[0].kp, 0.5 * L[1].kp, 0.5 * L[2].kp, 0.5 * L[3].kp};
-  const V hktp = V{0.5 * L[0].ktp, 0.5 * L[1].ktp, 0.5 * L[2].ktp, 0.5 * L[3].ktp};
-  V acc_fdv{}, acc_stored{}, acc_tension{}, acc_pd{}, acc_f[3] = {}, acc_t[3] = {};
-
-  for (int k = 0; k < np; k++) {
-    V b[3], r1[3], r2[3], arm1[3], delta[3], dt[3], dv[3], fdo[3], fdn[3], F[3];
-    for (int c = 0; c < 3; c++) b[c] = LANES4(b1[c * P + k]);
-    for (int c = 0; c < 3; c++) r1[c] = R1[c][0] * b[0] + R1[c][1] * b[1] + R1[c][2] * b[2];
-    for (int c = 0; c < 3; c++) b[c] = LANES4(b2[c * P + k]);
-    for (int c = 0; c < 3; c++) r2[c] = R2[c][0] * b[0] + R2[c][1] * b[1] + R2[c][2] * b[2];
-    for (int c = 0; c < 3; c++) {
-      arm1[c] = d12[c] + r2[c];
-      delta[c] = arm1[c] - r1[c];
-    }
-    const V dn = delta[0] * n[0] + delta[1] * n[1] + delta[2] * n[2];
-    for (int c = 0; c < 3; c++) dt[c] = delta[c] - dn * n[c];
-    const V wa[3] = {w2[1] * r2[2] - w2[2] * r2[1], w2[2] * r2[0] - w2[0] * r2[2],
-                     w2[0] * r2[1] - w2[1] * r2[0]};
-    const V wb[3] = {w1[1] * arm1[2] - w1[2] * arm1[1], w1[2] * arm1[0] - w1[0] * arm1[2],
-                     w1[0] * arm1[1] - w1[1] * arm1[0]};
-    for (int c = 0; c < 3; c++) dv[c] = v12[c] + wa[c] - wb[c];
-    for (int c = 0; c < 3; c++) fdo[c] = LANES4(fd[c * P + k]);
-    const V fdv_old = fdo[0] * dv[0] + fdo[1] * dv[1] + fdo[2] * dv[2];
-    const V en = hkp * dn * dn;
-    const V et = hktp * (dt[0] * dt[0] + dt[1] * dt[1] + dt[2] * dt[2]);
-    const V stored = en + et;
-    const V tension = positive_or_zero(dn, en) + et;
-    const V kdn = kp_ * dn;
-    for (int c = 0; c < 3; c++) {
-      fdn[c] = mcp * dv[c];
-      F[c] = -(kdn * n[c] + ktp_ * dt[c]) + fdn[c];
-      for (int j = 0; j < 4; j++) L[j].fd[c * P + k] = fdn[c][j];
-    }
-    const V pd = fdn[0] * dv[0] + fdn[1] * dv[1] + fdn[2] * dv[2];
-    const V tq[3] = {r2[1] * F[2] - r2[2] * F[1], r2[2] * F[0] - r2[0] * F[2],
-                     r2[0] * F[1] - r2[1] * F[0]};
-    acc_fdv += fdv_old;
-    acc_stored += stored;
-    acc_tension += tension;
-    acc_pd -= pd;
-    for (int c = 0; c < 3; c++) {
-      acc_f[c] += F[c];
-      acc_t[c] += tq[c];
-    }
-  }
-#undef LANES4
-  for (int j = 0; j < 4; j++) {
-    IntactSums &s = out[j];
-    s.fd_dv = acc_fdv[j];
-    s.stored = acc_stored[j];
-    s.tension = acc_tension[j];
-    s.pd = acc_pd[j];
-    for (int c = 0; c < 3; c++) {
-      s.f[c] = acc_f[c][j];
-      s.t2[c] = acc_t[c][j];
-    }
-  }
-}
 }    // namespace avx
 }    // namespace
 #pragma GCC pop_options
@@ -510,85 +424,7 @@ void BondBcmGriffith::rebuild_cache()
   cache_store = atom->nmax > 0 ? store[0] : nullptr;
   cache_valid = true;
   atoms_moved = false;
-  group_quads();
   dirty = false;
-}
-
-/* ----------------------------------------------------------------------
-   the intact interfaces of the bond list in groups of four with the same
-   number of points (AVX: evaluate_quads()), in bond-list order within a group
-------------------------------------------------------------------------- */
-
-void BondBcmGriffith::group_quads()
-{
-  quads.clear();
-  quad_np.clear();
-  if (!avx_loop) return;
-  int **bondlist = neighbor->bondlist;
-  const int ncache = (int) cache.size();
-  std::vector<std::vector<int>> by_np(BcmInterfaceTable::MAX_POINTS + 1);
-  for (int n = 0; n < ncache; n++)
-    if (bondlist[n][2] > 0 && records[cache[n].roff + R_SLOT + H_BROKEN] == INTACT)
-      by_np[cache[n].npts].push_back(n);
-  for (int np = 1; np <= BcmInterfaceTable::MAX_POINTS; np++) {
-    const std::vector<int> &ids = by_np[np];
-    for (size_t k = 0; k < ids.size(); k += 4) {
-      std::array<int, 4> q = {-1, -1, -1, -1};
-      for (size_t j = 0; j < 4 && k + j < ids.size(); j++) q[j] = ids[k + j];
-      quads.push_back(q);
-      quad_np.push_back(np);
-    }
-  }
-}
-
-/* ----------------------------------------------------------------------
-   AVX: the intact interfaces of each group of four, one in each lane
-   (avx::intact_quad()): their sums, and their new damping forces written,
-   exactly as the one-interface kernel would (compute() takes the sums in
-   bond-list order). An interface that broke since the groups were made, or
-   whose type is 0, is left to compute().
-------------------------------------------------------------------------- */
-
-void BondBcmGriffith::evaluate_quads()
-{
-#if defined(BRITTLE_AVX_LOOPS)
-  int **bondlist = neighbor->bondlist;
-  const int nbondlist = neighbor->nbondlist;
-  have_sums.assign(nbondlist, 0);
-  quad_sums.resize(nbondlist);
-  for (size_t q = 0; q < quads.size(); q++) {
-    const int np = quad_np[q], P = padded(np);
-    Pair pq[4];
-    avx::QuadLane L[4];
-    int active[4], na = 0;
-    for (int j = 0; j < 4; j++) {
-      const int n = quads[q][j];
-      if (n < 0) continue;
-      const int type = bondlist[n][2];
-      if (type <= 0) continue;
-      Entry &e = cache[n];
-      double *rec = &records[e.roff];
-      if (type != e.type) {
-        set_constants(e, type, rec);
-        e.type = type;
-      }
-      if (rec[R_SLOT + H_BROKEN] != INTACT) continue;
-      const double *g = rec + record_geometry(np);
-      pq[na] = Pair(&cells[CELL_STRIDE * (size_t) e.c1], &cells[CELL_STRIDE * (size_t) e.c2], g);
-      L[na] = {&pq[na], rec[K_KP], rec[K_KTP], rec[K_CP], rec + R_FD, g + 3, g + 3 + 3 * P};
-      active[na++] = n;
-    }
-    if (na == 0) continue;
-    // an empty lane repeats lane 0: the same values, written to the same place
-    for (int j = na; j < 4; j++) L[j] = L[0];
-    BcmInterfaceKinematics::IntactSums out[4];
-    avx::intact_quad(L, np, P, out);
-    for (int j = 0; j < na; j++) {
-      quad_sums[active[j]] = out[j];
-      have_sums[active[j]] = 1;
-    }
-  }
-#endif
 }
 
 /* ----------------------------------------------------------------------
@@ -696,7 +532,6 @@ void BondBcmGriffith::compute(int eflag, int vflag)
   int **bondlist = neighbor->bondlist;
   const int nbondlist = neighbor->nbondlist;
   Point pts[BcmInterfaceTable::MAX_POINTS];
-  if (avx_loop) evaluate_quads();
 
   for (int nb = 0; nb < nbondlist; nb++) {
     const int type = bondlist[nb][2];
@@ -726,9 +561,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
       // Griffith criterion reads (Eq. 5)
       BcmInterfaceKinematics::IntactSums s;
 #if defined(BRITTLE_AVX_LOOPS)
-      if (avx_loop && have_sums[nb])
-        s = quad_sums[nb];    // evaluated four interfaces at a time (evaluate_quads())
-      else if (avx_loop)
+      if (avx_loop)
         avx::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, g + 3, g + 3 + 3 * P, s);
       else
 #endif

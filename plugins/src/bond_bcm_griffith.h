@@ -14,7 +14,6 @@
 #include "bond.h"
 #include "fix_breakable_special.h"
 
-#include <array>
 #include <vector>
 
 namespace LAMMPS_NS {
@@ -108,13 +107,6 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
     double *twin;      // the partner's copy when the partner is owned here too, or nullptr
   };
   std::vector<Entry> cache;
-  // with AVX: the intact interfaces of the bond list in groups of four of the same number of
-  // points (entry indices, -1 for an empty lane), evaluated four at a time before the loop
-  // over the bond list, which takes their sums from quad_sums where have_sums says so
-  std::vector<std::array<int, 4>> quads;
-  std::vector<int> quad_np;
-  std::vector<BcmInterfaceKinematics::IntactSums> quad_sums;
-  std::vector<char> have_sums;
   std::vector<double> records;
   std::vector<double> contact;
   std::vector<tagint> cache_tags;    // (tag1, tag2) per entry: checks that the cells stayed
@@ -151,8 +143,6 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
 
   void allocate();
   void rebuild_cache();
-  void group_quads();
-  void evaluate_quads();
   void set_constants(const Entry &e, int type, double *rec) const;
   const double *slot_of(int i, int j) const;
   long slot_offset(int i, int m) const;
