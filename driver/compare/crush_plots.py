@@ -12,6 +12,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.ticker import EngFormatter, FixedLocator, LogLocator, NullFormatter, NullLocator  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from analysis.strength import median_rank_survival  # noqa: E402
@@ -26,6 +27,25 @@ def _save(fig, path: Path, title: str) -> None:
     fig.tight_layout()
     atomic_save(path, lambda p: fig.savefig(p, format="png"))
     plt.close(fig)
+
+
+def _log_pascals(axis) -> None:
+    """A log axis in Pa with engineering labels at 1, 2 and 5 of each decade (a range within
+    one decade still gets a label; the other minor ticks unlabelled)."""
+    axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+    axis.set_major_formatter(EngFormatter(unit="Pa"))
+    axis.set_minor_formatter(NullFormatter())
+
+
+def _size_axis(ax, sizes_mm) -> None:
+    """The grain size axis (log when there are several sizes) ticked and labelled at the sizes."""
+    sizes_mm = sorted(set(float(d) for d in sizes_mm))
+    if len(sizes_mm) > 1:
+        ax.set_xscale("log")
+    ax.xaxis.set_major_locator(FixedLocator(sizes_mm))
+    ax.xaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.xaxis.set_minor_locator(NullLocator())
+    ax.set_xlabel("grain size d [mm]")
 
 
 def _panels(n: int, width: float = 4.2, height: float = 3.4):
@@ -70,9 +90,7 @@ def plot_measures_vs_size(table: pd.DataFrame, cols: list[str], path: Path, titl
                 ax.errorbar(p.diameter * 1e3, p[f"{col}_mean"], yerr=p[f"{col}_std"].fillna(0.0), marker=marker,
                             mfc="white", color=colour, linestyle=["-", "--", "-.", ":"][j % 4], capsize=2,
                             label=name + (f", $G_c$ = {g:g}" if len(gcs) > 1 else ""))
-        if pts.diameter.nunique() > 1:
-            ax.set_xscale("log")
-        ax.set_xlabel("grain size d [mm]")
+        _size_axis(ax, pts.diameter * 1e3)
         ax.set_ylabel(CRUSH_MEASURES.get(col, (col,))[0])
         if col == cols[0] and ax.has_data():
             ax.legend(fontsize=7, frameon=False)
@@ -104,7 +122,8 @@ def plot_weibull_both(table: pd.DataFrame, weibull: pd.DataFrame, path: Path, ti
                         label=rf"$m$ = {m:.3g}, $\sigma_0$ = {s0 / 1e6:.3g} MPa")
         ax.axhline(0.0, color="0.6", lw=0.5)
         ax.set_xscale("log")
-        ax.set_xlabel(r"$\sigma_c = F_c/d^2$ [Pa]" if strength == "sigma_c" else r"$\sigma_{max} = F_{max}/d^2$ [Pa]")
+        _log_pascals(ax.xaxis)
+        ax.set_xlabel(r"$\sigma_c = F_c/d^2$ (log)" if strength == "sigma_c" else r"$\sigma_{max} = F_{max}/d^2$ (log)")
         ax.set_ylabel(r"$\ln(-\ln P_s)$ [-]")
         ax.set_title(f"{strength}, G_c = {g:g} J/m², d = {d * 1e3:g} mm", fontsize=8)
         ax.legend(fontsize=7, frameon=False)
@@ -129,11 +148,16 @@ def plot_size_effects(effects: dict, path: Path, title: str = "") -> None:
         ax.plot(d * 1e3, eff.median(d), ls, color=colour,
                 label=f"{name}" + (f", $G_c$ = {g:g}" if len(gcs) > 1 else "")
                       + f": b = {eff.b:.3g} [{eff.b_interval[0]:.3g}, {eff.b_interval[1]:.3g}], 3/m = {eff.b_weibull:.3g}")
+    # d here is each grain's height between the platens (median per size): ticked at round values
+    heights = [d * 1e3 for eff in effects.values() for d in eff.groups.d]
+    lo, hi = min(heights), max(heights)
+    sizes = [v * 10.0 ** e for e in range(int(np.floor(np.log10(lo))), int(np.ceil(np.log10(hi))) + 1)
+             for v in (1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 7.0) if lo * 0.95 <= v * 10.0 ** e <= hi * 1.05] or heights
     for ax, strength in zip(axes, strengths):
-        ax.set_xscale("log")
         ax.set_yscale("log")
-        ax.set_xlabel("grain size d [mm]")
-        ax.set_ylabel(r"median $\sigma_c$ [Pa]" if strength == "sigma_c" else r"median $\sigma_{max}$ [Pa]")
+        _log_pascals(ax.yaxis)
+        _size_axis(ax, sizes)
+        ax.set_ylabel(r"median $\sigma_c$ (log)" if strength == "sigma_c" else r"median $\sigma_{max}$ (log)")
         ax.legend(fontsize=7, frameon=False)
     _save(fig, path, title)
 
