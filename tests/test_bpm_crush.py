@@ -109,6 +109,7 @@ def test_bpm_crush_quasi_static(small_bpm_crush):
 
 
 @pytest.mark.slow
+@pytest.mark.extended
 def test_bpm_crush_unbreakable_stiffness_halves(tmp_path, plugin_path):
     """An unbreakable BPM particle gives a loading line, never a peak, whose stiffness halves
     when every stiffness of the system halves. Unbreakable: lambda_c = 1.5 (driver/bpm/mode2.py
@@ -165,6 +166,7 @@ def test_bpm_crush_unbreakable_stiffness_halves(tmp_path, plugin_path):
 
 
 @pytest.mark.slow
+@pytest.mark.extended
 def test_bpm_crush_half_speed(small_bpm_crush, tmp_path):
     """SPEC 4.1's quasi-static test on the small BPM particle: F_c at 0.125 m/s within 5 % of
     F_c at 0.25 m/s (the shared reference run). Measured (seed 1): 98.06 N after 78.2 µm at
@@ -188,6 +190,7 @@ def test_bpm_crush_refuses_a_2d_model(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.extended
 def test_bpm_crush_interrupted_and_resumed(tmp_path, plugin_path):
     """A BPM crush stopped by SIGINT half way and resumed: the platen is where its step puts it
     (its record's gap and travel continue the line), W_p and the integrals carry on from the

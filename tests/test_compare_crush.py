@@ -121,7 +121,7 @@ def test_point_measures_side_by_side_and_flags():
     assert words[0].startswith("F_c (first-peak force F_c, N)")
     flags = crush.crush_flags(table)
     assert len(flags) == 3
-    assert flags[0].startswith("1 grains never dropped") and "BCM d = 2 mm seed 1" in flags[0]
+    assert flags[0].startswith("1 grain never dropped") and "BCM d = 2 mm seed 1" in flags[0]
     assert "BCM d = 2 mm seed 2" in flags[1] and "BPM d = 2 mm seed 2" in flags[2]
 
 

@@ -165,20 +165,23 @@ def crush_flags(table: pd.DataFrame) -> list[str]:
     def names(rows: pd.DataFrame) -> str:
         return ", ".join(f"{r.model.upper()} d = {r.diameter * 1e3:g} mm seed {r.seed}" for r in rows.itertuples())
 
+    def grains(n: int) -> str:
+        return f"{n} grain" + ("" if n == 1 else "s")
+
     if "dropped" in done:
         never = done[~done.dropped.astype(bool)]
         if len(never):
-            out.append(f"{len(never)} grains never dropped (F_c only the largest force recorded; left out of the "
+            out.append(f"{grains(len(never))} never dropped (F_c only the largest force recorded; left out of the "
                        f"Weibull and size-effect fits): {names(never)}.")
     if "F_max_over_F_c" in done:
         local = done[done.F_max_over_F_c > FIRST_PEAK_BELOW_MAX]
         if len(local):
-            out.append(f"{len(local)} grains carried more than {FIRST_PEAK_BELOW_MAX:g} F_c after their first drop (a "
+            out.append(f"{grains(len(local))} carried more than {FIRST_PEAK_BELOW_MAX:g} F_c after their first drop (a "
                        f"local failure under a platen made the first peak; F_c is still that peak): {names(local)}.")
     if "force_mismatch_loading" in done:
         fast = done[done.force_mismatch_loading > QUASI_STATIC_TOLERANCE]
         if len(fast):
-            out.append(f"{len(fast)} grains were not quasi-static (the platens' forces more than "
+            out.append(f"{grains(len(fast))} not quasi-static (the platens' forces more than "
                        f"{QUASI_STATIC_TOLERANCE:g} F_c apart, rms, while loading; lower scenario.platen_speed): "
                        f"{names(fast)}.")
     return out
@@ -204,8 +207,8 @@ def strength_words(pairs: pd.DataFrame, weibull: pd.DataFrame) -> list[str]:
     few = weibull[(weibull.n_dropped >= 2) & (weibull.n_dropped < MIN_WEIBULL_GRAINS)]
     if len(few):
         out.append(f"Weibull fits over fewer than {MIN_WEIBULL_GRAINS} grains ({len(few)} of {len(weibull)}): their "
-                   "intervals are unreliable and the maximum-likelihood m is biased upwards (analysis/strength.py "
-                   "MIN_WEIBULL_GRAINS); a verdict on them is weak.")
+                   "intervals are wide and the maximum-likelihood m is biased upwards (analysis/strength.py "
+                   "MIN_WEIBULL_GRAINS); an overlap of such intervals says little.")
     return out
 
 
