@@ -238,12 +238,17 @@ def interrupt_while_a_curve_runs(args: list[str], cwd: Path, cache: Path) -> tup
 
     proc = subprocess.Popen([sys.executable, "-m", "driver.cli", *args], cwd=cwd, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, env={**os.environ, "BRITTLE_CACHE": str(cache)})
+    def in_lammps() -> bool:
+        return any(s.get("state") == "running" and s.get("phase") == "lammps" for s in statuses())
+
     deadline = time.time() + 300
-    while time.time() < deadline and not any(s.get("state") == "running" and s.get("phase") == "lammps"
-                                             for s in statuses()):
+    while time.time() < deadline:
         assert proc.poll() is None, proc.communicate()[1][-3000:]
+        if in_lammps():
+            time.sleep(0.5)  # into the run's first chunks
+            if in_lammps():  # still running (under load a short run can end within the wait): now
+                break
         time.sleep(0.05)
-    time.sleep(0.5)  # into the run's first chunks
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=300)
     return proc.returncode, err, statuses()
