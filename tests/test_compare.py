@@ -183,7 +183,8 @@ def test_compare_file_unknown_keys_list_the_compare_files_own_keys(tmp_path):
         "breakup_fraction, z_agree, workers",
         "  bcm.n_cellz: unknown key 'n_cellz'; allowed keys: n_cells, cell_size",
         "  bpm.lambda: unknown key 'lambda'; allowed keys: particles_across, particle_size, theta_c_deg, lambda_c"])
-    with pytest.raises(ConfigError, match=r"grid.step: unknown key 'step'; allowed keys: velocity, omega, G_c, diameter, seeds$"):
+    with pytest.raises(ConfigError,
+                       match=r"grid.step: unknown key 'step'; allowed keys: velocity, omega, G_c, diameter, seeds$"):
         load_compare(write(tmp_path, "c2.yaml", ok.replace("seeds: 1}", "seeds: 1, step: 2}")))
 
 
@@ -296,7 +297,7 @@ def test_tiny_grid_writes_tables_plots_report_and_resumes(tmp_path, monkeypatch,
     check_tiny_crush_grid(tmp_path)
 
 
-# ------------------------------------------------------------------------------ LAMMPS: a tiny crush grid (run by the tiny grid test, on its cached curves)
+# ------------------------------------------------------- LAMMPS: a tiny crush grid (run by the tiny grid test, on its curves)
 TINY_CRUSH = """name: tiny_crush
 material: m.yaml
 test: crush

@@ -75,7 +75,8 @@ def test_size_effect_per_model_recovers_its_exponent_and_verdicts_follow_interva
     """Grains of three sizes with b = 0.6 (BCM) and 0.2 (BPM), 40 per size: each model's fitted
     b lies in its own interval around the truth, and the two intervals are told apart."""
     sizes = [1.5e-3, 2e-3, 3e-3]
-    table = pd.DataFrame(grains("bcm", 5.0, 20e6, sizes, 40, b=0.6) + grains("bpm", 5.0, 20e6, sizes, 40, b=0.2, seed=3))
+    table = pd.DataFrame(grains("bcm", 5.0, 20e6, sizes, 40, b=0.6)
+                         + grains("bpm", 5.0, 20e6, sizes, 40, b=0.2, seed=3))
     sizes_table, effects = crush.size_effect_table(table)
     got = sizes_table[sizes_table.strength == "sigma_c"].set_index("model")
     for model, b in (("bcm", 0.6), ("bpm", 0.2)):

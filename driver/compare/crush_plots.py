@@ -147,7 +147,8 @@ def plot_size_effects(effects: dict, path: Path, title: str = "") -> None:
         d = np.geomspace(grp.d.min(), grp.d.max(), 30)
         ax.plot(d * 1e3, eff.median(d), ls, color=colour,
                 label=f"{name}" + (f", $G_c$ = {g:g}" if len(gcs) > 1 else "")
-                      + f": b = {eff.b:.3g} [{eff.b_interval[0]:.3g}, {eff.b_interval[1]:.3g}], 3/m = {eff.b_weibull:.3g}")
+                      + f": b = {eff.b:.3g} [{eff.b_interval[0]:.3g}, {eff.b_interval[1]:.3g}], "
+                        f"3/m = {eff.b_weibull:.3g}")
     # d here is each grain's height between the platens (median per size): ticked at round values
     heights = [d * 1e3 for eff in effects.values() for d in eff.groups.d]
     lo, hi = min(heights), max(heights)

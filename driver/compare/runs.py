@@ -77,9 +77,10 @@ def g_values(cmp: CompareFile, mat: MaterialFile) -> list[float]:
 def grid_runs(cmp: CompareFile, mat: MaterialFile, bcm: dict[str, Any], bpm: dict[str, Any], out: Path,
               source: str) -> list[tuple[dict[str, Any], RunConfig]]:
     """Every run of both models: (its grid values {model, G_c, velocity, seed} and, on an omega
-    grid, omega_target; {model, G_c, diameter, seed} for the crush; its config), each validated before anything runs (ConfigError naming
-    the run). A velocity grid gives both models the same v_0; an omega grid gives each particle
-    the v_0 of the target omega with the material's G_c (driver/compare/omega.py)."""
+    grid, omega_target; {model, G_c, diameter, seed} for the crush; its config), each validated
+    before anything runs (ConfigError naming the run). A velocity grid gives both models the
+    same v_0; an omega grid gives each particle the v_0 of the target omega with the material's
+    G_c (driver/compare/omega.py); a crush grid gives both the same sizes (size_group)."""
     G_ref = mat.material.toughness(3)[0]
     seeds = _seed_group(cmp.grid.seeds, source)
     particles: dict[tuple[str, int], tuple[float, float]] = {}  # (model, seed) -> (A_0, M), whatever the G_c
