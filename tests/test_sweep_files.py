@@ -302,14 +302,18 @@ def test_interrupting_a_dask_sweep_and_running_it_again_resumes_it(tmp_path, plu
                                                  "measure_strains": [0.01], "thermo_every": 200},
                                     "execution": {"chunk_steps": 500}, "output": {"plots": False}}))
     sweep = tmp_path / "sw.yaml"
-    sweep.write_text(yaml.safe_dump({"base": "base.yaml", "zip": [{"scenario.max_strain": [0.01, 2.0],
-                                                                   "scenario.measure_strains": [[0.01], [2.0]]}],
+    # the long runs 600 times the short ones' steps (3 times what they were): under a loaded CI
+    # (three test workers on two cores) the short ones' start-up once outlasted 200 times, and the
+    # interrupt came after the long ones' end
+    sweep.write_text(yaml.safe_dump({"base": "base.yaml", "zip": [{"scenario.max_strain": [0.01, 3.0],
+                                                                   "scenario.measure_strains": [[0.01], [3.0]],
+                                                                   "scenario.strain_rate": [0.002, 0.001]}],
                                      "seeds": 2}))
     out = tmp_path / "out"
     # 3 workers: the two long runs start first (longest first), the short ones one after the other beside them
     cmd = [sys.executable, "-m", "driver.cli", "sweep", str(sweep), "--out", str(out), "--workers", "3"]
-    short = ["max_strain0.01_measure_strains0.01_seed1", "max_strain0.01_measure_strains0.01_seed2"]
-    long = ["max_strain2_measure_strains2_seed1", "max_strain2_measure_strains2_seed2"]
+    short = [f"max_strain0.01_measure_strains0.01_strain_rate0.002_seed{s}" for s in (1, 2)]
+    long = [f"max_strain3_measure_strains3_strain_rate0.001_seed{s}" for s in (1, 2)]
 
     def status(name):
         try:
