@@ -236,8 +236,11 @@ def interrupt_while_a_curve_runs(args: list[str], cwd: Path, cache: Path) -> tup
                 pass
         return out
 
+    # SIGINT at its default in the command (as from a terminal), whatever this test process holds:
+    # a Python child keeps an inherited SIG_IGN and would run to its end (seen in .ci/run)
     proc = subprocess.Popen([sys.executable, "-m", "driver.cli", *args], cwd=cwd, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, env={**os.environ, "BRITTLE_CACHE": str(cache)})
+                            stderr=subprocess.PIPE, text=True, env={**os.environ, "BRITTLE_CACHE": str(cache)},
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     def in_lammps() -> bool:
         return any(s.get("state") == "running" and s.get("phase") == "lammps" for s in statuses())
 

@@ -46,8 +46,12 @@ def config_file(tmp_path: Path, base: dict, name: str, **execution) -> Path:
 
 
 def driver(*args: str) -> subprocess.Popen:
+    """`driver ARGS` with SIGINT at its default (as from a terminal), whatever this test process
+    holds: a Python child keeps an inherited SIG_IGN, and the signals these tests send would not
+    stop it."""
     return subprocess.Popen([sys.executable, "-m", "driver.cli", *args], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
 
 def last_step(out: Path) -> int:

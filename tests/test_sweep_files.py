@@ -302,18 +302,14 @@ def test_interrupting_a_dask_sweep_and_running_it_again_resumes_it(tmp_path, plu
                                                  "measure_strains": [0.01], "thermo_every": 200},
                                     "execution": {"chunk_steps": 500}, "output": {"plots": False}}))
     sweep = tmp_path / "sw.yaml"
-    # the long runs 600 times the short ones' steps (3 times what they were): under a loaded CI
-    # (three test workers on two cores) the short ones' start-up once outlasted 200 times, and the
-    # interrupt came after the long ones' end
-    sweep.write_text(yaml.safe_dump({"base": "base.yaml", "zip": [{"scenario.max_strain": [0.01, 3.0],
-                                                                   "scenario.measure_strains": [[0.01], [3.0]],
-                                                                   "scenario.strain_rate": [0.002, 0.001]}],
+    sweep.write_text(yaml.safe_dump({"base": "base.yaml", "zip": [{"scenario.max_strain": [0.01, 2.0],
+                                                                   "scenario.measure_strains": [[0.01], [2.0]]}],
                                      "seeds": 2}))
     out = tmp_path / "out"
     # 3 workers: the two long runs start first (longest first), the short ones one after the other beside them
     cmd = [sys.executable, "-m", "driver.cli", "sweep", str(sweep), "--out", str(out), "--workers", "3"]
-    short = [f"max_strain0.01_measure_strains0.01_strain_rate0.002_seed{s}" for s in (1, 2)]
-    long = [f"max_strain3_measure_strains3_strain_rate0.001_seed{s}" for s in (1, 2)]
+    short = ["max_strain0.01_measure_strains0.01_seed1", "max_strain0.01_measure_strains0.01_seed2"]
+    long = ["max_strain2_measure_strains2_seed1", "max_strain2_measure_strains2_seed2"]
 
     def status(name):
         try:
@@ -321,7 +317,10 @@ def test_interrupting_a_dask_sweep_and_running_it_again_resumes_it(tmp_path, plu
         except (OSError, ValueError):
             return {}
 
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # SIGINT at its default in the command (as from a terminal), whatever this test process holds:
+    # a Python child keeps an inherited SIG_IGN and would finish its runs (seen twice in .ci/run)
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.time() + 300
     while time.time() < deadline and not (all(status(n).get("state") == "finished" for n in short)
                                           and all(status(n).get("phase") == "lammps" for n in long)):
