@@ -6,28 +6,20 @@ scenario.platen_speed, run until the platen force has dropped after its peak."""
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 import driver
-from analysis.plots import PlotGuard
 from analysis.rotations import quat_to_matrix
-from analysis.tables import save_table
 from driver.bcm import styles
-from driver.bcm.cellstats import cell_statistics, plot_cell_stats
-from driver.bcm.impact import SYSTEM_FRESH, SYSTEM_RESUME, _dump_commands, bonded_interfaces, particle_facts
-from driver.bcm.lammps_files import write_particle
-from driver.bcm.particle import build_particle, particle_tessellation
-from driver.cache import cache_base
+from driver.bcm.impact import SYSTEM_FRESH, SYSTEM_RESUME, _dump_commands, periodic_dumps, place_particle
 from driver.runner import ProgressSpec
 from driver.schedule import peak_drop_check, settle, settle_windows, write_session
 from driver.templates import render
 from runfiles.atomic import atomic_write_json
-from runfiles.cells import write_cells
-from runfiles.records import CELLS_DUMP, CRUSH_RECORD, INTERFACES_DUMP
+from runfiles.records import CRUSH_RECORD
 
 if TYPE_CHECKING:  # for readers and checkers only
     from driver.config import RunConfig
@@ -45,25 +37,12 @@ def build_system(cfg: RunConfig, rd: RunDir) -> dict:
     """Tessellation (cached) -> rounded cells -> placement on the lower platen -> data,
     interfaces and cells files; the upper platen's start over the highest point."""
     m, sc = cfg.model, cfg.scenario
-    t0 = time.perf_counter()
-    tess = particle_tessellation(m, cfg.seed, cache_base() / "tessellations")
-    t_tess = time.perf_counter() - t0
-    stats = cell_statistics(tess)
-    save_table(stats, rd.results / "cells")
-    guard = PlotGuard()
-    guard.draw("cells", rd.plots / "cells.png", plot_cell_stats, stats, rd.plots / "cells.png")
-    # the impact's orientation stream: a seed gives the crush the impact's particle, as it lies
-    rng = np.random.default_rng([cfg.seed, 1])
-    particle = build_particle(tess, m.density, m.rounding, rng, plane_z=0.0, gap=0.0)
-    root = rd.root
-    bonded = bonded_interfaces(tess.iface_area, m.min_interface_area)
-    write_particle(root, tess, particle, bonded, m.diameter)
-    write_cells(root / "voronoi_cells.txt", particle.cell_vertices, particle.cell_faces)
+    # the impact's particle as it lies (the same orientation stream), touching the lower platen
+    facts, particle, guard = place_particle(cfg, rd, gap=0.0)
     lowest, highest = particle_extent(particle)
     height = highest - lowest  # d of SPEC 4.1: the height between the platens at first contact
     top0 = highest + sc.gap * m.diameter
-    return {**particle_facts(m, tess, particle, bonded, sc.steps_per_period, t_tess),
-            "lowest_z": lowest, "highest_z": highest, "height": height, "platen_start": top0,
+    return {**facts, "lowest_z": lowest, "highest_z": highest, "height": height, "platen_start": top0,
             "platen_speed": sc.platen_speed, "plots_failed": guard.failed}
 
 
@@ -76,14 +55,7 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
     gap0 = system["platen_start"] - system["highest_z"]
     t_end = min(sc.max_time, (gap0 + sc.max_strain * system["height"]) / sc.platen_speed)
     max_windows = max(1, math.ceil(t_end / (window * dt)))
-    periodic = ("compute         ifc all property/local batom1 batom2\n"
-                "compute         ifs all bond/local " + " ".join(f"b{k}" for k in range(1, 14)))
-    if sc.dump_every > 0:
-        periodic += (f"\ndump            cells all custom {sc.dump_every} dumps/cells.*.lammpstrj {CELLS_DUMP.args()}\n"
-                     f"dump_modify     cells sort id {CELLS_DUMP.modify()}\n"
-                     f"dump            ifaces all local {sc.dump_every} dumps/interfaces.*.lammpstrj "
-                     f"{INTERFACES_DUMP.args()}\n"
-                     f"dump_modify     ifaces {INTERFACES_DUMP.modify()}")
+    periodic = periodic_dumps(sc.dump_every)
     skin = 0.1 * system["mean_cell_size"]
     comm_cutoff = 2.0 * system["max_bound_radius"] * 1.05 + skin
     r_m = system["r_m"]

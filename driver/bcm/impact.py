@@ -71,8 +71,11 @@ def particle_facts(m, tess, particle, bonded: np.ndarray, steps_per_period: floa
     }
 
 
-def build_system(cfg: RunConfig, rd: RunDir) -> dict:
-    """Tessellation (cached) -> rounded cells -> placement -> data, interfaces and cells files."""
+def place_particle(cfg: RunConfig, rd: RunDir, gap: float) -> tuple[dict, object, PlotGuard]:
+    """The run's particle, for the impact and the crush alike: the tessellation (cached), its
+    cell statistics (table and figure), the rounded cells in the seed's orientation with the
+    lowest point `gap` above z = 0, and the data, interfaces and cells files. Returns
+    (particle_facts, the placed particle, the plot guard of the cell figure)."""
     m, sc = cfg.model, cfg.scenario
     t0 = time.perf_counter()
     tess = particle_tessellation(m, cfg.seed, cache_base() / "tessellations")
@@ -82,14 +85,34 @@ def build_system(cfg: RunConfig, rd: RunDir) -> dict:
     guard = PlotGuard()  # the cell statistics figure never decides whether the run goes on
     guard.draw("cells", rd.plots / "cells.png", plot_cell_stats, stats, rd.plots / "cells.png")
     rng = np.random.default_rng([cfg.seed, 1])  # orientation stream, apart from the tessellation's
-    particle = build_particle(tess, m.density, m.rounding, rng, plane_z=0.0, gap=sc.gap * m.diameter)
+    particle = build_particle(tess, m.density, m.rounding, rng, plane_z=0.0, gap=gap)
     root = rd.root
     bonded = bonded_interfaces(tess.iface_area, m.min_interface_area)
     write_particle(root, tess, particle, bonded, m.diameter)
     # the Voronoi cells themselves, for the analysis: fragment boxes from the cells' own vertices
     write_cells(root / "voronoi_cells.txt", particle.cell_vertices, particle.cell_faces)
-    return {**particle_facts(m, tess, particle, bonded, sc.steps_per_period, t_tess),
-            "initial_velocity": sc.velocity, "plots_failed": guard.failed}
+    return particle_facts(m, tess, particle, bonded, sc.steps_per_period, t_tess), particle, guard
+
+
+def periodic_dumps(dump_every: int) -> str:
+    """The interface computes every run needs, and the cell and interface dumps every
+    `dump_every` steps (none when 0), for the impact and the crush alike."""
+    periodic = ("compute         ifc all property/local batom1 batom2\n"
+                "compute         ifs all bond/local " + " ".join(f"b{k}" for k in range(1, 14)))
+    if dump_every > 0:
+        periodic += (f"\ndump            cells all custom {dump_every} dumps/cells.*.lammpstrj {CELLS_DUMP.args()}\n"
+                     f"dump_modify     cells sort id {CELLS_DUMP.modify()}\n"
+                     f"dump            ifaces all local {dump_every} dumps/interfaces.*.lammpstrj "
+                     f"{INTERFACES_DUMP.args()}\n"
+                     f"dump_modify     ifaces {INTERFACES_DUMP.modify()}")
+    return periodic
+
+
+def build_system(cfg: RunConfig, rd: RunDir) -> dict:
+    """Tessellation (cached) -> rounded cells -> placement -> data, interfaces and cells files."""
+    sc = cfg.scenario
+    facts, _, guard = place_particle(cfg, rd, gap=sc.gap * cfg.model.diameter)
+    return {**facts, "initial_velocity": sc.velocity, "plots_failed": guard.failed}
 
 
 SYSTEM_FRESH = """units           si
@@ -117,14 +140,7 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
     chunk = chunk_steps("bcm", system["n_cells"], cfg.execution.chunk_steps)
     window, chunk = settle_windows(max(1, math.ceil(sc.settle_window / dt)), chunk)
     max_windows = max(1, math.ceil(sc.max_time / (window * dt)))
-    periodic = ("compute         ifc all property/local batom1 batom2\n"
-                "compute         ifs all bond/local " + " ".join(f"b{k}" for k in range(1, 14)))
-    if sc.dump_every > 0:
-        periodic += (f"\ndump            cells all custom {sc.dump_every} dumps/cells.*.lammpstrj {CELLS_DUMP.args()}\n"
-                     f"dump_modify     cells sort id {CELLS_DUMP.modify()}\n"
-                     f"dump            ifaces all local {sc.dump_every} dumps/interfaces.*.lammpstrj "
-                     f"{INTERFACES_DUMP.args()}\n"
-                     f"dump_modify     ifaces {INTERFACES_DUMP.modify()}")
+    periodic = periodic_dumps(sc.dump_every)
     skin = 0.1 * system["mean_cell_size"]
     # ghosts must hold every bonded partner: two bounding radii plus the skin
     comm_cutoff = 2.0 * system["max_bound_radius"] * 1.05 + skin

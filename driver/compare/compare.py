@@ -254,7 +254,7 @@ def _crush_analysis(cmp: CompareFile, table: pd.DataFrame, out: Path, plots: boo
 
     points = stats.side_by_side(table, list(crush.CRUSH_MEASURES), z_agree=cmp.z_agree, keys=("G_c", "diameter"))
     summary = stats.agreement_summary(points, "diameter")
-    weibull = crush.weibull_table(table) if (table.state == "finished").any() else crush.weibull_table(table.iloc[0:0])
+    weibull = crush.weibull_table(table)
     sizes, effects = crush.size_effect_table(table)
     pairs = crush.interval_pairs(weibull, sizes)
     for name, frame in (("points", points), ("points_wide", stats.wide(points, axis="diameter")),

@@ -79,8 +79,8 @@ def weibull_table(table: pd.DataFrame) -> pd.DataFrame:
     broke = _dropped(table)
     rows = []
     for (model, g, d), grp in done.groupby(["model", "G_c", "diameter"], sort=True):
+        sel = broke[(broke.model == model) & (broke.G_c == g) & (broke.diameter == d)]
         for strength in STRENGTHS:
-            sel = broke[(broke.model == model) & (broke.G_c == g) & (broke.diameter == d)]
             s = sel[strength].to_numpy(float) if strength in sel else np.array([])
             s = s[np.isfinite(s)]
             row: dict[str, Any] = {"model": model, "G_c": g, "diameter": d, "strength": strength, "n": len(grp),
