@@ -160,3 +160,54 @@ def loose_start(radii: np.ndarray, box, rng: np.random.Generator, max_attempts: 
                              f"in {max_attempts} tries at {phi:.0%} solid (bounding spheres); make the box larger")
     return LooseStart(centres=centres, radii=radii, rotations=Rotation.random(radii.size, random_state=rng),
                       box=box, order=order)
+
+
+
+def _push_apart(c: np.ndarray, r: np.ndarray, box: np.ndarray, margin: float) -> float:
+    """One sweep of overlap removal: the centres clipped into the walls, then every overlapping
+    pair of spheres pushed apart along its line of centres by a quarter of (overlap + margin)
+    each (under-relaxed: a sphere pushed by several neighbours does not overshoot). Returns
+    the largest overlap found (0 when none)."""
+    np.clip(c, r[:, None], box - r[:, None], out=c)
+    pairs = cKDTree(c).query_pairs(2.0 * float(r.max()), output_type="ndarray")
+    if len(pairs) == 0:
+        return 0.0
+    d = c[pairs[:, 1]] - c[pairs[:, 0]]
+    dist = np.linalg.norm(d, axis=1)
+    overlap = r[pairs[:, 0]] + r[pairs[:, 1]] - dist
+    hit = overlap > 0.0
+    if not hit.any():
+        return 0.0
+    push = (0.25 * (overlap[hit] + margin))[:, None] * d[hit] / dist[hit, None]
+    move = np.zeros_like(c)
+    np.add.at(move, pairs[hit, 0], -push)
+    np.add.at(move, pairs[hit, 1], push)
+    c += move
+    return float(overlap.max())
+
+
+def dense_start(start: LooseStart, drift: float = 0.05, sweeps: int = 8, margin: float = 1e-4,
+                max_final_sweeps: int = 100_000) -> LooseStart:
+    """The loose start settled to the bottom of its box: every sphere drifts down by `drift` x
+    the smallest radius, then `sweeps` sweeps of overlap removal (_push_apart), repeated until
+    the drift has carried a sphere twice down the box; then overlaps are removed to none (a gap
+    of at least `margin` x the smallest radius is sought) and the box's height is set to the
+    highest sphere's top, where the platen starts. A projected settling, not dynamics: it
+    reaches a bounding-sphere fraction of about 0.45-0.5 (300 grains), the LAMMPS run closes
+    the rest (the platen moved down with breaking switched off). Pure geometry: grains inside
+    their bounding spheres never overlap."""
+    r = start.radii
+    rmin = float(r.min())
+    c = start.centres.copy()
+    open_box = np.array([start.box[0], start.box[1], np.inf])
+    for _ in range(int(np.ceil(2.0 * start.box[2] / (drift * rmin)))):
+        c[:, 2] -= drift * rmin
+        for _ in range(sweeps):
+            _push_apart(c, r, open_box, margin * rmin)
+    for _ in range(max_final_sweeps):
+        if _push_apart(c, r, open_box, margin * rmin) == 0.0:
+            break
+    else:
+        raise RuntimeError(f"dense_start: overlaps left after {max_final_sweeps} sweeps")
+    box = np.array([start.box[0], start.box[1], float((c[:, 2] + r).max())])
+    return LooseStart(centres=c, radii=r, rotations=start.rotations, box=box, order=start.order)

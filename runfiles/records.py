@@ -139,6 +139,36 @@ CRUSH_RECORD = Record("crush", (
                                   "work_contacts")),
 ))
 
+# ------------------------------------------------------------ BCM bed in confined compression (issue 25)
+# six fix bcm/wall (bottom, top, xlo, xhi, ylo, yhi); v_wall_*: their sums (driver/bcm/compress.py)
+COMPRESS_RECORD = Record("compress", (
+    Field("step", "", "time step", "step"),
+    Field("time", "s", "simulated time", _g("time", 10)),
+    Field("phase", "", "0 fill (breaking off), 1 rest, 2 load, 3 hold, 4 unload, 5 done", "v_phase"),
+    Field("height", "m", "the top platen's height above the bottom wall", _g("v_height", 15)),
+    Field("sigma_v", "Pa", "vertical stress on the top platen", _g("v_sv")),
+    Field("sigma_v_bottom", "Pa", "vertical stress on the bottom wall", _g("v_sv_bottom")),
+    Field("sigma_x", "Pa", "lateral stress on the x walls (mean of the two)", _g("v_sx")),
+    Field("sigma_y", "Pa", "lateral stress on the y walls (mean of the two)", _g("v_sy")),
+    Field("void_ratio", "", "void ratio e = box volume / solid volume - 1", _g("v_void", 12)),
+    Field("W_p", "J", "work of the walls on the cells, integral of F v dt (the top platen's: the others are still)",
+          _g("v_wall_Wp")),
+    *(_IMPACT_FIELDS[n] for n in ("ke_trans", "ke_rot", "intact", "broken", "broken_area", "W_f", "E_interfaces",
+                                  "W_damp", "W_friction", "W_switch")),
+    Field("top_contacts", "", "cells touching the top platen", "f_top[1]"),
+    Field("bottom_contacts", "", "cells touching the bottom wall", "f_bottom[1]"),
+    Field("side_contacts", "", "cells touching the four side walls", "v_wall_side"),
+    Field("W_wall", "J", "energy dissipated by the walls (all channels, all six)", _g("v_wall_W")),
+    Field("E_wall", "J", "elastic energy stored in the walls' contacts", _g("v_wall_E")),
+    Field("W_wall_damp", "J", "walls: damping", _g("v_wall_damp")),
+    Field("W_wall_friction", "J", "walls: friction", _g("v_wall_friction")),
+    Field("W_wall_npoints", "J", "walls: changes of a contact's number of points (0 under the per-point law)",
+          _g("v_wall_npoints")),
+    Field("work_wall", "J", "work of the walls' forces on the cells (a check)", _g("v_wall_work")),
+    *(_IMPACT_FIELDS[n] for n in ("E_contacts", "W_contact_damp", "W_contact_friction", "W_contact_npoints",
+                                  "work_contacts")),
+))
+
 # ------------------------------------------------- BCM block calibration (SPEC 3, cells of SPEC 1.1-1.2)
 # pressure tensor: virial (rigid-body virial of the interfaces and contacts, from the cell
 # centres) plus kinetic parts, SI units; the f_BCM_GRIFFITH sums as in IMPACT_RECORD.

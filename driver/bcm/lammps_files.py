@@ -29,10 +29,12 @@ def _rows(arr: np.ndarray, fmt: str) -> str:
 
 def write_cell_data(path: Path, centroids: np.ndarray, quats: np.ndarray, masses: np.ndarray,
                     moments: np.ndarray, bound_diameters: np.ndarray, bonds: np.ndarray,
-                    margin: float = 0.0, box: tuple[np.ndarray, np.ndarray] | None = None) -> Path:
+                    margin: float = 0.0, box: tuple[np.ndarray, np.ndarray] | None = None,
+                    grain: np.ndarray | None = None) -> Path:
     """LAMMPS data file of the cells (ids 1..n in array order; bonds are 0-based index pairs).
     The box: `box` = (lo, hi) when given (a periodic block: centroids wrapped into it), else
-    the centroids' bounds widened by `margin`."""
+    the centroids' bounds widened by `margin`. `grain`: each cell's grain id (1-based), written
+    as its molecule id (1 for every cell of a single particle)."""
     n = len(centroids)
     if box is not None:
         lo, hi = (np.asarray(b, dtype=float) for b in box)
@@ -50,7 +52,8 @@ def write_cell_data(path: Path, centroids: np.ndarray, quats: np.ndarray, masses
         "Atoms # hybrid", "",
     ]
     ids = np.arange(1, n + 1)
-    atoms = np.column_stack([ids, np.ones(n), centroids, np.ones(n), bound_diameters, density])
+    mol = np.ones(n) if grain is None else np.asarray(grain)
+    atoms = np.column_stack([ids, np.ones(n), centroids, mol, bound_diameters, density])
     body = _rows(atoms, "%d %d %.17g %.17g %.17g %d %.17g %.17g")
     bond_rows = np.column_stack([np.arange(1, len(bonds) + 1), np.ones(len(bonds)), bonds + 1])
     props = np.column_stack([ids, quats, moments, np.zeros((n, 3))])

@@ -51,12 +51,9 @@ class Particle:
         return len(self.masses)
 
 
-def build_particle(tess: Tessellation, density: float, rounding: float, rng: np.random.Generator,
-                   plane_z: float, gap: float, orient: bool = True) -> Particle:
-    """Erode the cells by r_m = rounding * h, orient the particle at random about its centroid and
-    place its lowest rounded point `gap` above the plane z = plane_z."""
-    h = tess.mean_cell_size
-    r_m = rounding * h
+def cell_bodies(tess: Tessellation, r_m: float) -> tuple[list, list, list, list, np.ndarray]:
+    """Each cell in its body frame (principal axes, origin at its centroid): the core eroded by
+    r_m (vertices, faces), the Voronoi cell itself (vertices, faces), and its bounding radius."""
     n = tess.n_cells
     cores_v, cores_f, cells_v, cells_f, bound = [], [], [], [], np.empty(n)
     for i in range(n):
@@ -69,6 +66,15 @@ def build_particle(tess: Tessellation, density: float, rounding: float, rng: np.
         # bounding radius of the whole (unrounded) cell: it holds the rounded core and the
         # interface polygons, whose corners lie farther out than the core's
         bound[i] = np.linalg.norm(cell.vertices - tess.centroid[i], axis=1).max()
+    return cores_v, cores_f, cells_v, cells_f, bound
+
+
+def build_particle(tess: Tessellation, density: float, rounding: float, rng: np.random.Generator,
+                   plane_z: float, gap: float, orient: bool = True) -> Particle:
+    """Erode the cells by r_m = rounding * h, orient the particle at random about its centroid and
+    place its lowest rounded point `gap` above the plane z = plane_z."""
+    r_m = rounding * tess.mean_cell_size
+    cores_v, cores_f, cells_v, cells_f, bound = cell_bodies(tess, r_m)
     rotation = random_rotation(rng) if orient else np.eye(3)
     pivot = (tess.centroid * tess.volume[:, None]).sum(0) / tess.volume.sum()
     lab_core = np.concatenate([v @ tess.principal_axes[i].T + tess.centroid[i] for i, v in enumerate(cores_v)])

@@ -6,6 +6,7 @@ from typing import Literal
 
 from pydantic import Field
 
+from driver.assembly import AssemblySection
 from driver.schema import _Strict
 
 # The time step is dt = 2 pi sqrt((m_min / 2) / k_max) / steps_per_period (driver/bcm/particle.py
@@ -136,3 +137,6 @@ class BCMModel(_Strict):
                                          "published model. A_0 and D_w count bonded interfaces only")
     lloyd_tol: float = Field(2e-3, gt=0.0, lt=0.1, description="Lloyd stop: RMS seed step / h")
     lloyd_max_iter: int = Field(400, ge=0, le=10_000, description="Lloyd stop: at most this many iterations")
+    assembly: AssemblySection | None = Field(
+        None, description="a bed of many grains of this particle (scenario compress): their number, sizes and box; "
+                          "each grain is a tessellation of the parent from a cached pool, scaled to its size")

@@ -86,6 +86,54 @@ class CrushScenario(_Strict):
     _stable = field_validator("steps_per_period")(check_steps_per_period)
 
 
+class CompressScenario(_Strict):
+    """A bed of grains (model.assembly) in a rigid box, compressed by its top platen (issue 25):
+    the dense start (the platen down fast with breaking off to start_stress, then at rest), the
+    loading at platen_speed to target_stress, an optional hold and unloading."""
+
+    kind: Literal["compress"] = Field("compress", description="compress: a bed of grains in a rigid box, its top "
+                                                               "platen coming down (confined, oedometric)")
+    platen_speed: float = Field(0.05, gt=0.0, le=10.0,
+                                description="speed of the top platen while loading and unloading, m/s; quasi-static "
+                                            "when the inertial number I = (v/H) d sqrt(rho/sigma_v) stays below "
+                                            "1e-3 (reported by the analysis)")
+    target_stress: float = Field(5e6, gt=0.0, description="vertical stress on the platen where loading ends, Pa")
+    start_stress: float = Field(5e4, gt=0.0, description="vertical stress of the dense start, Pa: the platen comes "
+                                                          "down at fill_speed with breaking off until it is reached")
+    fill_speed: float = Field(0.5, gt=0.0, le=50.0,
+                              description="speed of the platen while the bed is brought to its dense start, m/s "
+                                          "(breaking off: only the start's geometry comes out of it)")
+    rest_ke: float = Field(1e-3, gt=0.0, lt=1.0,
+                           description="the dense start is at rest, and breaking switched on, once the kinetic "
+                                       "energy is below this fraction of the work the platen has done (or after "
+                                       "rest_time)")
+    rest_time: float = Field(1e-4, gt=0.0, description="the longest the platen rests before loading, s (the cells "
+                                                        "are then stopped: a grain touching nothing keeps its speed)")
+    hold_time: float = Field(0.0, ge=0.0, description="time the platen holds still at the target stress, s")
+    unload: bool = Field(True, description="after the target (and the hold), the platen goes back up at platen_speed "
+                                           "until the stress is down to start_stress")
+    grading_at: list[float] = Field(
+        default_factory=lambda: [0.25, 0.5, 1.0],
+        description="fractions of target_stress at which the cells and interfaces are dumped while loading "
+                    "(grading curves, breakage); the start and end states are always dumped")
+    max_time: float = Field(0.05, gt=0.0, description="hard stop on simulated time, s")
+    steps_per_period: float = Field(50.0, gt=0.0, description="time step = shortest contact period / this")
+    check_every: int = Field(200, ge=1, description="steps between two checks of the phase (its changes come at "
+                                                    "checks: the stress may pass a threshold by one check's travel)")
+    thermo_every: int = Field(100, ge=1, description="steps between records")
+    dump_every: int = Field(0, ge=0, description="steps between cell dumps; 0 = at the grading stresses, the start "
+                                                 "and the end only")
+
+    _stable = field_validator("steps_per_period")(check_steps_per_period)
+
+    @field_validator("grading_at")
+    @classmethod
+    def _fractions(cls, v: list[float]) -> list[float]:
+        if any(not 0.0 < x <= 1.0 for x in v):
+            raise ValueError(f"grading_at: fractions of target_stress in (0, 1] (got {v})")
+        return sorted(set(v))
+
+
 class CalibrateScenario(_Strict):
     """A calibration test of the model's material (SPEC 2.3)."""
 

@@ -1,0 +1,210 @@
+"""A BCM bed in confined compression (issue 25): the grains of model.assembly (driver/bcm/bed.py)
+in a rigid box of six walls (fix bcm/wall: bottom, four sides, the top platen), run as a chain
+of phases that the driver's checks advance (every scenario.check_every steps):
+
+0 fill: breaking switched off (the interfaces' G_c set to BREAKING_OFF), the top platen
+  servo-controlled by the bottom wall's stress (velocity -fill_speed (1 - sigma_bottom /
+  start_stress), never up: at full speed until the stress goes through the bed, then slowing),
+  the cells stopped at every check (a quench: the bed is compacted as by an overdamped motion,
+  its grains' inner modes not left ringing), until the bottom carries 1 - FILL_TOLERANCE of
+  start_stress (the platen carries more: the side walls' friction holds part of the load);
+1 rest: the platen servo-controlled by its own stress towards start_stress at REST_SPEED x
+  fill_speed, the cells stopped at every check; once the kinetic energy is below rest_ke of
+  the platen's work (or after rest_time): if the platen carries start_stress to FILL_TOLERANCE
+  the cells are stopped once more, breaking switched on (the configured G_c) and the start
+  state dumped; if it carries less than REST_HOLDS of it the bed was not jammed (it let go of
+  the platen) and is filled again (phase 0); else the rest goes on;
+2 load: the platen down at platen_speed until target_stress; the cells and interfaces are
+  dumped as the stress first passes each of grading_at x target_stress;
+3 hold (hold_time > 0), 4 unload (up at platen_speed, to start_stress), 5 done: the run ends.
+
+The phase, the times and the dumps made are checkpoint variables, so a resumed run carries on
+in its phase with the G_c of that phase (the bond coefficients are in the checkpoint).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import driver
+from driver.bcm import styles
+from driver.bcm.bed import place_bed
+from driver.bcm.impact import SYSTEM_FRESH, SYSTEM_RESUME, _dump_commands, periodic_dumps
+from driver.runner import ProgressSpec
+from driver.schedule import settle, settle_windows, write_session
+from driver.templates import render
+from runfiles.atomic import atomic_write_json
+from runfiles.records import COMPRESS_RECORD
+
+if TYPE_CHECKING:  # for readers and checkers only
+    from driver.config import RunConfig
+    from driver.rundir import RunDir
+
+#: G_c of the interfaces while the bed is filled: breaking off (no interface stores this much)
+BREAKING_OFF = 1.0e30
+#: the fill's servo ends when the platen and the bottom carry start_stress to this fraction
+FILL_TOLERANCE = 0.2
+#: the platen's servo while the bed rests, a fraction of fill_speed (it brings the platen's own
+#: stress to start_stress: the fill, servo-controlled by the bottom, leaves more on the platen)
+REST_SPEED = 0.1
+#: while the bed rests, the servo backs the platen up at most at this fraction of its speed
+SERVO_BACK = 0.2
+#: the commands (quoted, for an `if`) that stop every cell: velocities and angular momenta zeroed
+STOP_CELLS = ('"velocity all set 0.0 0.0 0.0" "set group all d2_bcm_angmom[1] 0.0" '
+              '"set group all d2_bcm_angmom[2] 0.0" "set group all d2_bcm_angmom[3] 0.0"')
+#: the rest ends in the loading when the platen still carries this fraction of start_stress,
+#: else in another fill (the bed let go of the platen: not jammed yet)
+REST_HOLDS = 0.5
+#: the six walls: fix id, face, and whether its coordinate is the box's far side on that axis
+WALLS = (("bottom", "zlo", None), ("top", "zhi", 2), ("xlo", "xlo", None), ("xhi", "xhi", 0),
+         ("ylo", "ylo", None), ("yhi", "yhi", 1))
+#: fix bcm/wall's vector entries summed over the walls into the record's variables
+WALL_SUMS = {"W": 3, "E": 4, "damp": 5, "friction": 6, "npoints": 7, "work": 8, "Wp": 11}
+
+
+def grading_dump_name(k: int) -> str:
+    """Dump name of the k-th grading stress (0-based): dumps/cells.grade<k+1>.lammpstrj."""
+    return f"grade{k + 1}"
+
+
+def wall_lines(model, r_m: float, box: list[float]) -> str:
+    """The six fix bcm/wall lines: five fixed walls on the box's faces, the top platen at the
+    box's height with its velocity the variable vp (the phase's)."""
+    out = []
+    for fix_id, face, far in WALLS:
+        coord = 0.0 if far is None else float(box[far])
+        out.append(styles.wall_setup(model, r_m, fix_id=fix_id, face=face, coord=coord,
+                                     velocity="vp" if fix_id == "top" else None))
+    return "\n".join(out)
+
+
+def wall_sum_lines() -> str:
+    """Equal-style variables summing the walls' counters (the record's W_wall, E_wall, ...)."""
+    lines = [f"variable        wall_{name} equal " + "+".join(f"f_{w[0]}[{k}]" for w in WALLS)
+             for name, k in WALL_SUMS.items()]
+    lines.append("variable        wall_side equal f_xlo[1]+f_xhi[1]+f_ylo[1]+f_yhi[1]")
+    return "\n".join(lines)
+
+
+def phase_checks(cfg: RunConfig) -> tuple[list[str], list[str]]:
+    """(check lines, checkpoint variables) of the phase chain: the transitions, evaluated on
+    the values at the check (p0: the phase before it, so one check moves one phase at most)."""
+    m, sc = cfg.model, cfg.scenario
+    after_target = 3 if sc.hold_time > 0 else (4 if sc.unload else 5)
+    after_hold = 4 if sc.unload else 5
+    bond_on = styles.bond_setup(m).splitlines()[1]  # bond_coeff with the configured G_c
+    lines = [
+        "variable        p0 equal ${phase}",
+        "variable        sv_now equal ${sv}",
+        "variable        svb_now equal ${sv_bottom}",
+        "variable        ke_now equal ${ke}",
+        "variable        wp_now equal ${wall_Wp}",
+        "variable        t_now equal $(time:%.17g)",
+        # the fill ends when the servo has brought the stress through the bed: the bottom carries
+        # 1 - FILL_TOLERANCE of start_stress (the platen carries more: the side walls' friction holds
+        # part of the load, as in any oedometer)
+        f'variable        to_rest equal "(v_p0 == 0) && (v_svb_now >= {(1 - FILL_TOLERANCE) * sc.start_stress!r})"',
+        f'variable        rested equal "(v_p0 == 1) && ((v_ke_now <= {sc.rest_ke!r}*v_wp_now) || '
+        f'(v_t_now >= v_t_rest + {sc.rest_time!r}))"',
+        # a bed that let go of the platen while it rested was not jammed yet: filled again
+        f'variable        to_load equal "v_rested && (abs(v_sv_now/{sc.start_stress!r} - 1) <= {FILL_TOLERANCE!r})"',
+        f'variable        to_fill equal "v_rested && (v_sv_now < {REST_HOLDS * sc.start_stress!r})"',
+        f'variable        to_hold equal "(v_p0 == 2) && (v_sv_now >= {sc.target_stress!r})"',
+        f'variable        to_unload equal "(v_p0 == 3) && (v_t_now >= v_t_hold + {sc.hold_time!r})"',
+        f'variable        to_done equal "(v_p0 == 4) && (v_sv_now <= {sc.start_stress!r})"',
+        # the fill and the rest are quenched: the cells are stopped at every check, so the bed is
+        # compacted as by an overdamped motion and the grains' nearly undamped inner modes (the
+        # interfaces' e_n^2 is close to 1) are not left ringing by the platen's first blows
+        'if              "${p0} <= 1" then ' + STOP_CELLS,
+        'if              "${to_rest} > 0" then "variable phase equal 1" "variable t_rest equal ${t_now}"',
+        'if              "${to_fill} > 0" then "variable phase equal 0" "variable refills equal $(v_refills+1)"',
+        # the loading starts from rest: rattlers (grains touching nothing keep their speed, there
+        # is no gravity) and what is left of the fill's ringing are stopped
+        'if              "${to_load} > 0" then "variable phase equal 2" "' + bond_on + '" '
+        + STOP_CELLS + ' "variable t_load equal ${t_now}" "variable h_load equal ${height}" '
+        + " ".join(f'"{c}"' for c in _dump_commands("load").splitlines()),
+    ]
+    names = ["phase", "t_rest", "refills", "t_load", "h_load", "t_hold"]
+    for k, frac in enumerate(sc.grading_at):
+        g = f"g{k + 1}"
+        lines += [f'variable        {g}_now equal "(v_{g} == 0) && (v_p0 == 2) && '
+                  f'(v_sv_now >= {frac * sc.target_stress!r})"',
+                  f'if              "${{{g}_now}} > 0" then "variable {g} equal 1" '
+                  + " ".join(f'"{c}"' for c in _dump_commands(grading_dump_name(k)).splitlines())]
+        names.append(g)
+    lines += [
+        f'if              "${{to_hold}} > 0" then "variable phase equal {after_target}" '
+        '"variable t_hold equal ${t_now}"',
+        f'if              "${{to_unload}} > 0" then "variable phase equal {after_hold}"',
+        'if              "${to_done} > 0" then "variable phase equal 5"',
+        'variable        done equal "v_phase == 5"',
+    ]
+    return lines, names
+
+
+def build_system(cfg: RunConfig, rd: RunDir) -> dict:
+    """The bed (tessellation pool, dense start, files) and the box's facts."""
+    facts = place_bed(cfg, rd)
+    sc = cfg.scenario
+    return {**facts, "platen_start": facts["box"][2], "platen_speed": sc.platen_speed,
+            "grading_at": list(sc.grading_at), "grading_dumps": [grading_dump_name(k) for k in range(len(sc.grading_at))],
+            "box_area": facts["box"][0] * facts["box"][1]}
+
+
+def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str, str, dict, list[str]]:
+    """(setup.lammps, resume.lammps, schedule, checkpoint variables) of a compression run."""
+    m, sc = cfg.model, cfg.scenario
+    dt = system["timestep"]
+    window, chunk = settle_windows(sc.check_every, sc.check_every)
+    max_windows = max(1, math.ceil(sc.max_time / (window * dt)))
+    skin = 0.1 * system["mean_cell_size"]
+    comm_cutoff = 2.0 * system["max_bound_radius"] * 1.05 + skin
+    r_m = system["r_m"]
+    box = system["box"]
+    checks, names = phase_checks(cfg)
+    phase_setup = "\n".join(f"variable        {n} equal 0" for n in names)
+    common = dict(
+        package_version=driver.__version__, config_name=cfg.name, plugin_path=plugin_path,
+        comm_cutoff=f"{comm_cutoff:.9g}", walls=wall_lines(m, r_m, box), wall_sums=wall_sum_lines(),
+        box_x=repr(box[0]), box_y=repr(box[1]), solid_volume=repr(system["solid_volume"]),
+        fill_speed=repr(sc.fill_speed), platen_speed=repr(sc.platen_speed), start_stress=repr(sc.start_stress),
+        servo_back=repr(SERVO_BACK), rest_speed=repr(REST_SPEED * sc.fill_speed),
+        skin=f"{skin:.9g}", steps_per_period=f"{sc.steps_per_period:g}",
+        period=f"{system['shortest_period']:.6g}", timestep=f"{dt:.12g}",
+        thermo_every=sc.thermo_every, periodic_dumps=periodic_dumps(sc.dump_every),
+        record_print=COMPRESS_RECORD.print_text(), record_title=COMPRESS_RECORD.title(), window_steps=window)
+    setup = render(
+        "bcm_compress.in", role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).",
+        system=SYSTEM_FRESH, pair_setup=styles.pair_setup(m, r_m),
+        bond_setup=styles.bond_setup(m, G_c=BREAKING_OFF) + "  # breaking off while the bed is filled",
+        phase_setup=phase_setup, record_target="file thermo.dat",
+        start="run             0\n" + _dump_commands("start"), **common)
+    resume = render(
+        "bcm_compress.in", role="Start from a checkpoint (resume.lammps: -var checkpoint FILE).",
+        system=SYSTEM_RESUME, pair_setup="# pair style, coefficients and counters: from the checkpoint",
+        bond_setup="# bond style (G_c of the checkpoint's phase), interface table, reference state: from the checkpoint",
+        phase_setup=phase_setup + "\n# (the phase, its times and the dumps made: set again from the checkpoint)",
+        record_target="append thermo.dat", start="# the phase chain's state: from the checkpoint", **common)
+    schedule = settle(window, chunk, max_windows, check=checks, settled_variable="done", advance=[],
+                      end=_dump_commands("end").splitlines(),
+                      never=("done", f"the bed did not reach the end of its test within max_time = {sc.max_time:g} s "
+                                     f"(see thermo.dat's phase): raise scenario.max_time or the platen speeds"))
+    return setup, resume, schedule, names
+
+
+def run_compress(cfg: RunConfig, rd: RunDir, plugin_path: Path) -> tuple[dict, ProgressSpec]:
+    """Build the bed and write the run's inputs; returns (system facts, progress spec)."""
+    system = build_system(cfg, rd)
+    setup, resume, schedule, names = render_inputs(cfg, plugin_path, system)
+    system.update(window_steps=schedule["window"], chunk_steps=schedule["chunk"],
+                  max_windows=schedule["max_windows"], max_steps=schedule["window"] * schedule["max_windows"])
+    atomic_write_json(rd.root / "system.json", system)
+    write_session(rd.root, setup, resume, schedule, cfg.execution.checkpoint_steps(), checkpoint_variables=names)
+    return system, progress_spec(cfg, system)
+
+
+def progress_spec(cfg: RunConfig, system: dict) -> ProgressSpec:
+    return ProgressSpec(file="thermo.dat", total_steps=system["max_steps"], label=cfg.name,
+                        columns={name: COMPRESS_RECORD.column(name) for name in ("time", "broken")})
