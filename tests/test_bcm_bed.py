@@ -194,3 +194,18 @@ def test_bed_one_vs_two_ranks(tmp_path, plugin_path):
     pa = ba[ba.step == first].sort_values(key).reset_index(drop=True)
     pb = bb[bb.step == first].sort_values(key).reset_index(drop=True)
     pd.testing.assert_frame_equal(pa[key], pb[key])
+
+
+@pytest.mark.extended
+def test_bed_interrupted_and_resumed_is_identical(tmp_path, plugin_path):
+    """A bed stopped by SIGINT in its loading and resumed gives the very results of the
+    uninterrupted run: the phase, its times and the dumps made come back from the checkpoint's
+    variables, the bond and pair coefficients of the phase (breaking on, the model's friction)
+    from the checkpoint itself. About 90 s."""
+    from test_resume import assert_same_results, config_file, reference_interrupted_resumed  # noqa: PLC0415
+
+    base = bed_config(tmp_path / "unused", plots=False)
+    base["output"] = {"plots": False}
+    base["execution"] = {}
+    ref, out = reference_interrupted_resumed(config_file(tmp_path, base, "bed"), tmp_path, at_fraction=0.6)
+    assert_same_results(ref, out)

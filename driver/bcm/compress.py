@@ -2,7 +2,8 @@
 in a rigid box of six walls (fix bcm/wall: bottom, four sides, the top platen), run as a chain
 of phases that the driver's checks advance (every scenario.check_every steps):
 
-0 fill: breaking switched off (the interfaces' G_c set to BREAKING_OFF), the top platen
+0 fill: breaking switched off (the interfaces' G_c set to BREAKING_OFF), the cell contacts'
+  friction fill_friction (frictionless by default: a dense start), the top platen
   servo-controlled by the bottom wall's stress (velocity -fill_speed (1 - sigma_bottom /
   start_stress), never up: at full speed until the stress goes through the bed, then slowing),
   the cells stopped at every check (a quench: the bed is compacted as by an overdamped motion,
@@ -11,9 +12,10 @@ of phases that the driver's checks advance (every scenario.check_every steps):
 1 rest: the platen servo-controlled by its own stress towards start_stress at REST_SPEED x
   fill_speed, the cells stopped at every check; once the kinetic energy is below rest_ke of
   the platen's work (or after rest_time): if the platen carries start_stress to FILL_TOLERANCE
-  the cells are stopped once more, breaking switched on (the configured G_c) and the start
-  state dumped; if it carries less than REST_HOLDS of it the bed was not jammed (it let go of
-  the platen) and is filled again (phase 0); else the rest goes on;
+  the cells are stopped once more, breaking switched on (the configured G_c), the contacts'
+  friction set to the model's and the start state dumped; if it carries less than REST_HOLDS
+  of it the bed was not jammed (it let go of the platen) and is filled again (phase 0); else
+  the rest goes on;
 2 load: the platen down at platen_speed until target_stress; the cells and interfaces are
   dumped as the stress first passes each of grading_at x target_stress;
 3 hold (hold_time > 0), 4 unload (up at platen_speed, to start_stress), 5 done: the run ends.
@@ -95,6 +97,7 @@ def phase_checks(cfg: RunConfig) -> tuple[list[str], list[str]]:
     after_target = 3 if sc.hold_time > 0 else (4 if sc.unload else 5)
     after_hold = 4 if sc.unload else 5
     bond_on = styles.bond_setup(m).splitlines()[1]  # bond_coeff with the configured G_c
+    friction_on = styles.pair_setup(m, 0.0).splitlines()[1]  # pair_coeff with the model's mu
     lines = [
         "variable        p0 equal ${phase}",
         "variable        sv_now equal ${sv}",
@@ -122,7 +125,7 @@ def phase_checks(cfg: RunConfig) -> tuple[list[str], list[str]]:
         'if              "${to_fill} > 0" then "variable phase equal 0" "variable refills equal $(v_refills+1)"',
         # the loading starts from rest: rattlers (grains touching nothing keep their speed, there
         # is no gravity) and what is left of the fill's ringing are stopped
-        'if              "${to_load} > 0" then "variable phase equal 2" "' + bond_on + '" '
+        'if              "${to_load} > 0" then "variable phase equal 2" "' + bond_on + '" "' + friction_on + '" '
         + STOP_CELLS + ' "variable t_load equal ${t_now}" "variable h_load equal ${height}" '
         + " ".join(f'"{c}"' for c in _dump_commands("load").splitlines()),
     ]
@@ -142,6 +145,12 @@ def phase_checks(cfg: RunConfig) -> tuple[list[str], list[str]]:
         'variable        done equal "v_phase == 5"',
     ]
     return lines, names
+
+
+def fill_friction(model, mu: float) -> str:
+    """The pair_coeff line of the cell contacts with friction mu (the fill's)."""
+    c = model.contact
+    return f"pair_coeff      * * {c.kn} {c.kt} {c.en2} {mu}"
 
 
 def build_system(cfg: RunConfig, rd: RunDir) -> dict:
@@ -177,7 +186,9 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
         record_print=COMPRESS_RECORD.print_text(), record_title=COMPRESS_RECORD.title(), window_steps=window)
     setup = render(
         "bcm_compress.in", role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).",
-        system=SYSTEM_FRESH, pair_setup=styles.pair_setup(m, r_m),
+        system=SYSTEM_FRESH,
+        pair_setup=(styles.pair_setup(m, r_m).splitlines()[0] + "\n" + fill_friction(m, sc.fill_friction)
+                    + "  # the fill's friction (scenario.fill_friction)"),
         bond_setup=styles.bond_setup(m, G_c=BREAKING_OFF) + "  # breaking off while the bed is filled",
         phase_setup=phase_setup, record_target="file thermo.dat",
         start="run             0\n" + _dump_commands("start"), **common)

@@ -103,6 +103,9 @@ class CompressScenario(_Strict):
     fill_speed: float = Field(0.5, gt=0.0, le=50.0,
                               description="speed of the platen while the bed is brought to its dense start, m/s "
                                           "(breaking off: only the start's geometry comes out of it)")
+    fill_friction: float = Field(0.0, ge=0.0, description="Coulomb friction of the cell contacts while the bed is "
+                                                             "filled and rests (0: frictionless, which packs it "
+                                                             "dense); model.contact.mu from the loading on")
     rest_ke: float = Field(1e-3, gt=0.0, lt=1.0,
                            description="the dense start is at rest, and breaking switched on, once the kinetic "
                                        "energy is below this fraction of the work the platen has done (or after "
