@@ -98,7 +98,10 @@ def test_bed_runs_through_its_phases(small_bed):
     (no break before the loading), the target reached, the end back at the start stress."""
     rec = read_compress_record(small_bed / "thermo.dat")
     phases = rec.phase.to_numpy()
-    assert (np.diff(phases) >= 0).all()
+    # fill and rest may alternate (a bed that lets go of the platen while it rests is filled
+    # again); from the loading on, the phases only go forward
+    loaded = phases[np.argmax(phases >= 2):]
+    assert (loaded >= 2).all() and (np.diff(loaded) >= 0).all()
     assert set(phases) >= {0, 1, 2, 4}  # the switch to 5 (done) comes at the last check, after the last record
     assert rec.broken[rec.phase < 2].max() == 0
     loading = rec[rec.phase == 2]
@@ -113,20 +116,27 @@ def test_bed_runs_through_its_phases(small_bed):
 
 def test_bed_record_is_what_the_box_says(small_bed):
     """Void ratio = box volume / solid volume - 1 with the platen's height; the platen moves
-    at fill_speed, then platen_speed (down), then up; bottom and top carry the same stress at
-    the peak of a quasi-static loading to 10 %."""
+    at platen_speed down while loading and up while unloading, never faster than fill_speed
+    while it fills (servo-controlled); bottom and top carry the same stress at the peak of the
+    loading to 10 %."""
     rec = read_compress_record(small_bed / "thermo.dat")
     system = json.loads((small_bed / "system.json").read_text())
     bx, by, _ = system["box"]
     np.testing.assert_allclose(rec.void_ratio, bx * by * rec.height / system["solid_volume"] - 1, rtol=1e-10)
     cfg = parse_config(bed_config(small_bed))
     dt = system["timestep"]
-    for phase, speed in ((0, -cfg.scenario.fill_speed), (2, -cfg.scenario.platen_speed),
-                         (4, cfg.scenario.platen_speed)):
-        part = rec[rec.phase == phase]
-        if len(part) > 2:
-            v = np.diff(part.height.to_numpy()[1:]) / (np.diff(part.step.to_numpy()[1:]) * dt)
-            np.testing.assert_allclose(v, speed, rtol=1e-6)
+    def speeds(phase: int) -> np.ndarray:
+        # between records both in the phase (a record at a phase change holds the new phase)
+        part = rec[(rec.phase == phase) & (rec.phase.shift(1) == phase) & (rec.phase.shift(-1) == phase)]
+        return np.diff(part.height.to_numpy()) / (np.diff(part.step.to_numpy()) * dt)
+
+    for phase, speed in ((2, -cfg.scenario.platen_speed), (4, cfg.scenario.platen_speed)):
+        v = speeds(phase)
+        v = v[np.isfinite(v)]
+        assert len(v) > 5
+        np.testing.assert_allclose(np.median(v), speed, rtol=1e-6)
+        assert np.mean(np.isclose(v, speed, rtol=1e-6)) > 0.9
+    assert np.nanmax(np.abs(speeds(0))) <= cfg.scenario.fill_speed * (1 + 1e-9)
     peak = rec.sigma_v.idxmax()
     assert rec.sigma_v_bottom[peak] == pytest.approx(rec.sigma_v[peak], rel=0.1)
 
