@@ -107,6 +107,27 @@ IMPACT_RECORD = Record("impact", (
 #: IMPACT_RECORD fields that records of runs made before them lack (read when present)
 IMPACT_DIAGNOSTICS = ("broken_closed", "closed_points", "closed_force", "slip", "W_damp_broken")
 
+def _wall_fields(walls: tuple[str, ...], what: str, which: str) -> tuple[Field, ...]:
+    """The energy fields of a set of fix bcm/wall (their ids), summed over them: what they
+    dissipate by channel, store and do (fix_bcm_wall.md: [3]-[8])."""
+    def total(k: int) -> str:
+        return _g("+".join(f"f_{w}[{k}]" for w in walls))
+
+    return (
+        Field("W_wall", "J", f"energy dissipated by {what} (all channels, {which})", total(3)),
+        Field("E_wall", "J", f"elastic energy stored in {what}' contacts", total(4)),
+        Field("W_wall_damp", "J", f"{what.removeprefix('the ')}: damping", total(5)),
+        Field("W_wall_friction", "J", f"{what.removeprefix('the ')}: friction", total(6)),
+        Field("W_wall_npoints", "J", f"{what.removeprefix('the ')}: changes of a contact's number of points (0 under "
+                                     "the per-point law)", total(7)),
+        Field("work_wall", "J", f"work of {what}' forces on the cells (a check)", total(8)),
+    )
+
+
+#: the six walls of a bed (driver/bcm/compress.py WALLS)
+BED_WALLS = ("bottom", "top", "xlo", "xhi", "ylo", "yhi")
+
+
 # ------------------------------------------------------------ BCM crush (SPEC 4.1)
 # f_upper, f_lower: the two platens, fix bcm/wall zhi (moving) and zlo (fixed); v_top0: the
 # upper platen's position at the start, v_A0: the bonded interface area (lammps_inputs/bcm_crush.in).
@@ -128,13 +149,7 @@ CRUSH_RECORD = Record("crush", (
     *(_IMPACT_FIELDS[n] for n in ("W_f", "E_interfaces", "W_damp", "W_friction", "W_switch")),
     Field("upper_contacts", "", "cells touching the upper platen", "f_upper[1]"),
     Field("lower_contacts", "", "cells touching the lower platen", "f_lower[1]"),
-    Field("W_wall", "J", "energy dissipated by the platens (all channels, both)", _g("f_upper[3]+f_lower[3]")),
-    Field("E_wall", "J", "elastic energy stored in the platens' contacts", _g("f_upper[4]+f_lower[4]")),
-    Field("W_wall_damp", "J", "platens: damping", _g("f_upper[5]+f_lower[5]")),
-    Field("W_wall_friction", "J", "platens: friction", _g("f_upper[6]+f_lower[6]")),
-    Field("W_wall_npoints", "J", "platens: changes of a contact's number of points (0 under the per-point law)",
-          _g("f_upper[7]+f_lower[7]")),
-    Field("work_wall", "J", "work of the platens' forces on the cells (a check)", _g("f_upper[8]+f_lower[8]")),
+    *_wall_fields(("upper", "lower"), "the platens", "both"),
     *(_IMPACT_FIELDS[n] for n in ("E_contacts", "W_contact_damp", "W_contact_friction", "W_contact_npoints",
                                   "work_contacts")),
 ))
@@ -158,13 +173,7 @@ COMPRESS_RECORD = Record("compress", (
     Field("top_contacts", "", "cells touching the top platen", "f_top[1]"),
     Field("bottom_contacts", "", "cells touching the bottom wall", "f_bottom[1]"),
     Field("side_contacts", "", "cells touching the four side walls", "v_wall_side"),
-    Field("W_wall", "J", "energy dissipated by the walls (all channels, all six)", _g("v_wall_W")),
-    Field("E_wall", "J", "elastic energy stored in the walls' contacts", _g("v_wall_E")),
-    Field("W_wall_damp", "J", "walls: damping", _g("v_wall_damp")),
-    Field("W_wall_friction", "J", "walls: friction", _g("v_wall_friction")),
-    Field("W_wall_npoints", "J", "walls: changes of a contact's number of points (0 under the per-point law)",
-          _g("v_wall_npoints")),
-    Field("work_wall", "J", "work of the walls' forces on the cells (a check)", _g("v_wall_work")),
+    *_wall_fields(BED_WALLS, "the walls", "all six"),
     *(_IMPACT_FIELDS[n] for n in ("E_contacts", "W_contact_damp", "W_contact_friction", "W_contact_npoints",
                                   "work_contacts")),
 ))

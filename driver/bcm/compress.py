@@ -10,8 +10,9 @@ of phases that the driver's checks advance (every scenario.check_every steps):
   its grains' inner modes not left ringing), until the bottom carries 1 - FILL_TOLERANCE of
   start_stress (the platen carries more: the side walls' friction holds part of the load);
 1 rest: the platen servo-controlled by its own stress towards start_stress at REST_SPEED x
-  fill_speed, the cells stopped at every check; once the kinetic energy is below rest_ke of
-  the platen's work (or after rest_time): if the platen carries start_stress to FILL_TOLERANCE
+  fill_speed, the cells stopped at every check; once the kinetic energy gathered since the last
+  check is below rest_ke of the elastic energy the bed holds (interfaces, contacts, walls: the
+  bed is in equilibrium, the fill's strain relaxed) or after rest_time: if the platen carries start_stress to FILL_TOLERANCE
   the cells are stopped once more, breaking switched on (the configured G_c), the contacts'
   friction set to the model's and the start state dumped; if it carries less than REST_HOLDS
   of it the bed was not jammed (it let go of the platen) and is filled again (phase 0); else
@@ -38,7 +39,7 @@ from driver.runner import ProgressSpec
 from driver.schedule import settle, settle_windows, write_session
 from driver.templates import render
 from runfiles.atomic import atomic_write_json
-from runfiles.records import COMPRESS_RECORD
+from runfiles.records import BED_WALLS, COMPRESS_RECORD
 
 if TYPE_CHECKING:  # for readers and checkers only
     from driver.config import RunConfig
@@ -59,11 +60,11 @@ STOP_CELLS = ('"velocity all set 0.0 0.0 0.0" "set group all d2_bcm_angmom[1] 0.
 #: the rest ends in the loading when the platen still carries this fraction of start_stress,
 #: else in another fill (the bed let go of the platen: not jammed yet)
 REST_HOLDS = 0.5
-#: the six walls: fix id, face, and whether its coordinate is the box's far side on that axis
-WALLS = (("bottom", "zlo", None), ("top", "zhi", 2), ("xlo", "xlo", None), ("xhi", "xhi", 0),
-         ("ylo", "ylo", None), ("yhi", "yhi", 1))
-#: fix bcm/wall's vector entries summed over the walls into the record's variables
-WALL_SUMS = {"W": 3, "E": 4, "damp": 5, "friction": 6, "npoints": 7, "work": 8, "Wp": 11}
+#: the six walls (their fix ids: the record's BED_WALLS): face, and the axis whose far side of
+#: the box the wall is on (None: at 0)
+WALLS = tuple(zip(BED_WALLS, ("zlo", "zhi", "xlo", "xhi", "ylo", "yhi"), (None, 2, None, 0, None, 1)))
+#: fix bcm/wall's vector entries summed over the walls into variables (the phase checks read W_p)
+WALL_SUMS = {"Wp": 11, "E": 4}
 
 
 def grading_dump_name(k: int) -> str:
@@ -83,7 +84,8 @@ def wall_lines(model, r_m: float, box: list[float]) -> str:
 
 
 def wall_sum_lines() -> str:
-    """Equal-style variables summing the walls' counters (the record's W_wall, E_wall, ...)."""
+    """Equal-style variables summing the walls' work, stored energy and contacts (the record's
+    W_p and side_contacts, the phase checks' elastic energy)."""
     lines = [f"variable        wall_{name} equal " + "+".join(f"f_{w[0]}[{k}]" for w in WALLS)
              for name, k in WALL_SUMS.items()]
     lines.append("variable        wall_side equal f_xlo[1]+f_xhi[1]+f_ylo[1]+f_yhi[1]")
@@ -103,13 +105,13 @@ def phase_checks(cfg: RunConfig) -> tuple[list[str], list[str]]:
         "variable        sv_now equal ${sv}",
         "variable        svb_now equal ${sv_bottom}",
         "variable        ke_now equal ${ke}",
-        "variable        wp_now equal ${wall_Wp}",
+        "variable        el_now equal ${elastic}",
         "variable        t_now equal $(time:%.17g)",
         # the fill ends when the servo has brought the stress through the bed: the bottom carries
         # 1 - FILL_TOLERANCE of start_stress (the platen carries more: the side walls' friction holds
         # part of the load, as in any oedometer)
         f'variable        to_rest equal "(v_p0 == 0) && (v_svb_now >= {(1 - FILL_TOLERANCE) * sc.start_stress!r})"',
-        f'variable        rested equal "(v_p0 == 1) && ((v_ke_now <= {sc.rest_ke!r}*v_wp_now) || '
+        f'variable        rested equal "(v_p0 == 1) && ((v_ke_now <= {sc.rest_ke!r}*v_el_now) || '
         f'(v_t_now >= v_t_rest + {sc.rest_time!r}))"',
         # a bed that let go of the platen while it rested was not jammed yet: filled again
         f'variable        to_load equal "v_rested && (abs(v_sv_now/{sc.start_stress!r} - 1) <= {FILL_TOLERANCE!r})"',

@@ -108,10 +108,9 @@ class CompressScenario(_Strict):
                                                              "dense); model.contact.mu from the loading on")
     rest_ke: float = Field(1e-3, gt=0.0, lt=1.0,
                            description="the dense start is at rest, and breaking switched on, once the kinetic "
-                                       "energy is below this fraction of the work the platen has done (or after "
-                                       "rest_time)")
-    rest_time: float = Field(1e-4, gt=0.0, description="the longest the platen rests before loading, s (the cells "
-                                                        "are then stopped: a grain touching nothing keeps its speed)")
+                                       "energy gathered between two checks (the cells are stopped at each) is below "
+                                       "this fraction of the elastic energy the bed holds (or after rest_time)")
+    rest_time: float = Field(2e-4, gt=0.0, description="the longest the bed rests before loading, s")
     hold_time: float = Field(0.0, ge=0.0, description="time the platen holds still at the target stress, s")
     unload: bool = Field(True, description="after the target (and the hold), the platen goes back up at platen_speed "
                                            "until the stress is down to start_stress")
