@@ -329,7 +329,8 @@ void BondBcmGriffith::init_style()
    per entry the cells in ID order, the state slots (with newton_bond off the
    neighbor code lists a bond from an owned atom; the partner's copy is
    written too when the partner is owned here, the bond then being listed
-   once), and a record with the constants, the state and the geometry
+   once), a record with the constants and the state, and the geometry in
+   the table
 ------------------------------------------------------------------------- */
 
 void BondBcmGriffith::rebuild_cache()
@@ -411,15 +412,7 @@ void BondBcmGriffith::rebuild_cache()
       for (int c = 0; c < 3; c++) rec[R_FD + c * P + k] = e.slot[NHEAD + 3 * k + c];
     if (e.coff >= 0)
       std::copy(e.slot + NHEAD + 3 * np, e.slot + NHEAD + NPOINT * np, &contact[e.coff]);
-    // geometry: normal in cell 1's frame, then the rows of b1 and of b2
-    const double *g = table.body_of(itf);
-    double *out = rec + record_geometry(np);
-    for (int c = 0; c < 3; c++) out[c] = g[c];
-    for (int k = 0; k < np; k++)
-      for (int c = 0; c < 3; c++) {
-        out[3 + c * P + k] = g[3 + 3 * k + c];
-        out[3 + 3 * P + c * P + k] = g[3 + 3 * (np + k) + c];
-      }
+    cache[n].geom = table.body_of(itf);
   }
   cache_store = atom->nmax > 0 ? store[0] : nullptr;
   cache_valid = true;
@@ -546,7 +539,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     if (slot[H_BROKEN] == RETIRED) continue;    // for good: the pair style's now
     const int np = e.npts, P = padded(np);
     double *fd = rec + R_FD;    // damping forces of the last evaluation, rows of P
-    const double *g = rec + record_geometry(np);    // normal in cell 1's frame, b1 rows, b2 rows
+    const double *g = e.geom;    // normal in cell 1's frame, then rows of np: b1, b2
 
     const Pair p(&cells[CELL_STRIDE * (size_t) e.c1], &cells[CELL_STRIDE * (size_t) e.c2], g);
     // fd_dv: the damping forces of the last evaluation times the relative velocities now,
@@ -562,10 +555,12 @@ void BondBcmGriffith::compute(int eflag, int vflag)
       BcmInterfaceKinematics::IntactSums s;
 #if defined(BRITTLE_AVX_LOOPS)
       if (avx_loop)
-        avx::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, g + 3, g + 3 + 3 * P, s);
+        avx::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, np, g + 3,
+                              g + 3 + 3 * np, s);
       else
 #endif
-        base::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, g + 3, g + 3 + 3 * P, s);
+        base::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, np, g + 3,
+                               g + 3 + 3 * np, s);
       fd_dv = s.fd_dv;
       r.stored = s.stored;
       r.pd = s.pd;
@@ -641,25 +636,24 @@ bool BondBcmGriffith::quiet(const Entry &e, const double *rec, const Pair &p, co
   double dn[BcmInterfaceTable::MAX_POINTS];
 #if defined(BRITTLE_AVX_LOOPS)
   if (avx_loop)
-    avx::interface_gaps(p, np, P, g + 3, g + 3 + 3 * P, dn);
+    avx::interface_gaps(p, np, np, g + 3, g + 3 + 3 * np, dn);
   else
 #endif
-    base::interface_gaps(p, np, P, g + 3, g + 3 + 3 * P, dn);
+    base::interface_gaps(p, np, np, g + 3, g + 3 + 3 * np, dn);
   for (int k = 0; k < np; k++)
     if (dn[k] - cb[NCONTACT * k + C_SHIFT] < 0.0) return false;    // closed (contact law)
   return true;
 }
 
 /* ----------------------------------------------------------------------
-   the points of an interface from its record's geometry (rows of P anchors)
+   the points of an interface from its geometry in the table (rows of np anchors)
 ------------------------------------------------------------------------- */
 
 void BondBcmGriffith::interface_points(const Pair &p, const double *g, int np, Point *pts)
 {
-  const int P = padded(np);
   for (int k = 0; k < np; k++) {
-    const double b1[3] = {g[3 + k], g[3 + P + k], g[3 + 2 * P + k]};
-    const double b2[3] = {g[3 + 3 * P + k], g[3 + 4 * P + k], g[3 + 5 * P + k]};
+    const double b1[3] = {g[3 + k], g[3 + np + k], g[3 + 2 * np + k]};
+    const double b2[3] = {g[3 + 3 * np + k], g[3 + 4 * np + k], g[3 + 5 * np + k]};
     BcmInterfaceKinematics::point(p, b1, b2, pts[k]);
   }
 }

@@ -92,11 +92,11 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
 
   // Working copy of the interfaces of the bond list, rebuilt with it (at each
   // reneighbouring): per entry one contiguous record in bondlist order holding the per-point
-  // constants, the state read and written at every evaluation (slot header and damping
-  // forces) and the body-frame geometry, so that the force loop streams through memory and
-  // does no look-up; the contact state of broken interfaces apart. The per-atom store is
-  // written back from it (both copies of an interface) only when something may read the
-  // store or move atoms: sync_store().
+  // constants and the state read and written at every evaluation (slot header and damping
+  // forces), so that the force loop streams through memory; the contact state of broken
+  // interfaces apart, the geometry read from the table (one copy on each rank). The per-atom
+  // store is written back from it (both copies of an interface) only when something may read
+  // the store or move atoms: sync_store().
   struct Entry {
     int c1, c2;        // local indices of the cells with the smaller and the larger ID
     int type;          // bond type the constants of the record were taken for
@@ -105,6 +105,7 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
     long coff;         // into contact: NCONTACT doubles per point; -1 while intact
     double *slot;      // state of the interface in the bondlist atom's bond slot
     double *twin;      // the partner's copy when the partner is owned here too, or nullptr
+    const double *geom;    // the interface's body-frame geometry in the table
   };
   std::vector<Entry> cache;
   std::vector<double> records;
