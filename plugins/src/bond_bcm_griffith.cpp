@@ -25,8 +25,10 @@
 #include "domain.h"
 #include "error.h"
 #include "fix_bcm_griffith.h"
+#include "fix_lazy_store.h"
 #include "force.h"
 #include "memory.h"
+#include "modify.h"
 #include "neighbor.h"
 #include "update.h"
 
@@ -309,18 +311,29 @@ void BondBcmGriffith::init_style()
   bigint total = 0;
   MPI_Allreduce(&nbonds, &total, 1, MPI_LMP_BIGINT, MPI_SUM, world);
   // the store: per atom, the slots of its bonds one after the other, each as long as its
-  // interface's points need (slot_offset()); as wide as the widest atom's
+  // interface's points need (slot_offset()); each row as long as its atom's slots (rows
+  // sized), at most the widest atom's
+  std::vector<int> row_width(nlocal);
   long width = 1;
-  for (int i = 0; i < nlocal; i++) width = std::max(width, slot_offset(i, atom->num_bond[i]));
+  for (int i = 0; i < nlocal; i++) {
+    row_width[i] = (int) slot_offset(i, atom->num_bond[i]);
+    width = std::max(width, (long) row_width[i]);
+  }
   long store_width = 0;
   MPI_Allreduce(&width, &store_width, 1, MPI_LONG, MPI_MAX, world);
-  store_index = BreakableUtil::peratom_array(lmp, STORE_FIX_ID, STORE_NAME, (int) store_width);
+  store_index =
+      BreakableUtil::peratom_array(lmp, STORE_FIX_ID, STORE_NAME, (int) store_width, true);
+  auto *store_fix = dynamic_cast<FixLazyStore *>(modify->get_fix_by_id(STORE_FIX_ID));
+  if (!store_fix)
+    error->all(FLERR, "bond_style bcm/griffith: fix {} is not a fix lazy/store", STORE_FIX_ID);
   if (total != (bigint) table.size())
     error->all(FLERR, "bond_style bcm/griffith: {} interfaces in the geometry table but {} bonds "
                "in the topology", table.size(), total);
 
   if (!table.has_reference()) table.take_reference(iquat);
   sync_store();
+  // rows grow (and move) only now, the working copy being rebuilt before its next use
+  for (int i = 0; i < nlocal; i++) store_fix->reserve(i, row_width[i]);
   cache_valid = false;
 }
 
