@@ -7,9 +7,9 @@
 namespace BcmInterfaceState {
 
 /* Per-slot state (per atom and bond slot, in a hidden fix lazy/store): header, then the
-   damping force of each point at the last evaluation (damping-work quadrature), then per point
-   the contact reference shift s, the slip offset sigma (cell 1's body frame), the in-contact
-   flag and the last tangential contact force (friction work). The force loop works on one of
+   damping force of each point at the last evaluation (damping-work quadrature), then, once the
+   interface has broken, per point the contact reference shift s, the slip offset sigma (cell
+   1's body frame), the in-contact flag and the last tangential contact force (friction work). The force loop works on one of
    the interface's two slots in place (cell 1's when it is owned), the other one a copy written
    by sync_store(). */
 
@@ -53,7 +53,14 @@ constexpr double INTACT = 0.0, BROKEN = 1.0, RETIRED = 2.0;
 
 constexpr int S_FD = NHEAD;    // the damping forces' rows in a slot
 inline long slot_contact(int npts) { return NHEAD + 3L * npts; }    // the contact state
-inline long slot_size(int npts) { return NHEAD + (long) NPOINT * npts; }
+// a slot holds the contact state once its interface has broken (most never do): its size
+inline long slot_size(int npts, bool broken)
+{
+  return NHEAD + (broken ? (long) NPOINT : 3L) * npts;
+}
+// the kernel reads a slot's damping forces 4 at a time, up to 3 values past the z row: a row of
+// the store ends with as many spare values
+constexpr int ROW_TAIL = 3;
 
 // record of a bondlist entry in the working copy: per-point constants of its bond type
 enum {

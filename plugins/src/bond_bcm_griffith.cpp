@@ -93,7 +93,8 @@ BondBcmGriffith::BondBcmGriffith(LAMMPS *_lmp) :
     broken_stiffness(CONTACT), broken_damping(CONTACT), break_shear(CARRIED), break_normal(SHIFTED),
     broken_points(POLYGON),
     cache_store(nullptr),
-    cache_valid(false), dirty(false), atoms_moved(true), store_index(-1), iquat(-1), nevaluations(0),
+    cache_valid(false), dirty(false), atoms_moved(true), store_index(-1), store_fix(nullptr),
+    iquat(-1), nevaluations(0),
     special(nullptr)
 {
   avx_loop = BreakableUtil::avx_loops();
@@ -311,21 +312,24 @@ void BondBcmGriffith::init_style()
   bigint total = 0;
   MPI_Allreduce(&nbonds, &total, 1, MPI_LMP_BIGINT, MPI_SUM, world);
   // the store: per atom, the slots of its bonds one after the other, each as long as its
-  // interface's points need (slot_offset()); each row as long as its atom's slots (rows
-  // sized), at most the widest atom's
-  std::vector<int> row_width(nlocal);
+  // interface's points and state need (slot_offset()); each row as long as its atom's slots
+  // (rows sized), at most the widest atom's with every interface broken
   long width = 1;
-  for (int i = 0; i < nlocal; i++) {
-    row_width[i] = (int) slot_offset(i, atom->num_bond[i]);
-    width = std::max(width, (long) row_width[i]);
-  }
+  for (int i = 0; i < nlocal; i++) width = std::max(width, row_capacity(i));
   long store_width = 0;
   MPI_Allreduce(&width, &store_width, 1, MPI_LONG, MPI_MAX, world);
   store_index =
       BreakableUtil::peratom_array(lmp, STORE_FIX_ID, STORE_NAME, (int) store_width, true);
-  auto *store_fix = dynamic_cast<FixLazyStore *>(modify->get_fix_by_id(STORE_FIX_ID));
+  store_fix = dynamic_cast<FixLazyStore *>(modify->get_fix_by_id(STORE_FIX_ID));
   if (!store_fix)
     error->all(FLERR, "bond_style bcm/griffith: fix {} is not a fix lazy/store", STORE_FIX_ID);
+  // a restart file of a version whose slots all held the contact state (and the damping
+  // forces point by point) cannot be read as this layout
+  bigint unsized = store_fix->unsized_rows_read(), nunsized = 0;
+  MPI_Allreduce(&unsized, &nunsized, 1, MPI_LMP_BIGINT, MPI_SUM, world);
+  if (nunsized)
+    error->all(FLERR, "bond_style bcm/griffith: the restart file holds the interface state in "
+               "the layout of an older version of the plugin; it cannot be resumed with this one");
   if (total != (bigint) table.size())
     error->all(FLERR, "bond_style bcm/griffith: {} interfaces in the geometry table but {} bonds "
                "in the topology", table.size(), total);
@@ -333,7 +337,8 @@ void BondBcmGriffith::init_style()
   if (!table.has_reference()) table.take_reference(iquat);
   sync_store();
   // rows grow (and move) only now, the working copy being rebuilt before its next use
-  for (int i = 0; i < nlocal; i++) store_fix->reserve(i, row_width[i]);
+  for (int i = 0; i < nlocal; i++)
+    store_fix->reserve(i, (int) slot_offset(i, atom->num_bond[i]) + ROW_TAIL);
   cache_valid = false;
 }
 
@@ -398,6 +403,8 @@ void BondBcmGriffith::rebuild_cache()
     const BcmInterfaceTable::Interface &itf = table[iface];
     e.npts = itf.npts;
     e.geom = table.body_of(itf);
+    e.contact = e.slot[H_BROKEN] != INTACT ? e.slot + slot_contact(e.npts) : nullptr;
+    e.side = -1;
     e.type = bondlist[n][2];
     double *rec = &records[(size_t) NCONST * n];
     rec[K_AREA] = itf.area;
@@ -465,8 +472,66 @@ void BondBcmGriffith::sync_store()
     error->one(FLERR, "bond_style bcm/griffith: the cells moved in memory before the interface "
                "state was saved (a fix that exchanges atoms before fix {} does?)",
                FixBcmGriffith::ID);
+  // the slot as it is in the store (an interface broken since holds its contact state apart)
   for (const Entry &e : cache)
-    if (e.twin) std::copy(e.slot, e.slot + slot_size(e.npts), e.twin);
+    if (e.twin) std::copy(e.slot, e.slot + slot_size(e.npts, e.contact != nullptr), e.twin);
+  if (!side.empty()) materialize();
+}
+
+/* ----------------------------------------------------------------------
+   room in their slots for the contact state of the interfaces broken since
+   the working copy was built (both copies when both cells are owned here),
+   the state moved there: the rows of their cells are rewritten slot by slot
+   and may move in memory, so the working copy is rebuilt before its next use
+------------------------------------------------------------------------- */
+
+void BondBcmGriffith::materialize()
+{
+  const tagint *tag = atom->tag;
+  const int nlocal = atom->nlocal;
+  struct Grow {
+    int i, m, n;    // the owned cell, its bond slot, the entry
+    bool operator<(const Grow &o) const { return i < o.i || (i == o.i && m < o.m); }
+  };
+  std::vector<Grow> grow;
+  for (int n = 0; n < (int) cache.size(); n++) {
+    const Entry &e = cache[n];
+    if (e.side < 0) continue;
+    for (const int c : {e.c1, e.c2}) {
+      if (c >= nlocal) continue;
+      const int m = BreakableUtil::bond_slot(atom, c, tag[c == e.c1 ? e.c2 : e.c1]);
+      if (m >= 0) grow.push_back({c, m, n});
+    }
+  }
+  std::sort(grow.begin(), grow.end());
+  std::vector<double> row;
+  for (size_t g = 0; g < grow.size();) {
+    const int i = grow[g].i;
+    const double *old = atom->darray[store_index][i];
+    const tagint *batom = atom->bond_atom[i];
+    row.clear();
+    long off = 0;
+    for (int k = 0; k < atom->num_bond[i]; k++) {
+      const int ii = table.find(tag[i], batom[k]);
+      const int np = ii >= 0 ? table[ii].npts : 0;
+      const bool pending = g < grow.size() && grow[g].i == i && grow[g].m == k;
+      // a slot broken since has its header in the store already, not yet its contact state
+      const bool holds = !pending && old[off + H_BROKEN] != INTACT;
+      const long size = slot_size(np, holds);
+      row.insert(row.end(), old + off, old + off + size);
+      off += size;
+      if (pending) {
+        const double *cb = &side[cache[grow[g].n].side];
+        row.insert(row.end(), cb, cb + NCONTACT * np);
+        g++;
+      }
+    }
+    row.resize(row.size() + ROW_TAIL, 0.0);
+    store_fix->reserve(i, (int) row.size());
+    std::copy(row.begin(), row.end(), atom->darray[store_index][i]);
+  }
+  side.clear();
+  cache_valid = false;
 }
 
 
@@ -605,7 +670,7 @@ bool BondBcmGriffith::quiet(const Entry &e, const Pair &p, const double *g)
   if (dot(p.d12, p.d12) >= rsum * rsum) return false;    // retiring: contact_forces()
   const int np = e.npts;
   const double *fd = e.slot + S_FD;
-  const double *cb = e.slot + slot_contact(np);
+  const double *cb = contact_of(e);
   for (int k = 0; k < np; k++)
     if (cb[NCONTACT * k + C_TOUCH] != 0.0 || fd[k] != 0.0 || fd[np + k] != 0.0 ||
         fd[2 * np + k] != 0.0)
@@ -658,7 +723,10 @@ void BondBcmGriffith::break_interface(Entry &e, double *rec, const Pair &p,
   BreakPath::interface(lmp, special, e.c1, e.c2, stored, rec[K_AREA]);    // the event log
 
   const double kp = rec[K_KP], ktp = rec[K_KTP];
-  double *cb = e.slot + slot_contact(e.npts);    // zeros while the interface was intact
+  // its contact state, apart until the store's slot has room for it (materialize())
+  e.side = (long) side.size();
+  side.resize(side.size() + NCONTACT * (size_t) e.npts, 0.0);
+  double *cb = &side[e.side];
   for (int k = 0; k < e.npts; k++) {
     const Point &q = pts[k];
     double *pt = cb + NCONTACT * k;
@@ -698,7 +766,7 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
   const BcmInterfaceContact::Constants law{rec[K_KC], rec[K_KTC], rec[K_CC], mu[type]};
   double fric = 0.0, unpaid = 0.0, held = 0.0, slip = 0.0, fn = 0.0;
   int nclosed = 0;
-  double *cb = slot + slot_contact(e.npts);
+  double *cb = contact_of(e);
   for (int k = 0; k < e.npts; k++) {
     const Point &q = pts[k];
     double fd[3], F[3];
@@ -774,7 +842,7 @@ void BondBcmGriffith::retire(const Entry &e, double held, const Clock &now, Resu
   slot[H_BROKEN] = RETIRED;
   slot[H_NCLOSED] = slot[H_FN] = 0.0;
   r = Result();
-  double *cb = slot + slot_contact(e.npts);
+  double *cb = contact_of(e);
   double *fdamp = slot + S_FD;
   const int np = e.npts;
   for (int k = 0; k < np; k++) {
@@ -818,20 +886,35 @@ void BondBcmGriffith::apply(const Entry &e, const Pair &p, const Result &r)
 
 /* ----------------------------------------------------------------------
    where bond slot m of owned atom i starts in its store row: after the slots
-   before it, each NHEAD + NPOINT N_p long for its interface's N_p points (the
-   bonds of an atom keep their slots for good: bonds are never deleted)
+   before it, each as long as its interface's N_p points and its state need
+   (slot_size(): the contact state once broken; the bonds of an atom keep their
+   slots for good: bonds are never deleted). A row not yet sized reads as
+   zeros: intact interfaces.
 ------------------------------------------------------------------------- */
 
 long BondBcmGriffith::slot_offset(int i, int m) const
 {
   const tagint *batom = atom->bond_atom[i];
   const tagint self = atom->tag[i];
+  const double *row = atom->darray[store_index][i];
+  const long len = store_fix->row_size(i);
   long off = 0;
   for (int k = 0; k < m; k++) {
     const int ii = table.find(self, batom[k]);
-    off += NHEAD + NPOINT * (ii >= 0 ? table[ii].npts : 0);
+    off += slot_size(ii >= 0 ? table[ii].npts : 0, off < len && row[off + H_BROKEN] != INTACT);
   }
   return off;
+}
+
+// the row of owned atom i with every interface broken: the store's width
+long BondBcmGriffith::row_capacity(int i) const
+{
+  long size = ROW_TAIL;
+  for (int k = 0; k < atom->num_bond[i]; k++) {
+    const int ii = table.find(atom->tag[i], atom->bond_atom[i][k]);
+    size += slot_size(ii >= 0 ? table[ii].npts : 0, true);
+  }
+  return size;
 }
 
 /* ----------------------------------------------------------------------

@@ -103,9 +103,14 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
     double *slot;      // the state evaluated: a bond slot of an owned cell in the store
     double *twin;      // the other owned cell's copy, or nullptr
     const double *geom;    // the interface's body-frame geometry in the table
+    double *contact;   // the contact state in the slot (broken when the cache was built)
+    long side;         // or into side (broken since), or -1 (intact)
   };
   std::vector<Entry> cache;
   std::vector<double> records;       // NCONST per entry
+  // the contact state of the interfaces broken since the working copy was built: their slots
+  // get room for it (materialize()) when the store is synchronised
+  std::vector<double> side;
   std::vector<tagint> cache_tags;    // (tag1, tag2) per entry: checks that the cells stayed
   double *cache_store;               // store row 0 when the cache was built
   bool cache_valid;
@@ -119,6 +124,7 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   std::vector<double> cells;
 
   int store_index;     // atom->darray index of the per-slot state
+  class FixLazyStore *store_fix;    // its fix
   int iquat;           // atom->darray index of d2_bcm_quat
   bigint nevaluations;
   bool avx_loop;       // the 4-lane AVX kernel (BreakableUtil::avx_loops())
@@ -144,6 +150,9 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   void set_constants(const Entry &e, int type, double *rec) const;
   const double *slot_of(int i, int j) const;
   long slot_offset(int i, int m) const;
+  long row_capacity(int i) const;
+  double *contact_of(const Entry &e) { return e.side >= 0 ? &side[e.side] : e.contact; }
+  void materialize();
   void interface_points(const Pair &p, const double *g, int np, Point *pts);
   bool quiet(const Entry &e, const Pair &p, const double *g);
   void break_interface(Entry &e, double *rec, const Pair &p, const Point *pts,

@@ -17,8 +17,8 @@ using namespace LAMMPS_NS;
 /* ---------------------------------------------------------------------- */
 
 FixLazyStore::FixLazyStore(LAMMPS *lmp, int narg, char **arg) :
-    Fix(lmp, narg, arg), ncols(0), index(-1), ghost(false), sized_rows(false), block(nullptr),
-    block_bytes(0)
+    Fix(lmp, narg, arg), ncols(0), index(-1), ghost(false), sized_rows(false), nunsized(0),
+    block(nullptr), block_bytes(0)
 {
   if ((narg != 7 && narg != 9) || strcmp(arg[5], "ghost") != 0 ||
       (narg == 9 && (strcmp(arg[7], "rows") != 0 || strcmp(arg[8], "sized") != 0)))
@@ -271,7 +271,10 @@ void FixLazyStore::unpack_restart(int nlocal, int nth)
     // rows were not sized: as long as its values reach
     const bool own = count > 0 && in[0] < 0.0;
     const int size = own ? static_cast<int>(-in[0]) - 1 : (int) extent(in, count);
-    if (own) in++;
+    if (own)
+      in++;
+    else
+      nunsized++;
     resize_row(nlocal, size);
     if (size) std::memcpy(rows[nlocal], in, sizeof(double) * size);
     return;

@@ -38,6 +38,9 @@ class FixLazyStore : public Fix {
   // kept, the new ones zero; a row moves in memory when it grows (pointers into it go stale)
   void reserve(int i, int n);
   bool sized() const { return sized_rows; }
+  int row_size(int i) const { return sized_rows ? len[i] : ncols; }
+  // rows sized: rows this rank read from restart data of a store whose rows were not sized
+  bigint unsized_rows_read() const { return nunsized; }
   double memory_usage() override;
 
   void grow_arrays(int) override;
@@ -65,6 +68,7 @@ class FixLazyStore : public Fix {
   bool ghost;
   bool sized_rows;              // a heap block per row, len[i] values long
   std::vector<int> len;         // rows sized: values in row i (its block's size)
+  bigint nunsized;
   void *block;                  // the mapping: nrows rows of ncols doubles
   size_t block_bytes;
   std::vector<double *> rows;   // atom->darray[index] points at rows.data()
