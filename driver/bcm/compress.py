@@ -9,14 +9,15 @@ of phases that the driver's checks advance (every scenario.check_every steps):
   the cells stopped at every check (a quench: the bed is compacted as by an overdamped motion,
   its grains' inner modes not left ringing), until the bottom carries 1 - FILL_TOLERANCE of
   start_stress (the platen carries more: the side walls' friction holds part of the load);
-1 rest: the platen servo-controlled by its own stress towards start_stress at REST_SPEED x
-  fill_speed, the cells stopped at every check; once the kinetic energy gathered since the last
-  check is below rest_ke of the elastic energy the bed holds (interfaces, contacts, walls: the
-  bed is in equilibrium, the fill's strain relaxed) or after rest_time: if the platen carries start_stress to FILL_TOLERANCE
-  the cells are stopped once more, breaking switched on (the configured G_c), the contacts'
-  friction set to the model's and the start state dumped; if it carries less than REST_HOLDS
-  of it the bed was not jammed (it let go of the platen) and is filled again (phase 0); else
-  the rest goes on;
+1 rest: the platen servo-controlled by its own stress towards start_stress at platen_speed
+  (the fill, servo-controlled by the bottom, leaves more on the platen: the side walls'
+  friction carries part of it), the cells stopped at every check; once the kinetic energy
+  gathered since the last check is below rest_ke of the elastic energy the bed holds
+  (interfaces, contacts, walls: the bed is in equilibrium, the fill's strain relaxed) or after
+  rest_time: if the platen carries at least REST_HOLDS of start_stress the cells are stopped
+  once more, breaking switched on (the configured G_c), the contacts' friction set to the
+  model's and the start state dumped; else the bed was not jammed (it let go of the platen)
+  and is filled again (phase 0);
 2 load: the platen down at platen_speed until target_stress; the cells and interfaces are
   dumped as the stress first passes each of grading_at x target_stress;
 3 hold (hold_time > 0), 4 unload (up at platen_speed, to start_stress), 5 done: the run ends.
@@ -49,9 +50,6 @@ if TYPE_CHECKING:  # for readers and checkers only
 BREAKING_OFF = 1.0e30
 #: the fill's servo ends when the platen and the bottom carry start_stress to this fraction
 FILL_TOLERANCE = 0.2
-#: the platen's servo while the bed rests, a fraction of fill_speed (it brings the platen's own
-#: stress to start_stress: the fill, servo-controlled by the bottom, leaves more on the platen)
-REST_SPEED = 0.1
 #: while the bed rests, the servo backs the platen up at most at this fraction of its speed
 SERVO_BACK = 0.2
 #: the commands (quoted, for an `if`) that stop every cell: velocities and angular momenta zeroed
@@ -114,7 +112,7 @@ def phase_checks(cfg: RunConfig) -> tuple[list[str], list[str]]:
         f'variable        rested equal "(v_p0 == 1) && ((v_ke_now <= {sc.rest_ke!r}*v_el_now) || '
         f'(v_t_now >= v_t_rest + {sc.rest_time!r}))"',
         # a bed that let go of the platen while it rested was not jammed yet: filled again
-        f'variable        to_load equal "v_rested && (abs(v_sv_now/{sc.start_stress!r} - 1) <= {FILL_TOLERANCE!r})"',
+        f'variable        to_load equal "v_rested && (v_sv_now >= {REST_HOLDS * sc.start_stress!r})"',
         f'variable        to_fill equal "v_rested && (v_sv_now < {REST_HOLDS * sc.start_stress!r})"',
         f'variable        to_hold equal "(v_p0 == 2) && (v_sv_now >= {sc.target_stress!r})"',
         f'variable        to_unload equal "(v_p0 == 3) && (v_t_now >= v_t_hold + {sc.hold_time!r})"',
@@ -181,7 +179,7 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
         comm_cutoff=f"{comm_cutoff:.9g}", walls=wall_lines(m, r_m, box), wall_sums=wall_sum_lines(),
         box_x=repr(box[0]), box_y=repr(box[1]), solid_volume=repr(system["solid_volume"]),
         fill_speed=repr(sc.fill_speed), platen_speed=repr(sc.platen_speed), start_stress=repr(sc.start_stress),
-        servo_back=repr(SERVO_BACK), rest_speed=repr(REST_SPEED * sc.fill_speed),
+        servo_back=repr(SERVO_BACK), rest_speed=repr(sc.platen_speed),
         skin=f"{skin:.9g}", steps_per_period=f"{sc.steps_per_period:g}",
         period=f"{system['shortest_period']:.6g}", timestep=f"{dt:.12g}",
         thermo_every=sc.thermo_every, periodic_dumps=periodic_dumps(sc.dump_every),
