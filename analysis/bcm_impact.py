@@ -52,8 +52,9 @@ def read_impact_thermo(path: Path) -> pd.DataFrame:
     of cells that share no interface (pair bcm/contact: E_contacts, W_contact_damp,
     W_contact_friction, W_contact_npoints). `*_npoints` was the energy lost when a contact's
     number of points changed under the former law that shared a contact's stiffness among its
-    points; with the per-point law (plugins/doc) it is identically zero, kept so that records of
-    older runs read the same.
+    points; with the per-point law (plugins/doc) the plane's is identically zero, and the
+    contacts' holds the energy of tangential springs dropped with their history (a point that
+    changes its pair of features while loaded: plugins/doc/pair_bcm_contact.md, [6]).
     Derived: kinetic, elastic (all stores), dissipated (all sinks but W_f), and the parts of
     dissipated: dissipated_damping, dissipated_friction, dissipated_npoints (W_switch apart).
     work_wall and work_contacts, the work of those styles' forces on the cells, are a check:
@@ -77,7 +78,7 @@ ENERGY_CHANNELS = [
     ("switch", "W_switch", "switch loss at breaks: stored before - stored after - 2 S G_c"),
     ("contact_damping", "W_contact_damp", "damping of cell-cell contacts (pair bcm/contact)"),
     ("contact_friction", "W_contact_friction", "friction of cell-cell contacts"),
-    ("contact_npoints", "W_contact_npoints", "cell-cell contacts changing their number of points"),
+    ("contact_npoints", "W_contact_npoints", "cell-cell contacts: tangential springs dropped (features changed)"),
     ("wall_damping", "W_wall_damp", "damping of cell-plane contacts (fix bcm/wall)"),
     ("wall_friction", "W_wall_friction", "friction on the plane"),
     ("wall_npoints", "W_wall_npoints", "cell-plane contacts changing their number of points"),

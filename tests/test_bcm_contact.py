@@ -442,6 +442,66 @@ def test_coulomb_friction_pair(lmp, tmp_path):
     assert abs(fb[1]) < 1e-12
 
 
+def test_dropped_springs_are_booked_between_runs(lmp, tmp_path):
+    """A point whose pair of features changes loses its tangential spring (its history is
+    keyed by the features): the energy that spring held is booked in [6] (found in a bed: a
+    vertex sliding along an edge onto the next one, 1e-8 J lost unbooked). Here the 4 corners
+    of an aligned face contact (vertex-face points) are loaded below the Coulomb limit, then B
+    is turned by 45 degrees about the normal between two runs: its 8 points are edge
+    crossings, none of the 4 keys is carried on. The setup of the next run drops them: k_t
+    |u|^2 / 2 each (no step, no work), booked once (not again at the next step)."""
+    vs, dt, nsteps = 0.1, 1e-8, 3
+    cells = stacked(2 * RM - DELTA)
+    cells[1]["v"] = (vs, 0.0, 0.0)  # B slides along x; positions stay (no integrator)
+    setup_cells(lmp, tmp_path, cells, dt=dt)
+    lmp.command("thermo_style custom step pe c_cp[1] c_cp[2] c_cp[3] c_cp[6]")
+    lmp.command(f"run {nsteps}")
+    assert contact_counts(lmp) == (4, 1)
+    assert lmp.lmp.last_thermo()["c_cp[6]"] == 0.0  # every spring carried on
+    # each corner's spring: A's material point relative to B's, -nsteps vs dt along x
+    u = nsteps * vs * dt
+    assert lmp.lmp.last_thermo()["PotEng"] == pytest.approx(
+        4 * (0.5 * KN * DELTA**2 + 0.5 * KT * u**2), rel=1e-9)
+    quat = lmp.numpy.extract_atom("d2_bcm_quat")
+    quat[np.array(lmp.numpy.extract_atom("id")) == 2] = quat_axis_angle([0, 0, 1], math.pi / 4)
+    lmp.command("run 1")  # (thermo's computes keep their values of a step: run 0 would not do)
+    th = lmp.lmp.last_thermo()
+    assert int(th["c_cp[1]"]) == 8
+    assert th["c_cp[6]"] == pytest.approx(4 * 0.5 * KT * u**2, rel=1e-9)
+    lmp.command("run 2")  # booked once
+    assert lmp.lmp.last_thermo()["c_cp[6]"] == pytest.approx(4 * 0.5 * KT * u**2, rel=1e-9)
+
+
+def test_dropped_spring_is_booked_during_a_run(lmp, tmp_path):
+    """B turned by 45 degrees on A, its vertex on A's face just inside A's edge, moved along x
+    (fix move: positions advance, A stays): the vertex-face point of that vertex goes over the
+    edge during the run and becomes edge crossings. Its spring, loaded by the sliding (capped
+    at the Coulomb limit if it gets there), is booked at that step: k_t |u|^2 / 2 plus the work
+    k_t u . Delta / 2 that the cells did against its last force over the half kick opening the
+    step (velocity Verlet's quadrature, as [7] counts it), Delta = -vs dt along x."""
+    vs, dt = 0.5, 1e-8
+    qb = quat_axis_angle([0, 0, 1], math.pi / 4)
+    xb = A - math.sqrt(2) * A - 2e-8  # B's vertex at x = A - 2e-8 over A's face
+    cells = [dict(x=(0.0, 0.0, 0.0), q=IDENTITY), dict(x=(xb, 0.0, 2 * A + 2 * RM - DELTA), q=qb)]
+    out = tmp_path / "series.txt"
+    extra = ("group b id 2\n"
+             f"fix push b move linear {vs!r} 0.0 0.0\n"
+             f"fix series all ave/time 1 1 1 c_cp[1] c_cp[6] file {out}\n")
+    setup_cells(lmp, tmp_path, cells, dt=dt, extra=extra)
+    lmp.command("run 200")
+    rows = np.array([ln.split() for ln in out.read_text().splitlines() if ln and ln[0] != "#"],
+                    dtype=float)
+    booked = rows[rows[:, 2] > 0]
+    assert len(booked), "no spring booked: the vertex never left the face, or [6] books nothing"
+    k = int(booked[0, 0])
+    assert k > 1
+    assert np.all(rows[rows[:, 0] < k, 2] == 0)
+    # the spring written at step k - 1: (k - 1) steps of -vs dt, or capped at mu f_n / k_t
+    u = min((k - 1) * vs * dt, MU * KN * DELTA / KT)
+    expected = 0.5 * KT * (u**2 + u * vs * dt)
+    assert booked[0, 2] == pytest.approx(expected, rel=1e-6)
+
+
 @pytest.mark.parametrize("newton", ["on", "off"])
 def test_forces_conserve_momentum(lmp, tmp_path, newton):
     """The offset face-face contact, turned as a whole, with velocities and spins (damping

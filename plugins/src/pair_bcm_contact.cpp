@@ -15,8 +15,9 @@
    springs' energy, k_n delta^2/2 + k_t |u_t|^2/2 per point. Dissipated (compute pair extra
    values, cumulative, each pair counted once): the exact work of the normal damping over
    velocity Verlet's half kicks (bcm_kick_work.h) and Coulomb slip (mean of the last and the
-   capped |f_t| times the slip); extra value [6], the energy of changes of N under the
-   former shared stiffness, is identically zero (kept for the positions of [7]).
+   capped |f_t| times the slip); extra value [6]: the energy of tangential springs dropped
+   with their history (a point that changes its pair of features or vanishes while loaded:
+   dropped_springs()).
 
    History: u_t is kept per (pair, contact feature) in slots of a hidden per-atom array
    (fix lazy/store, ghost yes): slot = (partner tag, feature key, step, u_t[3], |f_t|),
@@ -63,7 +64,7 @@ enum { S_PARTNER, S_KEY, S_STEP, S_U, S_FT = 6 };
 
 PairBcmContact::PairBcmContact(LAMMPS *_lmp) :
     Pair(_lmp), rm(0.0), nslots(64), kn(nullptr), kt(nullptr), en2(nullptr), mu(nullptr),
-    alpha(nullptr), iquat(-1), ihist(-1), maxrad(0.0), warned_slots(false), w_fric(0.0),
+    alpha(nullptr), iquat(-1), ihist(-1), maxrad(0.0), warned_slots(false), w_fric(0.0), w_drop(0.0),
     nevals(0), saved_at(-1), saved{0.0, 0.0, 0.0, 0.0}
 {
   single_enable = 0;
@@ -297,6 +298,129 @@ int PairBcmContact::free_slot(int i, bigint step) const
   return -1;
 }
 
+/* ----------------------------------------------------------------------
+   the springs written at step `written` (the last step; at a setup evaluation, this one),
+   in this rank's owned and ghost cells (a copy seen twice, in both cells or as two images,
+   once), sorted by pair and key
+------------------------------------------------------------------------- */
+
+void PairBcmContact::collect_last_springs(bigint written)
+{
+  last_springs.clear();
+  last_range.clear();
+  const double before = static_cast<double>(written);
+  const tagint *tag = atom->tag;
+  const int nall = atom->nlocal + atom->nghost;
+  double **hist = atom->darray[ihist];
+  for (int i = 0; i < nall; i++) {
+    const double *h = hist[i];
+    for (int m = 0; m < nslots; m++, h += SLOT) {
+      if (h[S_PARTNER] == 0.0 || h[S_STEP] != before) continue;
+      const tagint partner = static_cast<tagint>(h[S_PARTNER]);
+      LastSpring e{std::min(tag[i], partner), std::max(tag[i], partner), h[S_KEY],
+                   {h[S_U], h[S_U + 1], h[S_U + 2]}};
+      last_springs.push_back(e);
+    }
+  }
+  if (last_springs.empty()) return;
+  auto less = [](const LastSpring &x, const LastSpring &y) {
+    if (x.ta != y.ta) return x.ta < y.ta;
+    if (x.tb != y.tb) return x.tb < y.tb;
+    return x.key < y.key;
+  };
+  std::sort(last_springs.begin(), last_springs.end(), less);
+  last_springs.erase(std::unique(last_springs.begin(), last_springs.end(),
+                                 [](const LastSpring &x, const LastSpring &y) {
+                                   return x.ta == y.ta && x.tb == y.tb && x.key == y.key;
+                                 }),
+                     last_springs.end());
+  const int n = static_cast<int>(last_springs.size());
+  for (int k = 0; k < n;) {
+    int e = k + 1;
+    while (e < n && last_springs[e].ta == last_springs[k].ta &&
+           last_springs[e].tb == last_springs[k].tb)
+      e++;
+    last_range[{last_springs[k].ta, last_springs[k].tb}] = {k, e};
+    k = e;
+  }
+}
+
+/* ----------------------------------------------------------------------
+   pair (a, b) (a = smaller tag) visited with its np current points in `points`: the energy
+   of its springs of the last step whose key no current point carries (a point that changed
+   its pair of features, or vanished, with its spring loaded), each k_t |u|^2 / 2, plus, at
+   an advancing step, the work k_t u . Delta / 2 that the cells did against the spring's last
+   force over the half kick opening this step (velocity Verlet's quadrature, as [7] counts
+   it), Delta the relative displacement of the material points over the step, taken at the
+   mean of the pair's new points (those of no key of the last step; else all its points; no
+   point: none). At a setup evaluation (the cells moved between two runs) the springs that
+   the setup force no longer carries are booked without that work, and their slots freed, so
+   that the next step does not book them again. The pair's range is taken out: booked once.
+------------------------------------------------------------------------- */
+
+double PairBcmContact::dropped_springs(int a, int b, double ktij, double dt, int np,
+                                       bool advance)
+{
+  const tagint *tag = atom->tag;
+  auto it = last_range.find({tag[a], tag[b]});
+  if (it == last_range.end()) return 0.0;
+  const int k0 = it->second.first, k1 = it->second.second;
+  last_range.erase(it);
+  auto carried = [&](double key) {
+    for (int k = 0; k < np; k++)
+      if (static_cast<double>(points[k].key) == key) return true;
+    return false;
+  };
+  auto in_last = [&](double key) {
+    for (int k = k0; k < k1; k++)
+      if (last_springs[k].key == key) return true;
+    return false;
+  };
+  double lost = 0.0, delta[3] = {0.0, 0.0, 0.0};
+  bool have_delta = false;
+  for (int k = k0; k < k1; k++) {
+    const LastSpring &e = last_springs[k];
+    if (carried(e.key)) continue;
+    if (!advance) {
+      // setup: no step, no work; the slots (either cell, owned or ghost) are freed
+      for (int c : {a, b}) {
+        double *h = atom->darray[ihist][c];
+        const double ptag = static_cast<double>(c == a ? tag[b] : tag[a]);
+        for (int m = 0; m < nslots; m++, h += SLOT)
+          if (h[S_PARTNER] == ptag && h[S_KEY] == e.key &&
+              h[S_STEP] == static_cast<double>(update->ntimestep))
+            h[S_PARTNER] = 0.0;
+      }
+      lost += 0.5 * ktij * dot(e.u, e.u);
+      continue;
+    }
+    if (!have_delta && np > 0) {
+      // the relative displacement over the step at the mean of the new points (else all)
+      double p[3] = {0.0, 0.0, 0.0};
+      int cnt = 0;
+      for (int pass = 0; pass < 2 && cnt == 0; pass++)
+        for (int q = 0; q < np; q++)
+          if (pass == 1 || !in_last(static_cast<double>(points[q].key))) {
+            for (int d = 0; d < 3; d++) p[d] += points[q].p[d];
+            cnt++;
+          }
+      double **x = atom->x, **v = atom->v, **omega = atom->omega;
+      double ra[3], rb[3], wa[3], wb[3];
+      for (int d = 0; d < 3; d++) {
+        p[d] /= cnt;
+        ra[d] = p[d] - x[a][d];
+        rb[d] = p[d] - x[b][d];
+      }
+      cross(omega[a], ra, wa);
+      cross(omega[b], rb, wb);
+      for (int d = 0; d < 3; d++) delta[d] = (v[a][d] + wa[d] - v[b][d] - wb[d]) * dt;
+      have_delta = true;
+    }
+    lost += 0.5 * ktij * (dot(e.u, e.u) + dot(e.u, delta));
+  }
+  return lost;
+}
+
 /* ---------------------------------------------------------------------- */
 
 void PairBcmContact::compute(int eflag, int vflag)
@@ -328,6 +452,8 @@ void PairBcmContact::compute(int eflag, int vflag)
   // energy accounting: the previous evaluation's forces settled now (bcm_kick_work.h)
   damp_work.begin(lmp, "pair_style bcm/contact");
   all_work.begin(lmp, "pair_style bcm/contact");
+  // the springs of the last step, to book those that no point carries on (dropped_springs)
+  collect_last_springs(advance ? step - 1 : step);
 
   const int inum = list->inum;
   const int *ilist = list->ilist;
@@ -349,22 +475,32 @@ void PairBcmContact::compute(int eflag, int vflag)
       double dx[3] = {x[a][0] - x[b][0], x[a][1] - x[b][1], x[a][2] - x[b][2]};
       const BcmCells::Cell *ca = cell(a), *cb = cell(b);
       const double reach = ca->rbound + cb->rbound + dcut;
-      if (dot(dx, dx) >= reach * reach) continue;
+      // with newton_pair off a pair across ranks is computed on both: its energy
+      // accounting is kept by the rank owning A
+      const bool counted = newton_pair || a < nlocal;
+      const int itype = type[i], jtype = type[j];
+      const double kn_ = kn[itype][jtype], kt_ = kt[itype][jtype], mu_ = mu[itype][jtype];
+      if (dot(dx, dx) >= reach * reach) {
+        if (!last_range.empty()) {
+          const double lost = dropped_springs(a, b, kt_, dt, 0, advance);
+          if (counted) w_drop += lost;
+        }
+        continue;
+      }
 
       const int oa = place(a), ob = place(b);
       const BcmSpaceCell sa{table.get(), ca, x[a], &geom[oa], &geom[oa + 3 * ca->nv]};
       const BcmSpaceCell sb{table.get(), cb, x[b], &geom[ob], &geom[ob + 3 * cb->nv]};
       points.clear();
       const int np = bcm_find_contacts(sa, sb, dcut, work, points);
+      // springs of the last step that no current point carries on: their energy is lost
+      if (!last_range.empty()) {
+        const double lost = dropped_springs(a, b, kt_, dt, np, advance);
+        if (counted) w_drop += lost;
+      }
       if (np == 0) continue;
       npairs++;
       npoints += np;
-      // with newton_pair off a pair across ranks is computed on both: its energy
-      // accounting is kept by the rank owning A
-      const bool counted = newton_pair || a < nlocal;
-
-      const int itype = type[i], jtype = type[j];
-      const double kn_ = kn[itype][jtype], kt_ = kt[itype][jtype], mu_ = mu[itype][jtype];
       const double meff = rmass[a] * rmass[b] / (rmass[a] + rmass[b]);
       // SPEC 1.2 Eq. 1, 2: the reduced mass shared by the contact's points (bcm_contact_law.h)
       const double gamma = BcmContactLaw::damping(alpha[itype][jtype], kn_, meff, np);
@@ -489,7 +625,7 @@ void PairBcmContact::compute(int eflag, int vflag)
   pvector[2] = static_cast<double>(nlost);
   pvector[3] = -damp_work.work();
   pvector[4] = w_fric;
-  pvector[5] = 0.0;    // no energy moves at a change of N (bcm_contact_law.h)
+  pvector[5] = w_drop;    // springs dropped with their history (dropped_springs)
   pvector[6] = all_work.work();
   nevals++;
   // a restart file is written at the end of this step (restart command): the totals as of
@@ -513,7 +649,7 @@ void PairBcmContact::local_totals(double *out)
 {
   out[0] = -damp_work.work_closed(lmp, "pair_style bcm/contact");
   out[1] = w_fric;
-  out[2] = 0.0;    // [6]: identically zero, kept in the record's layout
+  out[2] = w_drop;
   out[3] = all_work.work_closed(lmp, "pair_style bcm/contact");
 }
 
@@ -608,10 +744,10 @@ void PairBcmContact::read_restart_settings(FILE *fp)
   // last step's forces were settled when the file was written
   damp_work.restore(-totals[0]);
   w_fric = totals[1];
+  w_drop = totals[2];
   all_work.restore(totals[3]);
   for (int k = 0; k < nextra; k++) pvector[k] = 0.0;
   for (int k = 0; k < 4; k++) pvector[3 + k] = totals[k];
-  pvector[5] = 0.0;
 }
 
 /* ---------------------------------------------------------------------- */

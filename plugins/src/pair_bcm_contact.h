@@ -14,6 +14,8 @@
 
 #include <memory>
 #include <string>
+#include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace LAMMPS_NS {
@@ -50,12 +52,35 @@ class PairBcmContact : public Pair {
 
   // compute pair extra values: [1] contact points, [2] pairs in contact, [3] points without
   // a history slot (last evaluation); cumulative, this rank's pairs: [4] energy dissipated
-  // by normal damping, [5] by Coulomb slip, [6] energy of changes of a contact's number of
-  // points (identically zero under the per-point law: kept for the positions), [7] work
-  // done on the cells by all the pair's forces
+  // by normal damping, [5] by Coulomb slip, [6] energy of the tangential springs of points
+  // dropped with their history (a point that changes its pair of features or vanishes while
+  // its spring is loaded: dropped_springs()), [7] work done on the cells by all the pair's
+  // forces
   static constexpr int NEXTRA = 7;
   BcmKickWork damp_work, all_work;
   double w_fric;
+  double w_drop;
+
+  // the tangential springs current at the last step (slots written then, in this rank's
+  // owned and ghost cells), collected at the start of an advancing step, sorted by pair
+  // (tag A, tag B) and key; a pair visited this step takes out its range, booking the springs
+  // whose key no current point of the pair carries (dropped_springs)
+  struct LastSpring {
+    tagint ta, tb;
+    double key;
+    double u[3];
+  };
+  struct PairHash {
+    size_t operator()(const std::pair<tagint, tagint> &p) const
+    {
+      return std::hash<long long>()(static_cast<long long>(p.first) * 1000003LL ^
+                                    static_cast<long long>(p.second));
+    }
+  };
+  std::vector<LastSpring> last_springs;
+  std::unordered_map<std::pair<tagint, tagint>, std::pair<int, int>, PairHash> last_range;
+  void collect_last_springs(bigint written);
+  double dropped_springs(int a, int b, double ktij, double dt, int np, bool advance);
 
   // restart files: LAMMPS calls the pair's write_restart on rank 0 only, so the cumulative
   // [4]-[7] of all ranks are reduced to rank 0 beforehand (collectively: in init_style,
