@@ -11,18 +11,17 @@
    in the same order, and the sums over the points are taken lane by lane in point order,
    so that both copies give the scalar code's results bit for bit.
 
-   Layout: the damping forces fd (the interface's slot, bcm_interface_state.h) and the anchors
-   b1, b2 (the interface table, bcm_interface_table.h) are rows of np values (x row, y row,
-   z row), read W at a time: a row's last group reads past its end into what follows it (the
-   next row; after fd's z row the slot's contact state, after b2's the table's next interface
-   or its tail), lanes that are computed, never summed and never written back. */
+   Layout (the style's working copy, bcm_interface_state.h): the points are padded to P, a
+   multiple of 4; the damping forces fd and the anchors b1, b2 are rows of P values (x row,
+   y row, z row). Padding lanes are computed and never summed. */
 
 using BcmInterfaceKinematics::IntactSums;
 using BcmInterfaceKinematics::Pair;
 
 // the points of one intact interface; fd is read (previous damping forces) and written
 inline void intact_interface(const Pair &p, double kp, double ktp, double cp, int np,
-                             double *fd, const double *b1, const double *b2, IntactSums &s)
+                             int P, double *fd, const double *b1, const double *b2,
+                             IntactSums &s)
 {
   const V R1[3][3] = {{splat(p.R1[0][0]), splat(p.R1[0][1]), splat(p.R1[0][2])},
                       {splat(p.R1[1][0]), splat(p.R1[1][1]), splat(p.R1[1][2])},
@@ -44,9 +43,9 @@ inline void intact_interface(const Pair &p, double kp, double ktp, double cp, in
 
   for (int g = 0; g < np; g += W) {
     V b[3], r1[3], r2[3], arm1[3], delta[3], dt[3], dv[3], fdo[3], fdn[3], F[3];
-    for (int c = 0; c < 3; c++) b[c] = load(b1 + c * np + g);
+    for (int c = 0; c < 3; c++) b[c] = load(b1 + c * P + g);
     for (int c = 0; c < 3; c++) r1[c] = R1[c][0] * b[0] + R1[c][1] * b[1] + R1[c][2] * b[2];
-    for (int c = 0; c < 3; c++) b[c] = load(b2 + c * np + g);
+    for (int c = 0; c < 3; c++) b[c] = load(b2 + c * P + g);
     for (int c = 0; c < 3; c++) r2[c] = R2[c][0] * b[0] + R2[c][1] * b[1] + R2[c][2] * b[2];
     for (int c = 0; c < 3; c++) {
       arm1[c] = d12[c] + r2[c];    // p2 - x1
@@ -61,7 +60,7 @@ inline void intact_interface(const Pair &p, double kp, double ktp, double cp, in
                      w1[0] * arm1[1] - w1[1] * arm1[0]};
     for (int c = 0; c < 3; c++) dv[c] = v12[c] + wa[c] - wb[c];
 
-    for (int c = 0; c < 3; c++) fdo[c] = load(fd + c * np + g);
+    for (int c = 0; c < 3; c++) fdo[c] = load(fd + c * P + g);
     const V fdv_old = fdo[0] * dv[0] + fdo[1] * dv[1] + fdo[2] * dv[2];
 
     const V en = hkp * dn * dn;
@@ -69,17 +68,10 @@ inline void intact_interface(const Pair &p, double kp, double ktp, double cp, in
     const V stored = en + et;
     const V tension = positive_or_zero(dn, en) + et;
     const V kdn = kp_ * dn;
-    const int nl = np - g < W ? np - g : W;    // lanes that are points
     for (int c = 0; c < 3; c++) {
       fdn[c] = mcp * dv[c];
       F[c] = -(kdn * n[c] + ktp_ * dt[c]) + fdn[c];
-      if (nl == W) {
-        store(fd + c * np + g, fdn[c]);
-      } else {    // the row's last points only: the next row follows
-        double l_fd[W];
-        store(l_fd, fdn[c]);
-        for (int l = 0; l < nl; l++) fd[c * np + g + l] = l_fd[l];
-      }
+      store(fd + c * P + g, fdn[c]);
     }
     const V pd = fdn[0] * dv[0] + fdn[1] * dv[1] + fdn[2] * dv[2];
     const V tq[3] = {r2[1] * F[2] - r2[2] * F[1], r2[2] * F[0] - r2[0] * F[2],
@@ -95,6 +87,7 @@ inline void intact_interface(const Pair &p, double kp, double ktp, double cp, in
       store(l_F[c], F[c]);
       store(l_tq[c], tq[c]);
     }
+    const int nl = np - g < W ? np - g : W;
     for (int l = 0; l < nl; l++) {
       fd_dv += l_fdv[l];
       sum_stored += l_stored[l];
@@ -121,9 +114,9 @@ inline void intact_interface(const Pair &p, double kp, double ktp, double cp, in
 }
 
 // the normal gap dn of every point of an interface (as BcmInterfaceKinematics::point() computes
-// it), into dn[0 .. np rounded up to W): the screening of a broken interface's points (all
-// open?); b1, b2 rows of np values
-inline void interface_gaps(const Pair &p, int np, const double *b1, const double *b2, double *dn)
+// it), into dn[0 .. P): the screening of a broken interface's points (all open?)
+inline void interface_gaps(const Pair &p, int np, int P, const double *b1, const double *b2,
+                           double *dn)
 {
   const V R1[3][3] = {{splat(p.R1[0][0]), splat(p.R1[0][1]), splat(p.R1[0][2])},
                       {splat(p.R1[1][0]), splat(p.R1[1][1]), splat(p.R1[1][2])},
@@ -135,9 +128,9 @@ inline void interface_gaps(const Pair &p, int np, const double *b1, const double
   const V d12[3] = {splat(p.d12[0]), splat(p.d12[1]), splat(p.d12[2])};
   for (int g = 0; g < np; g += W) {
     V b[3], r1[3], r2[3], delta[3];
-    for (int c = 0; c < 3; c++) b[c] = load(b1 + c * np + g);
+    for (int c = 0; c < 3; c++) b[c] = load(b1 + c * P + g);
     for (int c = 0; c < 3; c++) r1[c] = R1[c][0] * b[0] + R1[c][1] * b[1] + R1[c][2] * b[2];
-    for (int c = 0; c < 3; c++) b[c] = load(b2 + c * np + g);
+    for (int c = 0; c < 3; c++) b[c] = load(b2 + c * P + g);
     for (int c = 0; c < 3; c++) r2[c] = R2[c][0] * b[0] + R2[c][1] * b[1] + R2[c][2] * b[2];
     for (int c = 0; c < 3; c++) delta[c] = (d12[c] + r2[c]) - r1[c];
     store(dn + g, delta[0] * n[0] + delta[1] * n[1] + delta[2] * n[2]);

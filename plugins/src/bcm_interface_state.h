@@ -1,5 +1,5 @@
-/* The state of a bond_style bcm/griffith interface: its layout in the per-slot store and the
-   constants of the style's working copy (plugins/doc/bond_bcm_griffith.md, "Storage"). */
+/* The state of a bond_style bcm/griffith interface: its layout in the per-slot store and in
+   the style's working copy (plugins/doc/bond_bcm_griffith.md, "Storage"). */
 
 #ifndef BRITTLE_BCM_INTERFACE_STATE_H
 #define BRITTLE_BCM_INTERFACE_STATE_H
@@ -7,11 +7,10 @@
 namespace BcmInterfaceState {
 
 /* Per-slot state (per atom and bond slot, in a hidden fix lazy/store): header, then the
-   damping force of each point at the last evaluation (damping-work quadrature), then, once the
-   interface has broken, per point the contact reference shift s, the slip offset sigma (cell
-   1's body frame), the in-contact flag and the last tangential contact force (friction work). The force loop works on one of
-   the interface's two slots in place (cell 1's when it is owned), the other one a copy written
-   by sync_store(). */
+   damping force of each point at the last evaluation (damping-work quadrature), then per point
+   the contact reference shift s, the slip offset sigma (cell 1's body frame), the in-contact
+   flag and the last tangential contact force (friction work). The force loop works on a copy
+   of the state in bondlist order (rebuilt at reneighboring, written back by sync_store()). */
 
 // slot header
 enum {
@@ -34,10 +33,9 @@ enum {
   NHEAD
 };
 
-// After the header, the damping forces of the last evaluation (F_d on cell 2: the only
-// per-point state an intact interface reads and writes, kept together) as rows over the points
-// (x row, y row, z row: the layout of the 4-lane force kernel, bcm_interface_kernel.h), then
-// the contact state of the points of a broken interface, NCONTACT per point:
+// After the header, the damping forces of the last evaluation, 3 per point (F_d on cell 2:
+// the only per-point state an intact interface reads and writes, kept together), then the
+// contact state of the points of a broken interface, NCONTACT per point:
 enum {
   C_SHIFT,        // s: contact overlap reference
   C_SLIP,         // sigma (3): slip offset in cell 1's body frame, u_t = dt - R1 sigma
@@ -51,18 +49,11 @@ constexpr int NPOINT = 3 + NCONTACT;    // doubles per point in a slot
 // pair is the pair style's)
 constexpr double INTACT = 0.0, BROKEN = 1.0, RETIRED = 2.0;
 
-constexpr int S_FD = NHEAD;    // the damping forces' rows in a slot
-inline long slot_contact(int npts) { return NHEAD + 3L * npts; }    // the contact state
-// a slot holds the contact state once its interface has broken (most never do): its size
-inline long slot_size(int npts, bool broken)
-{
-  return NHEAD + (broken ? (long) NPOINT : 3L) * npts;
-}
-// the kernel reads a slot's damping forces 4 at a time, up to 3 values past the z row: a row of
-// the store ends with as many spare values
-constexpr int ROW_TAIL = 3;
-
-// record of a bondlist entry in the working copy: per-point constants of its bond type
+// record of a bondlist entry in the working copy: these constants, the slot's header, the
+// damping forces and the geometry (normal in cell 1's frame, then the anchors b1, b2), the
+// per-point values as rows over the points padded to a multiple of LANES (x row, y row, z row:
+// the layout of the 4-lane force kernel, bcm_interface_kernel.h; padding is never summed):
+//   NCONST | NHEAD | fd: 3 P | normal: 3 | b1: 3 P | b2: 3 P
 enum {
   K_AREA,    // S
   K_KP,      // k_n / N_p
@@ -73,6 +64,13 @@ enum {
   K_CC,      // contact 2 alpha_c sqrt(k_n,c m) / N_p
   NCONST
 };
+constexpr int LANES = 4;
+inline int padded(int npts) { return (npts + LANES - 1) / LANES * LANES; }
+constexpr int R_SLOT = NCONST;            // the slot header
+constexpr int R_FD = NCONST + NHEAD;      // damping forces, 3 rows of P
+inline long record_geometry(int npts) { return R_FD + 3L * padded(npts); }    // normal, b1, b2
+inline long record_size(int npts) { return record_geometry(npts) + 3 + 6L * padded(npts); }
+
 // what the last force evaluation was: it decides which half kicks used its damping force
 enum EvalKind { EVAL_NONE = 0, EVAL_SETUP = 1, EVAL_STEP = 2 };
 

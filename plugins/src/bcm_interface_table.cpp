@@ -25,28 +25,6 @@ bool parse_double(const std::string &s, double &out)
   return std::isfinite(out);
 }
 
-// the body-frame geometry of an interface of np points between the restart layout (normal,
-// then each point's x y z in cell 1's frame, then in cell 2's) and the table's (normal, then
-// rows of np values: b1 x, y, z, b2 x, y, z)
-void points_to_rows(const double *in, int np, double *out)
-{
-  for (int c = 0; c < 3; c++) out[c] = in[c];
-  for (int side = 0; side < 2; side++)
-    for (int k = 0; k < np; k++)
-      for (int c = 0; c < 3; c++) out[3 + 3 * np * side + c * np + k] = in[3 + 3 * (np * side + k) + c];
-}
-
-void rows_to_points(const double *in, int np, double *out)
-{
-  for (int c = 0; c < 3; c++) out[c] = in[c];
-  for (int side = 0; side < 2; side++)
-    for (int k = 0; k < np; k++)
-      for (int c = 0; c < 3; c++) out[3 + 3 * (np * side + k) + c] = in[3 + 3 * np * side + c * np + k];
-}
-
-// values readable past the last row of the table (the kernel's 4-value loads)
-constexpr long TAIL = 3;
-
 }    // namespace
 
 /* ----------------------------------------------------------------------
@@ -201,10 +179,9 @@ void BcmInterfaceTable::index()
     maxpts = std::max(maxpts, itf.npts);
     lookup[key(itf.tag1, itf.tag2)] = i;
   }
-  // the space frame is gone once the reference is taken (restart files written since hold none)
-  if (soff != (long) space.size() && !(reference_taken && space.empty()))
+  if (soff != (long) space.size())
     error->all(FLERR, "bond_style bcm/griffith: inconsistent interface table");
-  body.assign(boff + TAIL, 0.0);
+  body.resize(boff, 0.0);
 }
 
 /* ---------------------------------------------------------------------- */
@@ -267,7 +244,7 @@ void BcmInterfaceTable::take_reference(int iquat)
       double R[3][3];
       BcmRigid::rotation(quat[i], R);
       if (side == 0) BcmRigid::rotate_back(R, n, out);
-      double *b = out + 3 + 3 * itf.npts * side;    // rows of npts: x, y, z
+      double *b = out + 3 + 3 * itf.npts * side;
       for (int k = 0; k < itf.npts; k++) {
         double d[3];
         for (int c = 0; c < 3; c++) d[c] = pts[3 * k + c] - x[i][c];
@@ -280,9 +257,7 @@ void BcmInterfaceTable::take_reference(int iquat)
         const double side_sign = dot(d, n);
         if (side == 0 ? side_sign <= 0.0 : side_sign >= 0.0)
           bad[BAD_SIDE] = std::min(bad[BAD_SIDE], ii);
-        double bk[3];
-        BcmRigid::rotate_back(R, d, bk);
-        for (int c = 0; c < 3; c++) b[c * itf.npts + k] = bk[c];
+        BcmRigid::rotate_back(R, d, b + 3 * k);
       }
     }
   }
@@ -323,21 +298,18 @@ void BcmInterfaceTable::take_reference(int iquat)
     span = std::max(span, std::sqrt(dot(d, d)));
   }
   reference_taken = 1;
-  std::vector<double>().swap(space);    // the body frames hold the geometry from now on
 }
 
 /* ----------------------------------------------------------------------
    the whole table, reference included (after the style's own settings,
    which the style writes first: the layout of the restart file is theirs
-   then this). The space frame is written while it is kept (no reference
-   yet), the body frames point by point (the layout restart files have
-   always had)
+   then this)
 ------------------------------------------------------------------------- */
 
 void BcmInterfaceTable::write_restart(FILE *fp) const
 {
   const int nif = (int) interfaces.size();
-  const long nspace = (long) space.size(), nbody = (long) body.size() - TAIL;
+  const long nspace = (long) space.size(), nbody = (long) body.size();
   fwrite(&reference_taken, sizeof(int), 1, fp);
   fwrite(&span, sizeof(double), 1, fp);
   fwrite(&nif, sizeof(int), 1, fp);
@@ -350,11 +322,7 @@ void BcmInterfaceTable::write_restart(FILE *fp) const
     fwrite(&itf.area, sizeof(double), 1, fp);
   }
   fwrite(space.data(), sizeof(double), nspace, fp);
-  std::vector<double> points(3 + 6 * MAX_POINTS);
-  for (const Interface &itf : interfaces) {
-    rows_to_points(&body[itf.boff], itf.npts, points.data());
-    fwrite(points.data(), sizeof(double), 3 + 6 * itf.npts, fp);
-  }
+  fwrite(body.data(), sizeof(double), nbody, fp);
   const int nname = (int) geometry_file.size();
   fwrite(&nname, sizeof(int), 1, fp);
   fwrite(geometry_file.data(), sizeof(char), nname, fp);
@@ -397,12 +365,7 @@ void BcmInterfaceTable::read_restart(FILE *fp)
   saved_body.resize(nbody);
   MPI_Bcast(saved_body.data(), (int) nbody, MPI_DOUBLE, 0, world);
   broadcast();    // interfaces and space; resets the offsets and the look-up
-  if ((long) body.size() != nbody + TAIL)
-    error->all(FLERR, "bond_style bcm/griffith: inconsistent interface table in the restart file");
-  for (const Interface &itf : interfaces)
-    points_to_rows(&saved_body[itf.boff], itf.npts, &body[itf.boff]);
-  // restart files written before the space frame was dropped still hold it
-  if (reference_taken) std::vector<double>().swap(space);
+  body = saved_body;
 }
 
 /* ---------------------------------------------------------------------- */

@@ -1,9 +1,8 @@
 /* The interface table of bond_style bcm/griffith (SPEC 1.2; plugins/doc/bond_bcm_griffith.md,
    "Geometry file"): the geometry of every interface, identical on every rank. Read from the
    geometry file by rank 0 and broadcast; at the first init turned into the body frames of
-   the two cells (take_reference()), after which the space-frame copy is dropped; written into
-   restart files, so that a restarted run keeps the body-frame geometry of the original
-   reference state. */
+   the two cells (take_reference()); written whole into restart files, so that a restarted
+   run keeps the body-frame geometry of the original reference state. */
 
 #ifndef BRITTLE_BCM_INTERFACE_TABLE_H
 #define BRITTLE_BCM_INTERFACE_TABLE_H
@@ -26,7 +25,7 @@ class BcmInterfaceTable : protected Pointers {
     int npts;
     double area;
     long soff;    // into space: normal (3), then the points (3 npts)
-    long boff;    // into body: normal (3), then rows of npts: b1 x, y, z, then b2 x, y, z
+    long boff;    // into body: normal (3), points in cell 1's frame, then in cell 2's
   };
 
   explicit BcmInterfaceTable(LAMMPS *lmp) : Pointers(lmp) {}
@@ -34,17 +33,14 @@ class BcmInterfaceTable : protected Pointers {
   // the table of a geometry file (rank 0 reads, every rank gets it); the reference is to
   // be taken again
   void read(const std::string &file);
-  // body-frame geometry from the current state of the cells (d2_bcm_quat: atom->darray[iquat]);
-  // the space-frame copy is then dropped
+  // body-frame geometry from the current state of the cells (d2_bcm_quat: atom->darray[iquat])
   void take_reference(int iquat);
   bool has_reference() const { return reference_taken != 0; }
 
   int find(tagint t1, tagint t2) const;    // index of the interface of two cells, or -1
   int size() const { return (int) interfaces.size(); }
   const Interface &operator[](int i) const { return interfaces[i]; }
-  // normal in cell 1's frame (3), then the anchors as rows of npts values: b1 (cell 1's
-  // frame) x, y, z, then b2 (cell 2's frame) x, y, z; the force kernel reads them 4 at a time,
-  // so up to LANES - 1 values past a row are readable (the next row, or the table's tail)
+  // normal in cell 1's frame (3), then the points in cell 1's frame, then in cell 2's
   const double *body_of(const Interface &itf) const { return &body[itf.boff]; }
   const std::string &file() const { return geometry_file; }
   double mean_area() const { return area_mean; }    // <S> of the table
@@ -58,8 +54,8 @@ class BcmInterfaceTable : protected Pointers {
 
  private:
   std::vector<Interface> interfaces;
-  std::vector<double> space;    // reference state, space frame, until the reference is taken
-  std::vector<double> body;     // normal in cell 1's frame, then rows b1 x y z, b2 x y z
+  std::vector<double> space;    // reference state, space frame, from the geometry file
+  std::vector<double> body;     // normal in cell 1's frame, points in cell 1's, then cell 2's
   std::unordered_map<long long, int> lookup;    // (tag1, tag2) -> interface
   std::string geometry_file;
   double area_mean = 0.0;

@@ -1,8 +1,8 @@
 /* bond_style bcm/griffith (SPEC 1.2; see plugins/doc/bond_bcm_griffith.md): the style, its
-   working copy of the bond list and the orchestration of one force evaluation. The
+   working copy of the interface state and the orchestration of one force evaluation. The
    concepts it uses live apart:
      bcm_interface_table.{h,cpp}  geometry file, broadcast, look-up, reference frames, restart
-     bcm_interface_state.h        the layout of an interface's state and of its constants
+     bcm_interface_state.h        the layout of an interface's state (store and working copy)
      bcm_interface_kinematics.h   the kinematics of a point (intact and broken alike)
      bcm_interface_contact.h      a point of a broken interface as a frictional contact
      bcm_griffith.h               the Griffith criterion (Eq. 4-6) and its energy conventions
@@ -25,10 +25,8 @@
 #include "domain.h"
 #include "error.h"
 #include "fix_bcm_griffith.h"
-#include "fix_lazy_store.h"
 #include "force.h"
 #include "memory.h"
-#include "modify.h"
 #include "neighbor.h"
 #include "update.h"
 
@@ -93,8 +91,7 @@ BondBcmGriffith::BondBcmGriffith(LAMMPS *_lmp) :
     broken_stiffness(CONTACT), broken_damping(CONTACT), break_shear(CARRIED), break_normal(SHIFTED),
     broken_points(POLYGON),
     cache_store(nullptr),
-    cache_valid(false), dirty(false), atoms_moved(true), store_index(-1), store_fix(nullptr),
-    iquat(-1), nevaluations(0),
+    cache_valid(false), dirty(false), atoms_moved(true), store_index(-1), iquat(-1), nevaluations(0),
     special(nullptr)
 {
   avx_loop = BreakableUtil::avx_loops();
@@ -312,48 +309,33 @@ void BondBcmGriffith::init_style()
   bigint total = 0;
   MPI_Allreduce(&nbonds, &total, 1, MPI_LMP_BIGINT, MPI_SUM, world);
   // the store: per atom, the slots of its bonds one after the other, each as long as its
-  // interface's points and state need (slot_offset()); each row as long as its atom's slots
-  // (rows sized), at most the widest atom's with every interface broken
+  // interface's points need (slot_offset()); as wide as the widest atom's
   long width = 1;
-  for (int i = 0; i < nlocal; i++) width = std::max(width, row_capacity(i));
+  for (int i = 0; i < nlocal; i++) width = std::max(width, slot_offset(i, atom->num_bond[i]));
   long store_width = 0;
   MPI_Allreduce(&width, &store_width, 1, MPI_LONG, MPI_MAX, world);
-  store_index =
-      BreakableUtil::peratom_array(lmp, STORE_FIX_ID, STORE_NAME, (int) store_width, true);
-  store_fix = dynamic_cast<FixLazyStore *>(modify->get_fix_by_id(STORE_FIX_ID));
-  if (!store_fix)
-    error->all(FLERR, "bond_style bcm/griffith: fix {} is not a fix lazy/store", STORE_FIX_ID);
-  // a restart file of a version whose slots all held the contact state (and the damping
-  // forces point by point) cannot be read as this layout
-  bigint unsized = store_fix->unsized_rows_read(), nunsized = 0;
-  MPI_Allreduce(&unsized, &nunsized, 1, MPI_LMP_BIGINT, MPI_SUM, world);
-  if (nunsized)
-    error->all(FLERR, "bond_style bcm/griffith: the restart file holds the interface state in "
-               "the layout of an older version of the plugin; it cannot be resumed with this one");
+  store_index = BreakableUtil::peratom_array(lmp, STORE_FIX_ID, STORE_NAME, (int) store_width);
   if (total != (bigint) table.size())
     error->all(FLERR, "bond_style bcm/griffith: {} interfaces in the geometry table but {} bonds "
                "in the topology", table.size(), total);
 
   if (!table.has_reference()) table.take_reference(iquat);
   sync_store();
-  // rows grow (and move) only now, the working copy being rebuilt before its next use
-  for (int i = 0; i < nlocal; i++)
-    store_fix->reserve(i, (int) slot_offset(i, atom->num_bond[i]) + ROW_TAIL);
   cache_valid = false;
 }
 
 /* ----------------------------------------------------------------------
-   the working copy of the bond list's interfaces: per entry the cells in
-   ID order, the state in the per-atom store (with newton_bond off the
-   neighbor code lists a bond from an owned atom; when both cells are owned
-   here the bond is listed once and the state evaluated in the slot of the
-   cell with the smaller ID, the other copy its twin, written by
-   sync_store()), the geometry in the table and a record of constants
+   the working copy of the bond list's interfaces, from the per-atom store:
+   per entry the cells in ID order, the state slots (with newton_bond off the
+   neighbor code lists a bond from an owned atom; the partner's copy is
+   written too when the partner is owned here, the bond then being listed
+   once), and a record with the constants, the state and the geometry
 ------------------------------------------------------------------------- */
 
 void BondBcmGriffith::rebuild_cache()
 {
-  // both copies of an interface must agree before the slot evaluated may change
+  // the previous working copy must be in the store before it is read back; when the atoms
+  // moved since, it was written at pre_exchange (fix bcm/griffith)
   if (dirty) sync_store();
 
   double **store = atom->darray[store_index];
@@ -365,7 +347,8 @@ void BondBcmGriffith::rebuild_cache()
   cache.resize(nbondlist);
   cache_tags.resize(2 * (size_t) nbondlist);
   entry_of_slot.assign((size_t) nlocal * atom->bond_per_atom, -1);
-  records.resize((size_t) NCONST * nbondlist);
+  std::vector<int> iface_of(nbondlist);
+  long nrec = 0, ncontact = 0;
   for (int n = 0; n < nbondlist; n++) {
     int i1 = bondlist[n][0], i2 = bondlist[n][1];
     if (i1 >= nlocal) std::swap(i1, i2);
@@ -377,14 +360,17 @@ void BondBcmGriffith::rebuild_cache()
     if (iface < 0)
       error->one(FLERR, "bond_style bcm/griffith: bond {}-{} has no interface (bonds created "
                  "during a run are not supported)", tag[i1], tag[i2]);
+    iface_of[n] = iface;
     const int m = BreakableUtil::bond_slot(atom, i1, tag[i2]);
     if (m < 0)
       error->one(FLERR, "bond_style bcm/griffith: bond {}-{} of the bond list is not in the "
                  "atom's bond arrays", tag[i1], tag[i2]);
-    double *own = store[i1] + slot_offset(i1, m), *partner = nullptr;
-    int m2 = -1;
-    if (i2 < nlocal && (m2 = BreakableUtil::bond_slot(atom, i2, tag[i1])) >= 0)
-      partner = store[i2] + slot_offset(i2, m2);
+    e.slot = store[i1] + slot_offset(i1, m);
+    e.twin = nullptr;
+    if (i2 < nlocal) {
+      const int m2 = BreakableUtil::bond_slot(atom, i2, tag[i1]);
+      if (m2 >= 0) e.twin = store[i2] + slot_offset(i2, m2);
+    }
     if (tag[i1] < tag[i2]) {
       e.c1 = i1;
       e.c2 = i2;
@@ -392,23 +378,48 @@ void BondBcmGriffith::rebuild_cache()
       e.c1 = i2;
       e.c2 = i1;
     }
-    // evaluated in cell 1's slot when cell 1 is owned: tally() reads it there
-    const bool swap = e.c1 == i2 && partner;
-    e.slot = swap ? partner : own;
-    e.twin = swap ? own : partner;
     cache_tags[2 * n] = tag[e.c1];
     cache_tags[2 * n + 1] = tag[e.c2];
     // tally() counts the interface from the owned cell with the smaller ID
-    if (e.c1 < nlocal) entry_of_slot[(size_t) e.c1 * atom->bond_per_atom + (swap ? m2 : m)] = n;
-    const BcmInterfaceTable::Interface &itf = table[iface];
-    e.npts = itf.npts;
-    e.geom = table.body_of(itf);
-    e.contact = e.slot[H_BROKEN] != INTACT ? e.slot + slot_contact(e.npts) : nullptr;
-    e.side = -1;
-    e.type = bondlist[n][2];
-    double *rec = &records[(size_t) NCONST * n];
+    if (e.c1 < nlocal) {
+      const int m1 = e.c1 == i1 ? m : BreakableUtil::bond_slot(atom, e.c1, tag[e.c2]);
+      if (m1 >= 0) entry_of_slot[(size_t) e.c1 * atom->bond_per_atom + m1] = n;
+    }
+    e.npts = table[iface].npts;
+    e.roff = nrec;
+    // contact state only for an interface that is broken already (one that breaks during
+    // the run gets its block then: break_interface())
+    e.coff = e.slot[H_BROKEN] != INTACT ? ncontact : -1;
+    nrec += record_size(e.npts);
+    if (e.coff >= 0) ncontact += NCONTACT * e.npts;
+  }
+
+  records.assign(nrec, 0.0);    // padding lanes zero
+  contact.resize(ncontact);
+  for (int n = 0; n < nbondlist; n++) {
+    const Entry &e = cache[n];
+    const int np = e.npts, P = padded(np);
+    const BcmInterfaceTable::Interface &itf = table[iface_of[n]];
+    double *rec = &records[e.roff];
     rec[K_AREA] = itf.area;
-    set_constants(e, e.type, rec);
+    cache[n].type = bondlist[n][2];
+    set_constants(e, bondlist[n][2], rec);
+    // state: slot header, damping forces (per point in the store, rows here), then the
+    // contact state apart
+    std::copy(e.slot, e.slot + NHEAD, rec + R_SLOT);
+    for (int k = 0; k < np; k++)
+      for (int c = 0; c < 3; c++) rec[R_FD + c * P + k] = e.slot[NHEAD + 3 * k + c];
+    if (e.coff >= 0)
+      std::copy(e.slot + NHEAD + 3 * np, e.slot + NHEAD + NPOINT * np, &contact[e.coff]);
+    // geometry: normal in cell 1's frame, then the rows of b1 and of b2
+    const double *g = table.body_of(itf);
+    double *out = rec + record_geometry(np);
+    for (int c = 0; c < 3; c++) out[c] = g[c];
+    for (int k = 0; k < np; k++)
+      for (int c = 0; c < 3; c++) {
+        out[3 + c * P + k] = g[3 + 3 * k + c];
+        out[3 + 3 * P + c * P + k] = g[3 + 3 * (np + k) + c];
+      }
   }
   cache_store = atom->nmax > 0 ? store[0] : nullptr;
   cache_valid = true;
@@ -447,8 +458,8 @@ void BondBcmGriffith::set_constants(const Entry &e, int type, double *rec) const
 }
 
 /* ----------------------------------------------------------------------
-   the state evaluated into its twin, the other cell's copy when both cells
-   are owned here. Its slots are those of the atoms when the cache was built:
+   the working copy back into the per-atom store, both copies of each
+   interface. Its slots are those of the atoms when the cache was built:
    atoms must not have moved or been reordered since (fix bcm/griffith calls
    this at pre_exchange, before they do).
 ------------------------------------------------------------------------- */
@@ -472,66 +483,20 @@ void BondBcmGriffith::sync_store()
     error->one(FLERR, "bond_style bcm/griffith: the cells moved in memory before the interface "
                "state was saved (a fix that exchanges atoms before fix {} does?)",
                FixBcmGriffith::ID);
-  // the slot as it is in the store (an interface broken since holds its contact state apart)
-  for (const Entry &e : cache)
-    if (e.twin) std::copy(e.slot, e.slot + slot_size(e.npts, e.contact != nullptr), e.twin);
-  if (!side.empty()) materialize();
-}
-
-/* ----------------------------------------------------------------------
-   room in their slots for the contact state of the interfaces broken since
-   the working copy was built (both copies when both cells are owned here),
-   the state moved there: the rows of their cells are rewritten slot by slot
-   and may move in memory, so the working copy is rebuilt before its next use
-------------------------------------------------------------------------- */
-
-void BondBcmGriffith::materialize()
-{
-  const tagint *tag = atom->tag;
-  const int nlocal = atom->nlocal;
-  struct Grow {
-    int i, m, n;    // the owned cell, its bond slot, the entry
-    bool operator<(const Grow &o) const { return i < o.i || (i == o.i && m < o.m); }
-  };
-  std::vector<Grow> grow;
-  for (int n = 0; n < (int) cache.size(); n++) {
+  for (int n = 0; n < ncache; n++) {
     const Entry &e = cache[n];
-    if (e.side < 0) continue;
-    for (const int c : {e.c1, e.c2}) {
-      if (c >= nlocal) continue;
-      const int m = BreakableUtil::bond_slot(atom, c, tag[c == e.c1 ? e.c2 : e.c1]);
-      if (m >= 0) grow.push_back({c, m, n});
+    const int np = e.npts, P = padded(np);
+    const double *rec = &records[e.roff];
+    // an intact interface's contact state is zero in the store, and stays so
+    const double *cstate = e.coff >= 0 ? &contact[e.coff] : nullptr;
+    for (double *dest : {e.slot, e.twin}) {
+      if (!dest) continue;
+      std::copy(rec + R_SLOT, rec + R_SLOT + NHEAD, dest);
+      for (int k = 0; k < np; k++)
+        for (int c = 0; c < 3; c++) dest[NHEAD + 3 * k + c] = rec[R_FD + c * P + k];
+      if (cstate) std::copy(cstate, cstate + NCONTACT * np, dest + NHEAD + 3 * np);
     }
   }
-  std::sort(grow.begin(), grow.end());
-  std::vector<double> row;
-  for (size_t g = 0; g < grow.size();) {
-    const int i = grow[g].i;
-    const double *old = atom->darray[store_index][i];
-    const tagint *batom = atom->bond_atom[i];
-    row.clear();
-    long off = 0;
-    for (int k = 0; k < atom->num_bond[i]; k++) {
-      const int ii = table.find(tag[i], batom[k]);
-      const int np = ii >= 0 ? table[ii].npts : 0;
-      const bool pending = g < grow.size() && grow[g].i == i && grow[g].m == k;
-      // a slot broken since has its header in the store already, not yet its contact state
-      const bool holds = !pending && old[off + H_BROKEN] != INTACT;
-      const long size = slot_size(np, holds);
-      row.insert(row.end(), old + off, old + off + size);
-      off += size;
-      if (pending) {
-        const double *cb = &side[cache[grow[g].n].side];
-        row.insert(row.end(), cb, cb + NCONTACT * np);
-        g++;
-      }
-    }
-    row.resize(row.size() + ROW_TAIL, 0.0);
-    store_fix->reserve(i, (int) row.size());
-    std::copy(row.begin(), row.end(), atom->darray[store_index][i]);
-  }
-  side.clear();
-  cache_valid = false;
 }
 
 
@@ -572,16 +537,16 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     const int type = bondlist[nb][2];
     if (type <= 0) continue;
     Entry &e = cache[nb];
-    double *rec = &records[(size_t) NCONST * nb];
+    double *rec = &records[e.roff];
     if (type != e.type) {
       set_constants(e, type, rec);
       e.type = type;
     }
-    double *slot = e.slot;    // the slot header
+    double *slot = rec + R_SLOT;    // working copy of the slot header
     if (slot[H_BROKEN] == RETIRED) continue;    // for good: the pair style's now
-    const int np = e.npts;
-    double *fd = slot + S_FD;    // damping forces of the last evaluation, rows of np
-    const double *g = e.geom;    // normal in cell 1's frame, then rows of np: b1, b2
+    const int np = e.npts, P = padded(np);
+    double *fd = rec + R_FD;    // damping forces of the last evaluation, rows of P
+    const double *g = rec + record_geometry(np);    // normal in cell 1's frame, b1 rows, b2 rows
 
     const Pair p(&cells[CELL_STRIDE * (size_t) e.c1], &cells[CELL_STRIDE * (size_t) e.c2], g);
     // fd_dv: the damping forces of the last evaluation times the relative velocities now,
@@ -597,12 +562,10 @@ void BondBcmGriffith::compute(int eflag, int vflag)
       BcmInterfaceKinematics::IntactSums s;
 #if defined(BRITTLE_AVX_LOOPS)
       if (avx_loop)
-        avx::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, fd, g + 3,
-                              g + 3 + 3 * np, s);
+        avx::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, g + 3, g + 3 + 3 * P, s);
       else
 #endif
-        base::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, fd, g + 3,
-                               g + 3 + 3 * np, s);
+        base::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, g + 3, g + 3 + 3 * P, s);
       fd_dv = s.fd_dv;
       r.stored = s.stored;
       r.pd = s.pd;
@@ -618,7 +581,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
         interface_points(p, g, np, pts);
         break_interface(e, rec, p, pts, r.stored, now);
       }
-    } else if (quiet(e, p, g)) {
+    } else if (quiet(e, rec, p, g)) {
       // every point open, none closed at the last evaluation, no damping force left: the
       // contact law would add zeros only (forces, energies, friction, slip, damping power)
       // and write what the state holds already; the damping work of the last evaluation is
@@ -627,7 +590,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     } else {
       interface_points(p, g, np, pts);
       for (int k = 0; k < np; k++)
-        fd_dv += fd[k] * pts[k].dv[0] + fd[np + k] * pts[k].dv[1] + fd[2 * np + k] * pts[k].dv[2];
+        fd_dv += fd[k] * pts[k].dv[0] + fd[P + k] * pts[k].dv[1] + fd[2 * P + k] * pts[k].dv[2];
     }
 
     // damping work of the previous evaluation, now that the velocity after its kicks is
@@ -664,38 +627,39 @@ void BondBcmGriffith::compute(int eflag, int vflag)
    zeros it would take are zeros)
 ------------------------------------------------------------------------- */
 
-bool BondBcmGriffith::quiet(const Entry &e, const Pair &p, const double *g)
+bool BondBcmGriffith::quiet(const Entry &e, const double *rec, const Pair &p, const double *g)
 {
   const double rsum = atom->radius[e.c1] + atom->radius[e.c2];
   if (dot(p.d12, p.d12) >= rsum * rsum) return false;    // retiring: contact_forces()
-  const int np = e.npts;
-  const double *fd = e.slot + S_FD;
-  const double *cb = contact_of(e);
+  const int np = e.npts, P = padded(np);
+  const double *fd = rec + R_FD;
+  const double *cb = &contact[e.coff];
   for (int k = 0; k < np; k++)
-    if (cb[NCONTACT * k + C_TOUCH] != 0.0 || fd[k] != 0.0 || fd[np + k] != 0.0 ||
-        fd[2 * np + k] != 0.0)
+    if (cb[NCONTACT * k + C_TOUCH] != 0.0 || fd[k] != 0.0 || fd[P + k] != 0.0 ||
+        fd[2 * P + k] != 0.0)
       return false;
   double dn[BcmInterfaceTable::MAX_POINTS];
 #if defined(BRITTLE_AVX_LOOPS)
   if (avx_loop)
-    avx::interface_gaps(p, np, g + 3, g + 3 + 3 * np, dn);
+    avx::interface_gaps(p, np, P, g + 3, g + 3 + 3 * P, dn);
   else
 #endif
-    base::interface_gaps(p, np, g + 3, g + 3 + 3 * np, dn);
+    base::interface_gaps(p, np, P, g + 3, g + 3 + 3 * P, dn);
   for (int k = 0; k < np; k++)
     if (dn[k] - cb[NCONTACT * k + C_SHIFT] < 0.0) return false;    // closed (contact law)
   return true;
 }
 
 /* ----------------------------------------------------------------------
-   the points of an interface from its geometry in the table (rows of np anchors)
+   the points of an interface from its record's geometry (rows of P anchors)
 ------------------------------------------------------------------------- */
 
 void BondBcmGriffith::interface_points(const Pair &p, const double *g, int np, Point *pts)
 {
+  const int P = padded(np);
   for (int k = 0; k < np; k++) {
-    const double b1[3] = {g[3 + k], g[3 + np + k], g[3 + 2 * np + k]};
-    const double b2[3] = {g[3 + 3 * np + k], g[3 + 4 * np + k], g[3 + 5 * np + k]};
+    const double b1[3] = {g[3 + k], g[3 + P + k], g[3 + 2 * P + k]};
+    const double b2[3] = {g[3 + 3 * P + k], g[3 + 4 * P + k], g[3 + 5 * P + k]};
     BcmInterfaceKinematics::point(p, b1, b2, pts[k]);
   }
 }
@@ -715,7 +679,7 @@ void BondBcmGriffith::interface_points(const Pair &p, const double *g, int np, P
 void BondBcmGriffith::break_interface(Entry &e, double *rec, const Pair &p,
                                       const Point *pts, double stored, const Clock &now)
 {
-  double *slot = e.slot;
+  double *slot = rec + R_SLOT;
   slot[H_BROKEN] = BROKEN;
   slot[H_BREAK_STEP] = (double) now.step;
   slot[H_BREAK_TIME] = now.time;
@@ -723,10 +687,11 @@ void BondBcmGriffith::break_interface(Entry &e, double *rec, const Pair &p,
   BreakPath::interface(lmp, special, e.c1, e.c2, stored, rec[K_AREA]);    // the event log
 
   const double kp = rec[K_KP], ktp = rec[K_KTP];
-  // its contact state, apart until the store's slot has room for it (materialize())
-  e.side = (long) side.size();
-  side.resize(side.size() + NCONTACT * (size_t) e.npts, 0.0);
-  double *cb = &side[e.side];
+  if (e.coff < 0) {    // its contact state from now on, zeros as in the store
+    e.coff = (long) contact.size();
+    contact.resize(contact.size() + NCONTACT * (size_t) e.npts, 0.0);
+  }
+  double *cb = &contact[e.coff];
   for (int k = 0; k < e.npts; k++) {
     const Point &q = pts[k];
     double *pt = cb + NCONTACT * k;
@@ -756,9 +721,9 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
                                      const Clock &now, Result &r)
 {
   r = Result();
-  double *slot = e.slot;
-  double *fdamp = slot + S_FD;    // rows of np
-  const int np = e.npts;
+  double *slot = rec + R_SLOT;
+  double *fdamp = rec + R_FD;    // rows of P
+  const int P = padded(e.npts);
   const double rsum = atom->radius[e.c1] + atom->radius[e.c2];
   // broken_points cells: handed to the pair style at the break (its points never act)
   const bool retiring = (broken_points == CELLS && just_broke) || dot(p.d12, p.d12) >= rsum * rsum;
@@ -766,13 +731,13 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
   const BcmInterfaceContact::Constants law{rec[K_KC], rec[K_KTC], rec[K_CC], mu[type]};
   double fric = 0.0, unpaid = 0.0, held = 0.0, slip = 0.0, fn = 0.0;
   int nclosed = 0;
-  double *cb = contact_of(e);
+  double *cb = &contact[e.coff];
   for (int k = 0; k < e.npts; k++) {
     const Point &q = pts[k];
     double fd[3], F[3];
     const BcmInterfaceContact::Energy ce =
         BcmInterfaceContact::point(law, p, q, cb + NCONTACT * k, fd, F);
-    for (int c = 0; c < 3; c++) fdamp[c * np + k] = fd[c];
+    for (int c = 0; c < 3; c++) fdamp[c * P + k] = fd[c];
     fric += ce.fric;
     slip += ce.slip;
     fn += ce.fn;
@@ -804,7 +769,7 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
   slot[H_NCLOSED] = nclosed;
   slot[H_FN] = fn;
 
-  if (retiring) retire(e, held, now, r);
+  if (retiring) retire(e, rec, held, now, r);
 }
 
 /* ----------------------------------------------------------------------
@@ -832,9 +797,10 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
    elastic forces at this evaluation.
 ------------------------------------------------------------------------- */
 
-void BondBcmGriffith::retire(const Entry &e, double held, const Clock &now, Result &r)
+void BondBcmGriffith::retire(const Entry &e, double *rec, double held, const Clock &now,
+                             Result &r)
 {
-  double *slot = e.slot;
+  double *slot = rec + R_SLOT;
   // the same switch, from the contact springs to nothing: lost, what they store now and the
   // half kick of their elastic force, (h/2) F_el . dv, that the bodies will not get (the
   // damping force is dropped with its work: it never kicks)
@@ -842,13 +808,13 @@ void BondBcmGriffith::retire(const Entry &e, double held, const Clock &now, Resu
   slot[H_BROKEN] = RETIRED;
   slot[H_NCLOSED] = slot[H_FN] = 0.0;
   r = Result();
-  double *cb = contact_of(e);
-  double *fdamp = slot + S_FD;
-  const int np = e.npts;
-  for (int k = 0; k < np; k++) {
+  double *cb = &contact[e.coff];
+  double *fdamp = rec + R_FD;
+  const int P = padded(e.npts);
+  for (int k = 0; k < e.npts; k++) {
     double *pt = cb + NCONTACT * k;
     pt[C_TOUCH] = pt[C_FT] = 0.0;
-    for (int c = 0; c < 3; c++) fdamp[c * np + k] = 0.0;
+    for (int c = 0; c < 3; c++) fdamp[c * P + k] = 0.0;
   }
   // hand-over: the pair style sees the pair from the next step (from the next reneighboring
   // if special_bonds leaves 1-2 pairs out of the neighbor lists)
@@ -886,35 +852,20 @@ void BondBcmGriffith::apply(const Entry &e, const Pair &p, const Result &r)
 
 /* ----------------------------------------------------------------------
    where bond slot m of owned atom i starts in its store row: after the slots
-   before it, each as long as its interface's N_p points and its state need
-   (slot_size(): the contact state once broken; the bonds of an atom keep their
-   slots for good: bonds are never deleted). A row not yet sized reads as
-   zeros: intact interfaces.
+   before it, each NHEAD + NPOINT N_p long for its interface's N_p points (the
+   bonds of an atom keep their slots for good: bonds are never deleted)
 ------------------------------------------------------------------------- */
 
 long BondBcmGriffith::slot_offset(int i, int m) const
 {
   const tagint *batom = atom->bond_atom[i];
   const tagint self = atom->tag[i];
-  const double *row = atom->darray[store_index][i];
-  const long len = store_fix->row_size(i);
   long off = 0;
   for (int k = 0; k < m; k++) {
     const int ii = table.find(self, batom[k]);
-    off += slot_size(ii >= 0 ? table[ii].npts : 0, off < len && row[off + H_BROKEN] != INTACT);
+    off += NHEAD + NPOINT * (ii >= 0 ? table[ii].npts : 0);
   }
   return off;
-}
-
-// the row of owned atom i with every interface broken: the store's width
-long BondBcmGriffith::row_capacity(int i) const
-{
-  long size = ROW_TAIL;
-  for (int k = 0; k < atom->num_bond[i]; k++) {
-    const int ii = table.find(atom->tag[i], atom->bond_atom[i][k]);
-    size += slot_size(ii >= 0 ? table[ii].npts : 0, true);
-  }
-  return size;
 }
 
 /* ----------------------------------------------------------------------
@@ -994,9 +945,10 @@ void BondBcmGriffith::tally(double *sums)
 {
   for (int k = 0; k < NVECTOR; k++) sums[k] = 0.0;
   if (store_index < 0) return;
-  // cell 1's slot, owned here, is the one evaluated (rebuild_cache()) or, for an interface
-  // out of the bond list, current: no twin needs writing; the sums in the order of the owned
-  // atoms and their bond slots, whichever rank holds an interface
+  // an interface of the bond list is read from the working copy (no write-back needed for
+  // a record), one that is not (its partner out of reach) from the store, which is current
+  // for it; either way in the order of the owned atoms and their bond slots, so that the sums
+  // do not depend on where an interface's state lives
   const bool cached = cache_valid && !atoms_moved &&
       entry_of_slot.size() == (size_t) atom->nlocal * atom->bond_per_atom;
   if (!cached) sync_store();
@@ -1012,9 +964,10 @@ void BondBcmGriffith::tally(double *sums)
       const int n = cached ? entry_of_slot[(size_t) i * bpa + m] : -1;
       const double *slot;
       double area;
-      if (n >= 0) {    // cell 1's slot, evaluated in place (rebuild_cache())
-        slot = cache[n].slot;
-        area = records[(size_t) NCONST * n + K_AREA];
+      if (n >= 0) {
+        const double *rec = &records[cache[n].roff];
+        slot = rec + R_SLOT;
+        area = rec[K_AREA];
       } else {
         const int ii = table.find(tag[i], partner);
         if (ii < 0) continue;
@@ -1126,7 +1079,7 @@ double BondBcmGriffith::memory_usage()
 {
   double bytes = Bond::memory_usage();
   bytes += (double) cache.capacity() * sizeof(Entry);
-  bytes += (double) (cells.capacity() + records.capacity()) * sizeof(double);
+  bytes += (double) (cells.capacity() + records.capacity() + contact.capacity()) * sizeof(double);
   bytes += (double) cache_tags.capacity() * sizeof(tagint);
   bytes += table.memory_usage();
   return bytes;

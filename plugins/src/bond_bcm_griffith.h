@@ -43,9 +43,9 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   void tally(double *sums);
   // force evaluations so far: changes whenever the per-interface state may have
   bigint evaluations() const { return nevaluations; }
-  // bring the twin copies of the interface state in the per-atom store up to the slots
-  // evaluated; called by fix bcm/griffith before atoms move (pre_exchange), before output
-  // and after a run, and before this style reads the store itself
+  // write the working copy of the interface state back to the per-atom store (both copies
+  // of each interface); called by fix bcm/griffith before atoms move (pre_exchange), before
+  // output and after a run, and before this style reads the store itself
   void sync_store();
   // atoms may migrate or be sorted now (fix bcm/griffith, pre_exchange, after sync_store()):
   // until the working copy is rebuilt, its entries no longer match the atoms' slots
@@ -91,40 +91,36 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   int broken_points;          // BrokenPoints
 
   // Working copy of the interfaces of the bond list, rebuilt with it (at each
-  // reneighbouring): per entry its cells, where its state and geometry are, and a record of
-  // its per-point constants, in bondlist order, so that the force loop does no look-up. The
-  // state is evaluated in place in one of its two slots of the per-atom store (cell 1's when
-  // it is owned here); the other one, when both cells are owned here, is written from it only
-  // when something may read the store or move atoms: sync_store().
+  // reneighbouring): per entry one contiguous record in bondlist order holding the per-point
+  // constants, the state read and written at every evaluation (slot header and damping
+  // forces) and the body-frame geometry, so that the force loop streams through memory and
+  // does no look-up; the contact state of broken interfaces apart. The per-atom store is
+  // written back from it (both copies of an interface) only when something may read the
+  // store or move atoms: sync_store().
   struct Entry {
     int c1, c2;        // local indices of the cells with the smaller and the larger ID
     int type;          // bond type the constants of the record were taken for
     int npts;
-    double *slot;      // the state evaluated: a bond slot of an owned cell in the store
-    double *twin;      // the other owned cell's copy, or nullptr
-    const double *geom;    // the interface's body-frame geometry in the table
-    double *contact;   // the contact state in the slot (broken when the cache was built)
-    long side;         // or into side (broken since), or -1 (intact)
+    long roff;         // into records
+    long coff;         // into contact: NCONTACT doubles per point; -1 while intact
+    double *slot;      // state of the interface in the bondlist atom's bond slot
+    double *twin;      // the partner's copy when the partner is owned here too, or nullptr
   };
   std::vector<Entry> cache;
-  std::vector<double> records;       // NCONST per entry
-  // the contact state of the interfaces broken since the working copy was built: their slots
-  // get room for it (materialize()) when the store is synchronised
-  std::vector<double> side;
+  std::vector<double> records;
+  std::vector<double> contact;
   std::vector<tagint> cache_tags;    // (tag1, tag2) per entry: checks that the cells stayed
   double *cache_store;               // store row 0 when the cache was built
   bool cache_valid;
-  bool dirty;                        // a twin is behind the slot evaluated
+  bool dirty;                        // the working copy is ahead of the store
   bool atoms_moved;                  // atoms may have moved since the working copy was built
   // per owned atom and bond slot: the entry of the interface when the atom is its cell with
-  // the smaller ID, or -1 (tally() reads the constants of the working copy in the store's
-  // order)
+  // the smaller ID, or -1 (tally() reads the working copy in the store's order)
   std::vector<int> entry_of_slot;
   // per owned and ghost cell, this evaluation: BcmInterfaceKinematics::pack_cell()
   std::vector<double> cells;
 
   int store_index;     // atom->darray index of the per-slot state
-  class FixLazyStore *store_fix;    // its fix
   int iquat;           // atom->darray index of d2_bcm_quat
   bigint nevaluations;
   bool avx_loop;       // the 4-lane AVX kernel (BreakableUtil::avx_loops())
@@ -150,16 +146,13 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   void set_constants(const Entry &e, int type, double *rec) const;
   const double *slot_of(int i, int j) const;
   long slot_offset(int i, int m) const;
-  long row_capacity(int i) const;
-  double *contact_of(const Entry &e) { return e.side >= 0 ? &side[e.side] : e.contact; }
-  void materialize();
   void interface_points(const Pair &p, const double *g, int np, Point *pts);
-  bool quiet(const Entry &e, const Pair &p, const double *g);
+  bool quiet(const Entry &e, const double *rec, const Pair &p, const double *g);
   void break_interface(Entry &e, double *rec, const Pair &p, const Point *pts,
                        double stored, const Clock &now);
   void contact_forces(const Entry &e, int type, double *rec, const Pair &p, const Point *pts,
                       bool just_broke, double e_before, const Clock &now, Result &r);
-  void retire(const Entry &e, double held, const Clock &now, Result &r);
+  void retire(const Entry &e, double *rec, double held, const Clock &now, Result &r);
   void apply(const Entry &e, const Pair &p, const Result &r);
 };
 

@@ -33,16 +33,14 @@ namespace BreakableUtil {
   // hidden fix lazy/store (id fix_id) so that it migrates with its atoms, follows atom
   // sorting and is written to restart files; unlike fix property/atom, its rows cost memory
   // only once an atom uses them (fix_lazy_store.h). A fix of the same id re-created after
-  // read_restart gets its stored values back. sized: each row as long as the owning style
-  // reserves for its atom (FixLazyStore::reserve()), not ncols.
+  // read_restart gets its stored values back.
   inline int peratom_array(LAMMPS *lmp, const std::string &fix_id, const std::string &name,
-                           int ncols, bool sized = false)
+                           int ncols)
   {
     if (ncols < 1)
       lmp->error->all(FLERR, "Per-atom store {} needs at least one column", name);
     if (!lmp->modify->get_fix_by_id(fix_id))
-      lmp->modify->add_fix(fmt::format("{} all lazy/store {} {} ghost no{}", fix_id, name, ncols,
-                                       sized ? " rows sized" : ""));
+      lmp->modify->add_fix(fmt::format("{} all lazy/store {} {} ghost no", fix_id, name, ncols));
     int flag = -1, cols = -1;
     const int index = lmp->atom->find_custom(name.c_str(), flag, cols);
     if (index < 0 || flag != 1 || cols != ncols)

@@ -1,6 +1,6 @@
 /* fix lazy/store: a hidden per-atom array of doubles whose memory is paid per atom in use.
 
-     fix ID all lazy/store NAME NCOLS ghost yes|no [rows sized]
+     fix ID all lazy/store NAME NCOLS ghost yes|no
 
    What `fix property/atom d2_NAME NCOLS` does for a per-atom store (the array is
    atom->darray[find_custom(NAME)], it migrates with its atoms, follows atom sorting, goes to
@@ -11,10 +11,6 @@
    are never resident (the kernel hands out zero pages when a row is first touched, which is
    the zero start fix property/atom gives by memset), and growing it (mremap) copies nothing.
    Resident memory thus follows the atoms a rank holds. Linux only (mmap/mremap).
-   With `rows sized` (ghost no only) each row is a heap block of its own, as long as the
-   owning style reserves for its atom (reserve()), at most NCOLS: rows of NCOLS doubles side
-   by side in a mapping are resident page by page, so rows of different lengths waste the
-   pages between their ends; sized rows cost what they hold.
    Created by the styles that own the store (plugins/src/breakable_util.h); see
    plugins/doc/fix_lazy_store.md. */
 
@@ -34,13 +30,6 @@ class FixLazyStore : public Fix {
   ~FixLazyStore() override;
 
   int setmask() override { return 0; }
-  // rows sized: row i (an owned atom) holds at least n values from now on, those it held
-  // kept, the new ones zero; a row moves in memory when it grows (pointers into it go stale)
-  void reserve(int i, int n);
-  bool sized() const { return sized_rows; }
-  int row_size(int i) const { return sized_rows ? len[i] : ncols; }
-  // rows sized: rows this rank read from restart data of a store whose rows were not sized
-  bigint unsized_rows_read() const { return nunsized; }
   double memory_usage() override;
 
   void grow_arrays(int) override;
@@ -57,18 +46,12 @@ class FixLazyStore : public Fix {
  private:
   // a row's length up to its last value that is not +0.0; a row set to n values then zeros,
   // writing nothing beyond what either extent covers (untouched pages cost no memory)
-  size_t extent(const double *row) const { return extent(row, (size_t) ncols); }
-  static size_t extent(const double *row, size_t n);
-  // rows sized: row i becomes n values long (kept up to n, zeros after its old length)
-  void resize_row(int i, int n);
+  size_t extent(const double *row) const;
   void put_row(double *dest, const double *src, size_t n);
   std::string name;
   int ncols;
   int index;                    // into atom->darray
   bool ghost;
-  bool sized_rows;              // a heap block per row, len[i] values long
-  std::vector<int> len;         // rows sized: values in row i (its block's size)
-  bigint nunsized;
   void *block;                  // the mapping: nrows rows of ncols doubles
   size_t block_bytes;
   std::vector<double *> rows;   // atom->darray[index] points at rows.data()
