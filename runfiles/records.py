@@ -100,7 +100,8 @@ IMPACT_RECORD = Record("impact", (
     Field("E_contacts", "J", "elastic energy stored in cell-cell contacts", _g("c_cpair")),
     Field("W_contact_damp", "J", "cell-cell contacts: damping", _g("c_cpair[4]")),
     Field("W_contact_friction", "J", "cell-cell contacts: friction", _g("c_cpair[5]")),
-    Field("W_contact_npoints", "J", "cell-cell contacts: tangential springs dropped with their history", _g("c_cpair[6]")),
+    Field("W_contact_npoints", "J", "cell-cell contacts: tangential springs dropped with their history",
+          _g("c_cpair[6]")),
     Field("work_contacts", "J", "work of the cell-cell contact forces on the cells (a check)", _g("c_cpair[7]")),
 ))
 

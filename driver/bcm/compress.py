@@ -158,7 +158,8 @@ def build_system(cfg: RunConfig, rd: RunDir) -> dict:
     facts = place_bed(cfg, rd)
     sc = cfg.scenario
     return {**facts, "platen_start": facts["box"][2], "platen_speed": sc.platen_speed,
-            "grading_at": list(sc.grading_at), "grading_dumps": [grading_dump_name(k) for k in range(len(sc.grading_at))],
+            "grading_at": list(sc.grading_at),
+            "grading_dumps": [grading_dump_name(k) for k in range(len(sc.grading_at))],
             "box_area": facts["box"][0] * facts["box"][1]}
 
 
@@ -195,7 +196,8 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
     resume = render(
         "bcm_compress.in", role="Start from a checkpoint (resume.lammps: -var checkpoint FILE).",
         system=SYSTEM_RESUME, pair_setup="# pair style, coefficients and counters: from the checkpoint",
-        bond_setup="# bond style (G_c of the checkpoint's phase), interface table, reference state: from the checkpoint",
+        bond_setup="# bond style (G_c of the checkpoint's phase), interface table, reference state: from the "
+                   "checkpoint",
         phase_setup=phase_setup + "\n# (the phase, its times and the dumps made: set again from the checkpoint)",
         record_target="append thermo.dat", start="# the phase chain's state: from the checkpoint", **common)
     schedule = settle(window, chunk, max_windows, check=checks, settled_variable="done", advance=[],
