@@ -129,7 +129,8 @@ class BcmBedAnalysis(RunAnalysis):
         rec, sys_, sc = self.record, self.system, self.scen
         loading = rec[rec.phase == 2]
         if loading.empty:
-            raise RunSetError(f"{self.run_dir}: the record has no loading phase (phase 2)")
+            raise ValueError(f"{self.run_dir}: the record has no loading phase (phase 2): the bed never reached its "
+                             "start (see thermo.dat's phase column)")
         start = loading.index[0]
         branch = bed.loading_branch(loading)
         branch = branch[branch.sigma_v >= sc["start_stress"]]
@@ -235,9 +236,17 @@ class BcmBedAnalysis(RunAnalysis):
         return rep
 
 
-def plot_compression(branch: pd.DataFrame, fit, path: Path, title: str) -> None:
+def _axes() -> tuple[Figure, object]:
     fig = Figure(figsize=(6, 4.2))
-    ax = fig.subplots()
+    return fig, fig.subplots()
+
+
+def _save(fig: Figure, path: Path) -> None:
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+
+
+def plot_compression(branch: pd.DataFrame, fit, path: Path, title: str) -> None:
+    fig, ax = _axes()
     ax.semilogx(branch.sigma_v, branch.void_ratio, ".", ms=3, label="loading")
     s = np.geomspace(branch.sigma_v.min(), branch.sigma_v.max(), 50)
     if not fit.flag:
@@ -246,33 +255,30 @@ def plot_compression(branch: pd.DataFrame, fit, path: Path, title: str) -> None:
         ax.axvline(fit.sigma_y, color="k", lw=0.8, label=f"sigma_y = {fit.sigma_y / 1e6:.3g} MPa")
     ax.set(xlabel="vertical stress sigma_v (Pa)", ylabel="void ratio e", title=title)
     ax.legend(fontsize=8)
-    fig.savefig(path, dpi=120, bbox_inches="tight")
+    _save(fig, path)
 
 
 def plot_grading(curves: pd.DataFrame, path: Path, title: str) -> None:
-    fig = Figure(figsize=(6, 4.2))
-    ax = fig.subplots()
+    fig, ax = _axes()
     for name, c in curves.groupby("state", sort=False):
         ax.step(c["size"] * 1e3, c.passing * 100, where="post", label=f"{name}: {c.sigma_v.iloc[0] / 1e6:.3g} MPa")
     ax.set(xscale="log", xlabel="sieve size b (mm)", ylabel="mass passing (%)", title=title)
     ax.legend(fontsize=8)
-    fig.savefig(path, dpi=120, bbox_inches="tight")
+    _save(fig, path)
 
 
 def plot_breakage(states: pd.DataFrame, path: Path, title: str) -> None:
-    fig = Figure(figsize=(6, 4.2))
-    ax = fig.subplots()
+    fig, ax = _axes()
     s = states.sigma_v / 1e6
     for col in ("B_r", "B_r_cell", "B_r_star", "fraction_broken"):
         ax.plot(s, states[col], "o-", label=col)
     ax.set(xlabel="vertical stress sigma_v (MPa)", ylabel="breakage", title=title)
     ax.legend(fontsize=8)
-    fig.savefig(path, dpi=120, bbox_inches="tight")
+    _save(fig, path)
 
 
 def plot_energy(account: pd.DataFrame, path: Path, title: str) -> None:
-    fig = Figure(figsize=(6, 4.2))
-    ax = fig.subplots()
+    fig, ax = _axes()
     t = (account.time - account.time.iloc[0]) * 1e3
     base = account.iloc[0]
     ax.plot(t, account.W_p - base.W_p, "k", label="platen work W_p")
@@ -280,7 +286,7 @@ def plot_energy(account: pd.DataFrame, path: Path, title: str) -> None:
         ax.plot(t, account[col] - base[col], label=col)
     ax.set(xlabel="time since the loading began (ms)", ylabel="energy (J)", title=title)
     ax.legend(fontsize=7)
-    fig.savefig(path, dpi=120, bbox_inches="tight")
+    _save(fig, path)
 
 
 def analyse_bed_set(runs: list[dict], out: Path, plots: bool = True, left_out: list[dict] | None = None) -> dict:
