@@ -169,11 +169,16 @@ def test_bed_config_errors(tmp_path, field, value, message):
         parse_config(bed_config(tmp_path, **{field: value}))
 
 
-def test_compress_needs_an_assembly(tmp_path):
+def test_compress_needs_an_assembly_and_the_others_refuse_one(tmp_path):
     cfg = bed_config(tmp_path)
     del cfg["model"]["assembly"]
     with pytest.raises(ConfigError, match="model.assembly"):
         parse_config(cfg)
+    for scenario in ({"kind": "impact"}, {"kind": "crush"}, {"kind": "calibrate", "test": "moduli"}):
+        cfg = bed_config(tmp_path)
+        cfg["scenario"] = scenario
+        with pytest.raises(ConfigError, match="model.assembly: a bed of grains is for scenario compress"):
+            parse_config(cfg)
 
 
 @pytest.mark.mpi

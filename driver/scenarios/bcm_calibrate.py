@@ -131,6 +131,9 @@ def _elements(cfg) -> int:
 
 
 def _check(cfg) -> None:
+    if cfg.model.assembly is not None:
+        raise ValueError("model.assembly: a bed of grains is for scenario compress; this scenario takes one "
+                         "particle (remove model.assembly)")
     sc = cfg.scenario
     if cfg.output.animation:
         raise ValueError("output.animation: a calibration test writes no periodic dumps")

@@ -61,6 +61,9 @@ def _elements(cfg) -> int:
 
 
 def _check(cfg) -> None:
+    if cfg.model.assembly is not None:
+        raise ValueError("model.assembly: a bed of grains is for scenario compress; this scenario takes one "
+                         "particle (remove model.assembly)")
     if cfg.output.animation and cfg.scenario.dump_every == 0:
         raise ValueError("output.animation needs periodic dumps: set scenario.dump_every > 0 (steps between "
                          "dumps), or animation: false")
