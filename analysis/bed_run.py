@@ -109,6 +109,7 @@ class BcmBedAnalysis(RunAnalysis):
         self.model, self.scen = self.cfg["model"], self.cfg["scenario"]
         self.system = json.loads((self.run_dir / "system.json").read_text())
         self.record = read_compress_record(self.run_dir / "thermo.dat")
+        self.states: list[BedState] = []
         self.title = (f"BCM bed, {self.system['n_grains']} grains of {self.model['n_cells']} cells, "
                       f"v_p = {self.scen['platen_speed']:g} m/s, G_c = {self.model['interface']['G_c']:g} J/m²")
 
@@ -117,8 +118,7 @@ class BcmBedAnalysis(RunAnalysis):
         return [n for n in names if (self.run_dir / "dumps" / f"cells.{n}.lammpstrj").exists()]
 
     def _single_frame(self, name: str) -> None:
-        if not hasattr(self, "states"):
-            self.states: list[BedState] = []
+        if not self.states:
             self.grain = grain_of_cells(self.system["grain_cells"])
             self.body, self.faces, warning = cell_shapes(self.run_dir)
             if warning:
