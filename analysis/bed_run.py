@@ -22,6 +22,7 @@ from matplotlib.figure import Figure
 
 from analysis import bed
 from analysis.bcm_impact import _fragment_picture, cell_shapes, fragments_of, read_interfaces
+from analysis.crush import bcm_energy_columns
 from analysis.dumps import read_atom_dump
 from analysis.fragment_shapes import fragment_table, vertices_in_space
 from analysis.report import Report, provenance_line
@@ -37,16 +38,10 @@ BALANCE_TOLERANCE = 1e-3
 
 
 def read_compress_record(path: Path) -> pd.DataFrame:
-    """The record of a bed run with the energy account's columns, as the crush's: kinetic,
-    elastic (interfaces, walls, contacts), dissipated by channel, and sigma_h (the mean of the
-    x and y walls' stresses)."""
-    df = read_record(path, COMPRESS_RECORD.names)
+    """The record of a bed run with the energy account's columns (the crush's,
+    analysis/crush.py bcm_energy_columns) and sigma_h (the mean of the x and y walls' stresses)."""
+    df = bcm_energy_columns(read_record(path, COMPRESS_RECORD.names))
     df["sigma_h"] = 0.5 * (df.sigma_x + df.sigma_y)
-    df["kinetic"] = df.ke_trans + df.ke_rot
-    df["elastic"] = df.E_interfaces + df.E_wall + df.E_contacts
-    df["dissipated_damping"] = df.W_damp + df.W_wall_damp + df.W_contact_damp
-    df["dissipated_friction"] = df.W_friction + df.W_wall_friction + df.W_contact_friction
-    df["dissipated_npoints"] = df.W_wall_npoints + df.W_contact_npoints
     return df
 
 

@@ -66,7 +66,14 @@ def read_crush_record(path: Path) -> pd.DataFrame:
     step, with derived columns as the impact's (analysis/bcm_impact.py read_impact_thermo):
     kinetic, elastic (interfaces + platens + contacts), dissipated (damping, friction,
     number-of-points changes and switch losses of the three force styles; W_f apart)."""
-    df = read_record(path, CRUSH_RECORD.names)
+    return bcm_energy_columns(read_record(path, CRUSH_RECORD.names))
+
+
+def bcm_energy_columns(df: pd.DataFrame) -> pd.DataFrame:
+    """A BCM record's energy account columns (the crush's and the bed's records name their
+    fields alike): kinetic, elastic (interfaces + walls + contacts), dissipated by channel
+    (damping, friction, number-of-points changes of the three force styles) and in all with
+    the switch losses (W_f apart)."""
     df["kinetic"] = df.ke_trans + df.ke_rot
     df["elastic"] = df.E_interfaces + df.E_wall + df.E_contacts
     df["dissipated_damping"] = df.W_damp + df.W_wall_damp + df.W_contact_damp

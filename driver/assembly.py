@@ -13,14 +13,15 @@ grains is refused with the volume fraction it would need.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from pydantic import Field, model_validator
-from scipy.spatial import cKDTree
-from scipy.spatial.transform import Rotation
 
 from driver.schema import _Strict
+
+if TYPE_CHECKING:  # scipy is imported where the geometry is made, not when a config is read
+    from scipy.spatial.transform import Rotation
 
 #: random sequential addition of equal spheres jams at a volume fraction of about 0.38; a start
 #: asked for above this is refused before any attempt
@@ -112,6 +113,9 @@ def loose_start(radii: np.ndarray, box, rng: np.random.Generator, max_attempts: 
     """Place spheres of the given radii in the box [0, box]^3 without overlap (walls included) by
     random sequential addition, largest first. Raises ValueError when the spheres cannot fit: above
     the jamming fraction at once, or when a sphere finds no place in max_attempts tries."""
+    from scipy.spatial import cKDTree  # noqa: PLC0415
+    from scipy.spatial.transform import Rotation  # noqa: PLC0415
+
     radii = np.asarray(radii, dtype=float)
     box = np.asarray(box, dtype=float)
     if radii.ndim != 1 or radii.size == 0 or radii.min() <= 0.0:
@@ -169,6 +173,8 @@ def _push_apart(c: np.ndarray, r: np.ndarray, box: np.ndarray, margin: float) ->
     each (under-relaxed: a sphere pushed by several neighbours does not overshoot). Returns
     the largest overlap found (0 when none)."""
     np.clip(c, r[:, None], box - r[:, None], out=c)
+    from scipy.spatial import cKDTree  # noqa: PLC0415
+
     pairs = cKDTree(c).query_pairs(2.0 * float(r.max()), output_type="ndarray")
     if len(pairs) == 0:
         return 0.0

@@ -146,21 +146,27 @@ def bcm_interfaces(n_cells: int) -> int:
     return int(round(max(per_cell, 0.5) * n_cells))
 
 
+def bcm_timestep(cfg: RunConfig, diameter: float) -> float:
+    """SPEC 1.4's time step, as driver/bcm/particle.py contact_timestep, for a particle of
+    model.n_cells cells at `diameter` (the parent scaled), m_min from the mean cell's mass."""
+    from driver.bcm.particle import parent_shape  # noqa: PLC0415 (geometry; not needed to validate)
+
+    m = cfg.model
+    volume = parent_shape(m.shape, diameter, m.diameter_kind).volume
+    m_min = BCM_MIN_MASS_RATIO * m.density * volume / m.n_cells
+    k_max = max(m.contact.kn, m.interface.kn)
+    return 2.0 * math.pi * math.sqrt(0.5 * m_min / k_max) / cfg.scenario.steps_per_period
+
+
 def bcm_impact(cfg: RunConfig, ranks: int, max_time: float | None = None) -> SizeEstimate:
     """A BCM impact: the cells, interfaces and contact points of the tessellation, at most
     max_time / dt steps (max_time: the scenario's unless given)."""
-    from driver.bcm.particle import parent_shape  # noqa: PLC0415 (geometry; not needed to validate)
-
     m, sc = cfg.model, cfg.scenario
     max_time = sc.max_time if max_time is None else max_time
     n = m.n_cells
     interfaces = bcm_interfaces(n)
     points = int(round(interfaces * BCM_POINTS_PER_INTERFACE))
-    # SPEC 1.4 time step, as driver/bcm/particle.py contact_timestep, with m_min from the mean
-    volume = parent_shape(m.shape, m.diameter, m.diameter_kind).volume
-    m_min = BCM_MIN_MASS_RATIO * m.density * volume / n
-    k_max = max(m.contact.kn, m.interface.kn)
-    dt = 2.0 * math.pi * math.sqrt(0.5 * m_min / k_max) / sc.steps_per_period
+    dt = bcm_timestep(cfg, m.diameter)
     return SizeEstimate(
         model="BCM", elements=n, element_name="cells", bonds=interfaces,
         bond_name=f"interfaces ({points:,} contact points)",
@@ -181,13 +187,14 @@ def bcm_compress(cfg: RunConfig, ranks: int) -> SizeEstimate:
     model.diameter keep n_cells), and a guess of its length: the fill and the loading each
     over 1 % of the loose box's height (the unloading as the loading; the 30-grain example
     loads over 0.7 % of it), capped by max_time; the time step from the smallest grain's cells."""
+    import numpy as np  # noqa: PLC0415
+
     from driver.assembly import grain_sizes  # noqa: PLC0415
 
     m, sc, a = cfg.model, cfg.scenario, cfg.model.assembly
     one = bcm_impact(cfg, 1, sc.max_time)
     n = a.n_grains * m.n_cells
-    d = grain_sizes(a.sizes, a.n_grains, __import__("numpy").random.default_rng(0))
-    dt = sc.max_time / one.steps * (float(d.min()) / m.diameter) ** 1.5  # m_min ~ d^3: dt ~ d^1.5
+    dt = bcm_timestep(cfg, float(grain_sizes(a.sizes, a.n_grains, np.random.default_rng(0)).min()))
     travel = 0.01 * a.box[2]
     t = travel / sc.fill_speed + travel / sc.platen_speed * (2.0 if sc.unload else 1.0) + sc.hold_time
     return SizeEstimate(

@@ -83,7 +83,7 @@ def test_builder_places_grains_apart_with_their_ids_and_volume(tmp_path, sizes):
 
 
 def test_data_file_carries_grain_ids(small_bed):
-    """system.data's molecule column is each cell's grain, in the order of grains.json."""
+    """system.data's molecule column is each cell's grain, in the order of system.json's grains."""
     text = (small_bed / "system.data").read_text()
     atoms = text.split("Atoms # hybrid")[1].split("Bonds")[0]
     rows = np.array([line.split() for line in atoms.strip().splitlines()], dtype=float)

@@ -18,12 +18,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from driver.assembly import LooseStart, dense_start, grain_sizes, loose_start
-from driver.bcm.impact import bonded_interfaces
+from driver.bcm.impact import bonded_interfaces, timestep_facts
 from driver.bcm.lammps_files import write_cell_data, write_interfaces
-from driver.bcm.particle import cell_bodies, contact_timestep, particle_tessellation
+from driver.bcm.particle import cell_bodies, parent_centroid, particle_tessellation
 from driver.bcm.polyhedra import rotation_to_quaternion
 from driver.cache import cache_base
-from runfiles.atomic import atomic_write_json
 from runfiles.cells import write_cells
 
 
@@ -54,7 +53,7 @@ def grain_cells(tess, bodies, s: float, rotation: np.ndarray, centre: np.ndarray
                 min_interface_area: float) -> dict:
     """One grain: the pool tessellation `tess` (its cell bodies `bodies` eroded at this scale)
     scaled by s, turned by `rotation` about its centroid and centred at `centre`."""
-    pivot = (tess.centroid * tess.volume[:, None]).sum(0) / tess.volume.sum()
+    pivot = parent_centroid(tess)
 
     def place(x: np.ndarray) -> np.ndarray:
         return s * (np.asarray(x) - pivot) @ rotation.T + centre
@@ -91,8 +90,7 @@ def build_bed(model, seed: int) -> tuple[BedCells, np.ndarray, LooseStart, list]
     cache = cache_base() / "tessellations"
     pool = [particle_tessellation(model, k, cache) for k in range(1, a.tessellations + 1)]
     # the parent's bounding radius about its centroid, from the pool's own vertices
-    bound = max(float(np.linalg.norm(t.vertices - (t.centroid * t.volume[:, None]).sum(0) / t.volume.sum(),
-                                     axis=1).max()) for t in pool)
+    bound = max(float(np.linalg.norm(t.vertices - parent_centroid(t), axis=1).max()) for t in pool)
     sizes, start = bed_start(a, seed, bound, model.diameter)
     rng = np.random.default_rng([seed, 26])
     pick = rng.integers(0, len(pool), len(sizes))
@@ -142,12 +140,10 @@ def write_bed(root, cells: BedCells, box: np.ndarray) -> None:
 
 def bed_facts(model, cells: BedCells, sizes: np.ndarray, start: LooseStart, pool: list,
               steps_per_period: float, seconds: float) -> dict:
-    """system.json's facts of a bed: counts, the grains (diameter, cells, volume), the box, the
-    solid volume, A_0 and the time step (as the single particle's, driver/bcm/impact.py)."""
+    """system.json's facts of a bed: counts, the grains (diameter, cells, volume, mass, centre at
+    the start), the box, the solid volume, A_0 and the time step (as a single particle's,
+    driver/bcm/impact.py timestep_facts)."""
     m = model
-    k_iface = m.interface.kn * (cells.areas.max() / cells.areas.mean() if m.interface_stiffness == "per_area" else 1.0)
-    k_max = max(m.contact.kn, k_iface)
-    dt, period = contact_timestep(cells.masses, k_max, steps_per_period)
     grain_volume = np.bincount(cells.grain - 1, weights=cells.volumes)
     counts = np.bincount(cells.grain - 1)
     return {
@@ -157,12 +153,11 @@ def bed_facts(model, cells: BedCells, sizes: np.ndarray, start: LooseStart, pool
         "mass": float(cells.masses.sum()), "solid_volume": float(grain_volume.sum()),
         "grain_diameter": sizes.tolist(), "grain_cells": counts.tolist(), "grain_volume": grain_volume.tolist(),
         "grain_mass": np.bincount(cells.grain - 1, weights=cells.masses).tolist(),
+        "grain_centre": start.centres.tolist(),
         "box": [float(x) for x in start.box], "start_fraction": start.solid_fraction,
         "r_m": cells.r_m, "mean_cell_size": float(pool[0].mean_cell_size * np.mean(sizes) / m.diameter),
         "tessellation_keys": [t.key for t in pool], "build_seconds": seconds,
-        "timestep": dt, "shortest_period": period,
-        "timestep_rule": f"dt = 2 pi sqrt((m_min/2) / k_max) / {steps_per_period:g}, k_max = {k_max:g} N/m",
-        "max_bound_radius": float(cells.bound_radius.max()),
+        **timestep_facts(m, cells.areas, cells.masses, steps_per_period), "max_bound_radius": float(cells.bound_radius.max()),
     }
 
 
@@ -171,7 +166,4 @@ def place_bed(cfg, rd) -> dict:
     t0 = time.perf_counter()
     cells, sizes, start, pool = build_bed(cfg.model, cfg.seed)
     write_bed(rd.root, cells, start.box)
-    facts = bed_facts(cfg.model, cells, sizes, start, pool, cfg.scenario.steps_per_period, time.perf_counter() - t0)
-    atomic_write_json(rd.root / "grains.json", {"grain": list(range(1, len(sizes) + 1)), "diameter": sizes.tolist(),
-                                                "centre": start.centres.tolist(), "volume": facts["grain_volume"]})
-    return facts
+    return bed_facts(cfg.model, cells, sizes, start, pool, cfg.scenario.steps_per_period, time.perf_counter() - t0)

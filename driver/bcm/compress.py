@@ -96,8 +96,8 @@ def phase_checks(cfg: RunConfig) -> tuple[list[str], list[str]]:
     m, sc = cfg.model, cfg.scenario
     after_target = 3 if sc.hold_time > 0 else (4 if sc.unload else 5)
     after_hold = 4 if sc.unload else 5
-    bond_on = styles.bond_setup(m).splitlines()[1]  # bond_coeff with the configured G_c
-    friction_on = styles.pair_setup(m, 0.0).splitlines()[1]  # pair_coeff with the model's mu
+    bond_on = styles.bond_coeff(m)  # the configured G_c
+    friction_on = styles.pair_coeff(m)  # the model's mu
     lines = [
         "variable        p0 equal ${phase}",
         "variable        sv_now equal ${sv}",
@@ -147,20 +147,12 @@ def phase_checks(cfg: RunConfig) -> tuple[list[str], list[str]]:
     return lines, names
 
 
-def fill_friction(model, mu: float) -> str:
-    """The pair_coeff line of the cell contacts with friction mu (the fill's)."""
-    c = model.contact
-    return f"pair_coeff      * * {c.kn} {c.kt} {c.en2} {mu}"
-
-
 def build_system(cfg: RunConfig, rd: RunDir) -> dict:
     """The bed (tessellation pool, dense start, files) and the box's facts."""
     facts = place_bed(cfg, rd)
     sc = cfg.scenario
-    return {**facts, "platen_start": facts["box"][2], "platen_speed": sc.platen_speed,
-            "grading_at": list(sc.grading_at),
-            "grading_dumps": [grading_dump_name(k) for k in range(len(sc.grading_at))],
-            "box_area": facts["box"][0] * facts["box"][1]}
+    return {**facts, "platen_speed": sc.platen_speed, "grading_at": list(sc.grading_at),
+            "grading_dumps": [grading_dump_name(k) for k in range(len(sc.grading_at))]}
 
 
 def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str, str, dict, list[str]]:
@@ -188,8 +180,7 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
     setup = render(
         "bcm_compress.in", role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).",
         system=SYSTEM_FRESH,
-        pair_setup=(styles.pair_setup(m, r_m).splitlines()[0] + "\n" + fill_friction(m, sc.fill_friction)
-                    + "  # the fill's friction (scenario.fill_friction)"),
+        pair_setup=styles.pair_setup(m, r_m, mu=sc.fill_friction) + "  # the fill's friction until the loading",
         bond_setup=styles.bond_setup(m, G_c=BREAKING_OFF) + "  # breaking off while the bed is filled",
         phase_setup=phase_setup, record_target="file thermo.dat",
         start="run             0\n" + _dump_commands("start"), **common)

@@ -46,14 +46,21 @@ def bonded_interfaces(areas: np.ndarray, min_fraction: float) -> np.ndarray:
     return areas >= min_fraction * float(np.median(areas)) if min_fraction > 0 else np.ones(len(areas), bool)
 
 
-def particle_facts(m, tess, particle, bonded: np.ndarray, steps_per_period: float, t_tess: float) -> dict:
-    """system.json's facts of a BCM particle (impact and crush): cells, interfaces, A_0, mass,
-    the tessellation and the time step (dt from the stiffest contact or interface)."""
-    areas = tess.iface_area[bonded]
+def timestep_facts(m, areas: np.ndarray, masses: np.ndarray, steps_per_period: float) -> dict:
+    """system.json's time step of BCM cells (a particle or a bed): dt from the stiffest contact
+    or interface and the lightest cells (particle.py contact_timestep), and its rule."""
     # per_area: the stiffest interface is the largest, k_n S_max / <S>
     k_iface = m.interface.kn * (areas.max() / areas.mean() if m.interface_stiffness == "per_area" else 1.0)
     k_max = max(m.contact.kn, k_iface)
-    dt, period = contact_timestep(particle.masses, k_max, steps_per_period)
+    dt, period = contact_timestep(masses, k_max, steps_per_period)
+    return {"timestep": dt, "shortest_period": period,
+            "timestep_rule": f"dt = 2 pi sqrt((m_min/2) / k_max) / {steps_per_period:g}, k_max = {k_max:g} N/m"}
+
+
+def particle_facts(m, tess, particle, bonded: np.ndarray, steps_per_period: float, t_tess: float) -> dict:
+    """system.json's facts of a BCM particle (impact and crush): cells, interfaces, A_0, mass,
+    the tessellation and the time step (timestep_facts)."""
+    areas = tess.iface_area[bonded]
     return {
         "n_cells": tess.n_cells, "n_interfaces": int(bonded.sum()),
         "n_faces_unbonded": int((~bonded).sum()),
@@ -65,8 +72,7 @@ def particle_facts(m, tess, particle, bonded: np.ndarray, steps_per_period: floa
         "volume": float(tess.volume.sum()), "mean_cell_size": float(tess.mean_cell_size),
         "r_m": float(particle.r_m), "lloyd_iterations": int(tess.n_iter), "lloyd_residual": float(tess.residual),
         "lloyd_converged": bool(tess.converged), "tessellation_key": tess.key,
-        "tessellation_seconds": t_tess, "timestep": dt, "shortest_period": period,
-        "timestep_rule": f"dt = 2 pi sqrt((m_min/2) / k_max) / {steps_per_period:g}, k_max = {k_max:g} N/m",
+        "tessellation_seconds": t_tess, **timestep_facts(m, areas, particle.masses, steps_per_period),
         "max_bound_radius": float(particle.bound_radius.max()),
     }
 

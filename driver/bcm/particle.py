@@ -51,6 +51,11 @@ class Particle:
         return len(self.masses)
 
 
+def parent_centroid(tess: Tessellation) -> np.ndarray:
+    """The tessellated parent's centroid: the cells' centroids weighted by their volumes."""
+    return (tess.centroid * tess.volume[:, None]).sum(0) / tess.volume.sum()
+
+
 def cell_bodies(tess: Tessellation, r_m: float) -> tuple[list, list, list, list, np.ndarray]:
     """Each cell in its body frame (principal axes, origin at its centroid): the core eroded by
     r_m (vertices, faces), the Voronoi cell itself (vertices, faces), and its bounding radius."""
@@ -76,7 +81,7 @@ def build_particle(tess: Tessellation, density: float, rounding: float, rng: np.
     r_m = rounding * tess.mean_cell_size
     cores_v, cores_f, cells_v, cells_f, bound = cell_bodies(tess, r_m)
     rotation = random_rotation(rng) if orient else np.eye(3)
-    pivot = (tess.centroid * tess.volume[:, None]).sum(0) / tess.volume.sum()
+    pivot = parent_centroid(tess)
     lab_core = np.concatenate([v @ tess.principal_axes[i].T + tess.centroid[i] for i, v in enumerate(cores_v)])
     placement = impact_placement(lab_core, pivot, rotation, plane_z, r_m + gap)
     polys = [placement.apply(tess.interface_polygon(k)) for k in range(tess.n_interfaces)]

@@ -8,25 +8,36 @@ from __future__ import annotations
 import math
 
 
-def pair_setup(model, r_m: float) -> str:
+def pair_setup(model, r_m: float, mu: float | None = None) -> str:
     """`pair_style bcm/contact` and its coefficients: contacts between cells that share no
     interface (SPEC 1.2), the frictional-contact parameters."""
+    return f"pair_style      bcm/contact cells cells.txt rm {r_m:.12g}\n" + pair_coeff(model, mu)
+
+
+def pair_coeff(model, mu: float | None = None) -> str:
+    """The cell contacts' `pair_coeff` line (model.contact; mu overrides its friction)."""
     c = model.contact
-    return (f"pair_style      bcm/contact cells cells.txt rm {r_m:.12g}\n"
-            f"pair_coeff      * * {c.kn} {c.kt} {c.en2} {c.mu}")
+    return f"pair_coeff      * * {c.kn} {c.kt} {c.en2} {c.mu if mu is None else mu}"
 
 
 def bond_setup(model, G_c: float | None = None) -> str:
     """`bond_style bcm/griffith` and its coefficients (SPEC 1.2 Eq. 1-7): the interfaces, the
     Griffith convention, their stiffness mode and the law of their broken points
     (model.broken); G_c overrides model.interface.G_c."""
-    c, i, b = model.contact, model.interface, model.broken
-    G_c = i.G_c if G_c is None else G_c
-    mu = c.mu if b.mu is None else b.mu
+    b = model.broken
     return (f"bond_style      bcm/griffith geometry interfaces.txt energy {model.griffith_energy} "
             f"stiffness {model.interface_stiffness} broken_stiffness {b.stiffness} broken_damping {b.damping} "
             f"break_shear {b.shear_at_break} break_normal {b.normal_at_break} broken_points {b.points}\n"
-            f"bond_coeff      1 {i.kn} {i.kt} {i.en2} {G_c:g} {c.kn} {c.kt} {c.en2} {mu}")
+            + bond_coeff(model, G_c))
+
+
+def bond_coeff(model, G_c: float | None = None) -> str:
+    """The interfaces' `bond_coeff` line (model.interface, model.contact for their broken
+    points, model.broken.mu); G_c overrides model.interface.G_c."""
+    c, i, b = model.contact, model.interface, model.broken
+    G_c = i.G_c if G_c is None else G_c
+    mu = c.mu if b.mu is None else b.mu
+    return f"bond_coeff      1 {i.kn} {i.kt} {i.en2} {G_c:g} {c.kn} {c.kt} {c.en2} {mu}"
 
 
 #: the faces of fix bcm/wall: plane x[axis] = coord, the cells above (lo) or below (hi) it
