@@ -227,3 +227,25 @@ def bpm_shear(cfg: RunConfig, ranks: int) -> SizeEstimate:
     """A BPM shear run: max_strain / (rate dt) steps."""
     sc = cfg.scenario
     return bpm_size(cfg, ranks, steps_for_strain(sc.max_strain, sc.strain_rate, cfg.model.timestep))
+
+
+def bpm_compress(cfg: RunConfig, ranks: int, particles: int) -> SizeEstimate:
+    """A BPM bed in compression: `particles` particles (the unit counts them from the grains'
+    sizes), and the BCM bed's guess of its length (bcm_compress: the fill and the loading each
+    over 1 % of the loose box's height, the unloading as the loading, capped by max_time); the
+    time step from the walls' contact period (driver/bpm/bed.py)."""
+    from driver.bpm.impact import lj_units, plane_law  # noqa: PLC0415
+
+    m, sc, a = cfg.model, cfg.scenario, cfg.model.assembly
+    un = lj_units(m.particle.units)
+    dt = min(m.timestep, plane_law(m.particle.contact, un)["period"] / sc.steps_per_period) * un["tau"]
+    travel = 0.01 * a.box[2]
+    t = travel / sc.fill_speed + travel / sc.platen_speed * (2.0 if sc.unload else 1.0) + sc.hold_time
+    bonds = int(round(BPM_BONDS_PER_PARTICLE[3] * particles))
+    angles = int(round(BPM_ANGLES_PER_PARTICLE[3] * particles))
+    return SizeEstimate(
+        model="BPM bed", elements=particles, element_name=f"particles ({a.n_grains} grains)", bonds=bonds + angles,
+        bond_name=f"bonds + angles ({bonds:,} + {angles:,})",
+        memory_bytes=int(BPM_MEMORY_BASE[3] + _ranks_memory(ranks) + BPM_MEMORY_PER_PARTICLE[3] * particles),
+        seconds_per_1000_steps=BPM_SECONDS_PER_PARTICLE[3] * particles / ranks,
+        steps=int(math.ceil(min(sc.max_time, t) / dt)), ranks=ranks)

@@ -251,6 +251,37 @@ BPM_CRUSH_RECORD = Record("bpm_crush", (
     Field("angles_broken", "", "broken angles", "f_BREAKABLE_SPECIAL[2]"),
 ))
 
+# ------------------------------------------------------------ BPM bed in confined compression (issue 25)
+# LJ units (the analysis converts to SI: analysis/bed_run.py read_bpm_compress_record); the
+# walls and the platen of lammps_inputs/bpm_compress.in.
+BPM_COMPRESS_RECORD = Record("bpm_compress", (
+    Field("step", "", "time step", "step"),
+    Field("time", "s", "simulated time (time tau)", _g("v_time_s", 10)),
+    Field("phase", "", "0 fill (breaking off), 1 rest, 2 load, 3 hold, 4 unload, 5 done", "v_phase"),
+    Field("height", "a", "the top platen's height above the bottom wall", _g("v_height", 15)),
+    Field("sigma_v", "u/a^3", "vertical stress on the top platen", _g("v_sv")),
+    Field("sigma_v_bottom", "u/a^3", "vertical stress on the bottom wall", _g("v_sv_bottom")),
+    Field("sigma_x", "u/a^3", "lateral stress on the x walls (mean of the two)", _g("v_sx")),
+    Field("sigma_y", "u/a^3", "lateral stress on the y walls (mean of the two)", _g("v_sy")),
+    Field("void_ratio", "", "void ratio e = box volume / solid volume - 1", _g("v_void", 12)),
+    Field("W_p", "u", "work of the top platen, integral of F_p . v_p dt (the energy input)", _g("v_platen_work")),
+    Field("ke", "u", "kinetic energy of the particles (translation: point particles)", _g("c_ket")),
+    Field("E_pair", "u", "non-bonded repulsion energy (Eq. 1)", _g("c_pep")),
+    Field("E_bonds", "u", "energy stored in intact bonds (Eq. 2)", _g("c_peb")),
+    Field("E_angles", "u", "energy stored in intact angles (Eq. 3-4)", _g("c_pea")),
+    Field("E_walls", "u", "energy of the five fixed walls' normal springs", _g("c_springs[1]")),
+    Field("E_top", "u", "energy of the top platen's normal springs", _g("c_springs[2]")),
+    Field("work_walls", "u", "work of the fixed walls' forces on the particles", _g("v_walls_work")),
+    Field("work_top", "u", "work of the top platen's forces on the particles", _g("v_top_work")),
+    Field("W_damp_pair", "u", "energy dissipated by the damping of non-bonded pairs (Eq. 5)", _g("v_damp_pair")),
+    Field("W_damp_bond", "u", "energy dissipated by the damping of bonds (Eq. 5)", _g("v_damp_bond")),
+    Field("top_contacts", "", "particles touching the top platen", "c_top_f[1]"),
+    Field("bottom_contacts", "", "particles touching the bottom wall", "c_bottom_f[1]"),
+    Field("side_contacts", "", "particles touching the four side walls", "v_side_contacts"),
+    Field("bonds_broken", "", "broken bonds", "f_BREAKABLE_SPECIAL[1]"),
+    Field("angles_broken", "", "broken angles", "f_BREAKABLE_SPECIAL[2]"),
+))
+
 # ------------------------------------------------------------------------ BPM shear (SPEC 2.4-2.5)
 # pressure tensor: virial + kinetic parts (compute pressure of thermo_style), LJ units
 SHEAR_RECORD = Record("shear", (
@@ -401,14 +432,16 @@ INTERFACES_DUMP = Dump("interfaces", (
 INTERFACES_REQUIRED = 8
 
 
-def atoms_dump(dimension: int) -> Dump:
-    """BPM particles: 2D dumps have no z and no vz column, which OVITO takes as a 2D cell."""
+def atoms_dump(dimension: int, grain: bool = False) -> Dump:
+    """BPM particles: 2D dumps have no z and no vz column, which OVITO takes as a 2D cell;
+    grain: a bed's particles also carry their grain id (the LAMMPS molecule id)."""
     axes = "xy" if dimension == 2 else "xyz"
     return Dump("atoms", (
         Column("id", "", "particle id"), Column("type", "", "particle type (2D: 1 small, 2 large)"),
         *(Column(a, "a", f"position {a}") for a in axes),
         *(Column(f"v{a}", "a/tau", f"velocity {a}") for a in axes),
         Column("radius", "a", "particle radius", "v_radius"),
+        *((Column("mol", "", "grain id (LAMMPS molecule id; driver/bpm/bed.py)"),) if grain else ()),
     ))
 
 

@@ -6,6 +6,7 @@ from typing import Literal
 
 from pydantic import Field, model_validator
 
+from driver.assembly import AssemblySection
 from driver.bpm.particle_section import BPMParticle
 from driver.schema import _Strict
 
@@ -52,8 +53,12 @@ class BPMModel(_Strict):
                                   "config is read); not used in 2D, where it stays empty")
     skin: float = Field(0.3, gt=0.0, le=2.0, description="neighbour-list skin, units of a")
     particle: BPMParticle | None = Field(
-        None, description="scenario impact only: the particle (parent shape and size, SI units, plane contact, "
-                          "G_c; driver/bpm/particle_section.py), filled with its defaults when the config is read")
+        None, description="scenarios impact, crush and compress: the particle (parent shape and size, SI units, "
+                          "plane contact, G_c; driver/bpm/particle_section.py), filled with its defaults when the "
+                          "config is read; in a bed (model.assembly) the grains' shape, units and the walls' contact")
+    assembly: AssemblySection | None = Field(
+        None, description="scenario compress only: the bed of grains (number, sizes, box; driver/assembly.py), "
+                          "each grain a particle of model.particle at its own diameter (driver/bpm/bed.py)")
 
     @model_validator(mode="after")
     def _resolve_defaults(self) -> "BPMModel":

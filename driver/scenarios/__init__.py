@@ -11,4 +11,4 @@ Adding a scenario: write its unit module and add its name here.
 #: The unit modules of driver/scenarios/, in the order the registry lists their pairs (the
 #: first unit of a scenario kind also places that kind among the config's `scenario:` kinds).
 UNITS = ("bpm_shear", "bcm_impact", "bpm_calibrate", "bcm_calibrate", "bpm_impact", "bcm_crush", "bpm_crush",
-         "bcm_compress")
+         "bcm_compress", "bpm_compress")

@@ -81,6 +81,9 @@ def _frame(run_dir: Path, cfg: dict, step: int, png: Path) -> None:
 def _check(cfg) -> None:
     from driver.bpm.particle_section import BPMParticle  # noqa: PLC0415
 
+    if cfg.model.assembly is not None:
+        raise ValueError("model.assembly: a bed of grains is for scenario compress; this scenario takes one "
+                         "particle or sample (remove model.assembly)")
     if cfg.model.dimension != 3:
         raise ValueError("scenario crush with model bpm: a BPM particle is 3D only (model.dimension: 3)")
     if cfg.model.particle is None:

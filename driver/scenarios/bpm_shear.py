@@ -93,6 +93,9 @@ def _elements(cfg) -> int:
 
 
 def _check(cfg) -> None:
+    if cfg.model.assembly is not None:
+        raise ValueError("model.assembly: a bed of grains is for scenario compress; this scenario takes one "
+                         "particle or sample (remove model.assembly)")
     if cfg.model.particle is not None:
         raise ValueError("model.particle describes the particle of scenario impact; remove it here")
     if cfg.output.animation and cfg.scenario.dump_every == 0:
