@@ -254,7 +254,8 @@ def schema_page(root: type, title: str, intro: str, top: str = "top level") -> s
             models = _models_in(field.annotation)
             kind = _type_name(field.annotation)
             if models:
-                targets = links.get(_key(path, name, field.annotation), [])
+                # one link per class: a section shared by two models (model.assembly) is listed once
+                targets = list(dict(reversed(links.get(_key(path, name, field.annotation), []))).items())
                 kind = ("mapping of " if _is_mapping(field.annotation) else "") + ", ".join(
                     f"[section{'' if len(targets) == 1 else ' (' + str(c.model_fields['kind'].default) + ')'}](#{a})"
                     for c, a in targets) + (" or null" if "null" in kind else "")
