@@ -9,10 +9,11 @@ of phases that the driver's checks advance (every scenario.check_every steps):
   the cells stopped at every check (a quench: the bed is compacted as by an overdamped motion,
   its grains' inner modes not left ringing), until the bottom carries 1 - FILL_TOLERANCE of
   start_stress (the platen carries more: the side walls' friction holds part of the load);
-1 rest: the platen servo-controlled by its own stress towards start_stress at platen_speed
-  (the fill, servo-controlled by the bottom, leaves more on the platen: the side walls'
-  friction carries part of it), the cells stopped at every check; once the kinetic energy
-  gathered since the last check is below rest_ke of the elastic energy the bed holds
+1 rest: the platen servo-controlled by its own stress towards start_stress at rest_speed
+  (platen_speed unless set: one start for loadings at several speeds) (the fill, servo-controlled
+  by the bottom, leaves more on the platen: the side walls' friction carries part of it), the
+  cells stopped at every check; once the kinetic energy gathered since the last check is below
+  rest_ke of the elastic energy the bed holds
   (interfaces, contacts, walls: the bed is in equilibrium, the fill's strain relaxed) or after
   rest_time: if the platen carries at least REST_HOLDS of start_stress the cells are stopped
   once more, breaking switched on (the configured G_c), the contacts' friction set to the
@@ -172,7 +173,7 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
         comm_cutoff=f"{comm_cutoff:.9g}", walls=wall_lines(m, r_m, box), wall_sums=wall_sum_lines(),
         box_x=repr(box[0]), box_y=repr(box[1]), solid_volume=repr(system["solid_volume"]),
         fill_speed=repr(sc.fill_speed), platen_speed=repr(sc.platen_speed), start_stress=repr(sc.start_stress),
-        servo_back=repr(SERVO_BACK), rest_speed=repr(sc.platen_speed),
+        servo_back=repr(SERVO_BACK), rest_speed=repr(sc.platen_speed if sc.rest_speed is None else sc.rest_speed),
         skin=f"{skin:.9g}", steps_per_period=f"{sc.steps_per_period:g}",
         period=f"{system['shortest_period']:.6g}", timestep=f"{dt:.12g}",
         thermo_every=sc.thermo_every, periodic_dumps=periodic_dumps(sc.dump_every),

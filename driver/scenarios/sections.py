@@ -106,6 +106,10 @@ class CompressScenario(_Strict):
     fill_friction: float = Field(0.0, ge=0.0, description="Coulomb friction of the cell contacts while the bed is "
                                                              "filled and rests (0: frictionless, which packs it "
                                                              "dense); model.contact.mu from the loading on")
+    rest_speed: float | None = Field(None, gt=0.0, le=10.0,
+                                     description="fastest the platen's servo moves it while the bed rests, m/s "
+                                                 "(None: platen_speed); set it to compare loadings at several "
+                                                 "platen speeds from one and the same start")
     rest_ke: float = Field(1e-3, gt=0.0, lt=1.0,
                            description="the dense start is at rest, and breaking switched on, once the kinetic "
                                        "energy gathered between two checks (the cells are stopped at each) is below "
