@@ -9,8 +9,9 @@ scenario.check_every steps), as the BCM bed's (driver/bcm/compress.py), in LJ un
   platen servo-controlled by the bottom's stress (down at fill_speed (1 - sigma_bottom /
   start_stress), never up), every particle damped by a drag -m v / FILL_DAMPING_TIME, until
   the bottom carries 1 - FILL_TOLERANCE of start_stress;
-1 rest: the platen servo-controlled by its own stress towards start_stress (at fill_speed, up
-  at most SERVO_BACK of it; the BCM bed's rest servo runs at platen_speed), the particles stopped at every check; once the kinetic energy
+1 rest: the platen servo-controlled by its own stress towards start_stress (at rest_speed,
+  fill_speed unless set, up at most SERVO_BACK of it; the BCM bed's runs at platen_speed unless
+  set: a quenched rest after the BPM's fill needs the faster servo), the particles stopped at every check; once the kinetic energy
   gathered since the last check is below rest_ke of the elastic energy the bed holds (pairs,
   bonds, angles, walls) or after rest_time: if the platen carries at least REST_HOLDS of
   start_stress, the particles are stopped once more, the model's bond and angle coefficients
@@ -107,6 +108,8 @@ def phase_checks(cfg, system: dict) -> tuple[list[str], list[str]]:
     speed = un["tau"] / un["a"]  # m/s -> a/tau
     start, target = sc.start_stress * stress, sc.target_stress * stress
     v_fill, v_load = sc.fill_speed * speed, sc.platen_speed * speed
+    # the rest's servo speed: scenario.rest_speed, else fill_speed (module docstring)
+    v_rest = (sc.fill_speed if sc.rest_speed is None else sc.rest_speed) * speed
     after_target = 3 if sc.hold_time > 0 else (4 if sc.unload else 5)
     after_hold = 4 if sc.unload else 5
     lines = [
@@ -151,11 +154,11 @@ def phase_checks(cfg, system: dict) -> tuple[list[str], list[str]]:
         'if              "${to_done} > 0" then "variable phase equal 5"',
         # the platen's speed for the next window, of the phase now: the fill servo-controlled by
         # the bottom's stress (full speed until the stress goes through the bed, then slowing,
-        # never up), the rest by the platen's own towards start_stress (at fill_speed, up at most
-        # SERVO_BACK of it: the fill leaves the platen at a stress that grows with fill_speed),
+        # never up), the rest by the platen's own towards start_stress (at rest_speed, up at most
+        # SERVO_BACK of it),
         # the loading and unloading at platen_speed, else still
         f'variable        v_next equal "(v_phase == 0)*{v_fill!r}*ternary(v_svb_now < {start!r}, '
-        f'1 - v_svb_now/{start!r}, 0) + (v_phase == 1)*{v_fill!r}*ternary(1 - v_sv_now/{start!r} < {-SERVO_BACK!r}, '
+        f'1 - v_svb_now/{start!r}, 0) + (v_phase == 1)*{v_rest!r}*ternary(1 - v_sv_now/{start!r} < {-SERVO_BACK!r}, '
         f'{-SERVO_BACK!r}, 1 - v_sv_now/{start!r}) + (v_phase == 2)*{v_load!r} - (v_phase == 4)*{v_load!r}"',
         "variable        v_new equal $(v_v_next:%.17g)",
         *platen_to("v_new"),

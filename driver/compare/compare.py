@@ -21,7 +21,9 @@ G_c: driver/compare/omega.py); the runs of a point are paired over its seeds.
 
 With `test: crush` a grid point is a particle size (runs/<model>/G_c<G_c>/diameter<d>..._seed<s>),
 and the crossovers and fragment distributions give way to the Weibull fits and size effects of
-driver/compare/crush.py (weibull.csv, size_effect.csv, strength_pairs.csv).
+driver/compare/crush.py (weibull.csv, size_effect.csv, strength_pairs.csv). With `test: compress`
+both models fill the same bed (runs/<model>/G_c<G_c>/seed<s>): driver/compare/bed.py (beds.csv,
+the compression and grading curves side by side).
 """
 
 from __future__ import annotations
@@ -115,7 +117,9 @@ def _points(n: int) -> str:
 
 
 def point_label(axis: str, value: float) -> str:
-    """A grid point in words: `v = 2 m/s`, `omega = 0.2` or `d = 2 mm`."""
+    """A grid point in words: `v = 2 m/s`, `omega = 0.2`, `d = 2 mm` or `30 grains`."""
+    if axis == "n_grains":
+        return f"{value:g} grains"
     if axis == "diameter":
         return f"d = {value * 1e3:g} mm"
     return f"v = {value:g} m/s" if axis == "velocity" else f"omega = {value:g}"
@@ -287,6 +291,38 @@ def _crush_analysis(cmp: CompareFile, table: pd.DataFrame, out: Path, plots: boo
             "weibull": weibull.to_dict(orient="records"), "size_effect": sizes.to_dict(orient="records")}, figures
 
 
+def _bed_analysis(cmp: CompareFile, table: pd.DataFrame, out: Path, plots: bool, guard: PlotGuard, title: str,
+                  rep: Report) -> tuple[dict[str, Any], dict[str, Path]]:
+    """The beds' side-by-side tables, figures and words (driver/compare/bed.py)."""
+    from driver.compare import bed  # noqa: PLC0415
+
+    table = bed.with_last_state(table)
+    points = stats.side_by_side(table, list(bed.BED_MEASURES), z_agree=cmp.z_agree, keys=("G_c", "n_grains"))
+    summary = stats.agreement_summary(points, "n_grains")
+    for name, frame in (("points", points), ("points_wide", stats.wide(points, axis="n_grains")),
+                        ("agreement", summary), ("beds", table)):
+        save_table(frame.drop(columns=[c for c in frame.columns if frame[c].map(
+            lambda v: isinstance(v, (list, dict))).any()]), out / name)
+    figures = {}
+    if plots and (table.state == "finished").any():
+        from driver.compare.bed_plots import draw_bed  # noqa: PLC0415
+
+        figures = draw_bed(guard, bed.bed_curves(table), out / "plots", title)
+    rep.text(f"Both models fill the same bed ({cmp.assembly.get('n_grains', '?')} grains: the same count, sizes and "
+             "box, the same seeds; each model places its grains itself, so the two beds are two samples of one "
+             "grading) and compress it in the rigid box to the same target stress (scenario). Agree within error "
+             f"bars: |z| <= {cmp.z_agree:g}, z = (BPM mean - BCM mean) / sqrt(s_BCM²/n_BCM + s_BPM²/n_BPM) over the "
+             "seeds; a point with one run of a model has no error bar (undetermined).")
+    for line in agreement_words(points, summary, pd.DataFrame(columns=["threshold"]), cmp.z_agree, "n_grains",
+                                bed.BED_MEASURES):
+        rep.text(line)
+    for line in bed.bed_flags(table):
+        rep.text(f"Flag: {line}")
+    rep.table(summary, "verdicts per measure (agreement.csv)")
+    rep.table(points, "per point, side by side (points.csv)", max_rows=60)
+    return {"agreement": summary.to_dict(orient="records")}, figures
+
+
 def analyse_compare(cmp: CompareFile, cal: dict[str, Any], runs: list[tuple[dict[str, Any], RunConfig]],
                     out: Path, plots: bool = True) -> dict[str, Any]:
     """The tables, plots and report of the comparison into `out` (module docstring; the crush's:
@@ -299,7 +335,7 @@ def analyse_compare(cmp: CompareFile, cal: dict[str, Any], runs: list[tuple[dict
     guard = PlotGuard()
     title = f"{cmp.name}: BCM and BPM, {cmp.test}"
     rep = _report_head(cmp, cal, table)
-    body = _crush_analysis if cmp.test == "crush" else _impact_analysis
+    body = {"crush": _crush_analysis, "compress": _bed_analysis}.get(cmp.test, _impact_analysis)
     result, figures = body(cmp, table, out, plots, guard, title, rep)
     done = table[table.state == "finished"]
     failed = table[table.state != "finished"]

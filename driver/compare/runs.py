@@ -1,7 +1,7 @@
 """The runs of a comparison: one base config per model from its calibrated parameters, expanded
 over the grid by the sweep machinery (driver/sweep.py expand_groups) into
 `<out>/runs/<model>/G_c<G_c>/velocity<v>_seed<s>` (`omega<w>_seed<s>` on an omega grid;
-`diameter<d>[_n_cells<n>]_seed<s>` for the crush), and
+`diameter<d>[_n_cells<n>]_seed<s>` for the crush, `seed<s>` for a bed), and
 run together (finished runs kept, a re-run resumes, a failed run recorded and the others
 carried on: driver/calibration/curves.py run_pending, in-process or on a local Dask cluster)."""
 
@@ -89,7 +89,12 @@ def grid_runs(cmp: CompareFile, mat: MaterialFile, bcm: dict[str, Any], bpm: dic
         for model, data in base_configs(cmp, mat, bcm, bpm, g, G_ref).items():
             where = Path(out) / "runs" / model / f"G_c{format_value(g)}"
             label = f"{source} ({model}, G_c = {g:g})"
-            if cmp.test == "crush":
+            if cmp.test == "compress":  # the same bed in both models: grains, sizes, box; seeds
+                data["model"]["assembly"] = copy.deepcopy(cmp.assembly)
+                for values, cfg in expand_groups(data, [seeds], where, label):
+                    runs.append(({"model": model, "G_c": g, "n_grains": cfg.model.assembly.n_grains,
+                                  "seed": values["seed"]}, cfg))
+            elif cmp.test == "crush":
                 sizes = size_group(model, mat, list(cmp.grid.diameter or [mat.bcm.diameter]))
                 for values, cfg in expand_groups(data, [sizes, seeds], where, label):
                     runs.append(({"model": model, "G_c": g, "diameter": values[sizes[0][0]], "seed": values["seed"]},

@@ -3,7 +3,8 @@
     name: compare_impact_small
     material: material_bcm_default.yaml   # a material file, or a calibration.json (driver calibrate);
                                           # a path relative to this file
-    test: impact                          # impact, or crush (SPEC 4.1: between two platens)
+    test: impact                          # impact, crush (SPEC 4.1: between two platens), or compress (a bed
+                                          # of grains in a box; then assembly: {n_grains, sizes, box}, issue 25)
     grid:
       omega: [0.05, 0.2, 0.8, 3.0]        # damage potentials (or {logspace: [a, b, n]}): both models
                                           # at equal omega, v_0 = sqrt(4 omega A_0 G_c / M) per particle;
@@ -113,9 +114,12 @@ class CompareFile(_Strict):
                       description="the comparison's name: the directory is runs/compare_<name> by default")
     material: str = Field(..., min_length=1, description="a material file or a calibration.json, relative to "
                                                          "the compare file")
-    test: Literal["impact", "crush"] = Field("impact", description="the test both models run: impact (on a rigid "
-                                                                   "plane, SPEC 1.3) or crush (between two platens, "
-                                                                   "SPEC 4.1)")
+    test: Literal["impact", "crush", "compress"] = Field(
+        "impact", description="the test both models run: impact (on a rigid plane, SPEC 1.3), crush (between two "
+                              "platens, SPEC 4.1) or compress (a bed of grains in a rigid box, issue 25)")
+    assembly: dict[str, Any] | None = Field(
+        None, description="compress: the bed both models fill, as model.assembly (n_grains, sizes, box, "
+                          "tessellations; driver/assembly.py): the same grain count, sizes and box, the same seeds")
     grid: Grid = Field(..., description="the parameter points both models run")
     bcm: BcmCompare = Field(default_factory=BcmCompare,
                             description="the BCM particle's resolution (replaces the material file's)")
@@ -147,8 +151,18 @@ class CompareFile(_Strict):
                 raise ValueError("grid.diameter: particle sizes are a grid of test: crush; the impact's particle is "
                                  "the material's")
         elif self.grid.velocity is not None or self.grid.omega is not None:
-            raise ValueError("test: crush has no impact velocity: leave out grid.velocity and grid.omega (the grid is "
-                             "grid.diameter, grid.G_c and grid.seeds; the platen's speed is scenario.platen_speed)")
+            raise ValueError(f"test: {self.test} has no impact velocity: leave out grid.velocity and grid.omega (the "
+                             "grid is " + ("grid.diameter, " if self.test == "crush" else "") + "grid.G_c and "
+                             "grid.seeds; the platen's speed is scenario.platen_speed)")
+        if self.test == "compress":
+            if self.assembly is None:
+                raise ValueError("test: compress needs assembly (the bed both models fill: n_grains, sizes, box, as "
+                                 "model.assembly)")
+            if self.grid.diameter is not None:
+                raise ValueError("grid.diameter: particle sizes are a grid of test: crush; a bed's sizes are "
+                                 "assembly.sizes")
+        elif self.assembly is not None:
+            raise ValueError(f"assembly: a bed of grains is for test: compress, not {self.test}")
         return self
 
 

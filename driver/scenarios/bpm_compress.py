@@ -82,6 +82,9 @@ def _check(cfg) -> None:
     if cfg.scenario.target_stress <= cfg.scenario.start_stress:
         raise ValueError(f"scenario.target_stress = {cfg.scenario.target_stress:g} Pa must exceed "
                          f"scenario.start_stress = {cfg.scenario.start_stress:g} Pa")
+    if cfg.scenario.fill_friction != 0.0:
+        raise ValueError(f"scenario.fill_friction = {cfg.scenario.fill_friction:g}: the BCM's cell-contact friction; "
+                         "BPM particles meet through the frictionless repulsion (leave it out, or 0)")
     if cfg.output.animation:
         raise ValueError("output.animation: not available for a BPM bed")
 

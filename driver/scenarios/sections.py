@@ -103,13 +103,15 @@ class CompressScenario(_Strict):
     fill_speed: float = Field(0.5, gt=0.0, le=50.0,
                               description="speed of the platen while the bed is brought to its dense start, m/s "
                                           "(breaking off: only the start's geometry comes out of it)")
-    fill_friction: float = Field(0.0, ge=0.0, description="Coulomb friction of the cell contacts while the bed is "
-                                                             "filled and rests (0: frictionless, which packs it "
-                                                             "dense); model.contact.mu from the loading on")
+    fill_friction: float = Field(0.0, ge=0.0, description="BCM: Coulomb friction of the cell contacts while the bed "
+                                                             "is filled and rests (0: frictionless, which packs it "
+                                                             "dense); model.contact.mu from the loading on (the BPM's "
+                                                             "particles have no friction: 0 only)")
     rest_speed: float | None = Field(None, gt=0.0, le=10.0,
                                      description="fastest the platen's servo moves it while the bed rests, m/s "
-                                                 "(None: platen_speed); set it to compare loadings at several "
-                                                 "platen speeds from one and the same start")
+                                                 "(None: platen_speed for a BCM bed, fill_speed for a BPM bed); set "
+                                                 "it to compare loadings at several platen speeds from one and the "
+                                                 "same start")
     rest_ke: float = Field(1e-3, gt=0.0, lt=1.0,
                            description="the dense start is at rest, and breaking switched on, once the kinetic "
                                        "energy gathered between two checks (the cells are stopped at each) is below "
