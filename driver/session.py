@@ -179,12 +179,21 @@ class Session:
         name = f"step{self.step:012d}.restart"
         partial = f"{self.plan['checkpoints']}/.partial.restart"
         self.lmp.command(f"write_restart {partial}")
+        if self.plan["schedule"].get("pre_no"):
+            # write_restart runs LAMMPS's init(), which sets fix print's next record to this step and
+            # leaves it to a set-up to print it and move on: under `run N pre no` none comes and the
+            # record stops for good (measured: thermo.dat ended at the first checkpoint). A set-up
+            # here prints this step's record again (read_record keeps the last) and sees a moving
+            # region platen at rest for its one force evaluation (driver/bpm/platen.py), as a resume does.
+            self.lmp.command("run 0 post no")
+        # on every rank: a variable of a compute (a running integral's power) reduces over all ranks,
+        # so a rank that skipped it would leave the others waiting in that reduction
+        variables = {v: self.lmp.extract_variable(v) for v in self.plan.get("checkpoint_variables", [])}
         if self.rank != 0:
             return
         from runfiles.atomic import atomic_write_json  # noqa: PLC0415
 
         os.replace(self.run_dir / partial, folder / name)
-        variables = {v: self.lmp.extract_variable(v) for v in self.plan.get("checkpoint_variables", [])}
         atomic_write_json(folder / f"step{self.step:012d}.json", {
             "step": self.step, "restart": name, "time": time.strftime("%Y-%m-%dT%H:%M:%S"),
             "simulated_time": self.lmp.extract_global("atime"), "state": self.state,

@@ -229,18 +229,26 @@ def bpm_shear(cfg: RunConfig, ranks: int) -> SizeEstimate:
     return bpm_size(cfg, ranks, steps_for_strain(sc.max_strain, sc.strain_rate, cfg.model.timestep))
 
 
+#: the BPM bed's travel guesses, fractions of the loose box's height: the fill (the platen's travel to
+#: the dense start) and the loading (measured on examples/bpm_bed_quick.yaml, 2026-12-03: the fill
+#: 3.4 mm and the loading to 5 MPa about 0.6 mm of a 20 mm loose box)
+BPM_BED_FILL_TRAVEL = 0.15
+BPM_BED_LOAD_TRAVEL = 0.04
+
+
 def bpm_compress(cfg: RunConfig, ranks: int, particles: int) -> SizeEstimate:
     """A BPM bed in compression: `particles` particles (the unit counts them from the grains'
-    sizes), and the BCM bed's guess of its length (bcm_compress: the fill and the loading each
-    over 1 % of the loose box's height, the unloading as the loading, capped by max_time); the
-    time step from the walls' contact period (driver/bpm/bed.py)."""
+    sizes), and a guess of its length: the fill over BPM_BED_FILL_TRAVEL of the loose box's
+    height at fill_speed, the loading over BPM_BED_LOAD_TRAVEL at platen_speed (the unloading as
+    the loading), capped by max_time; the time step from the walls' contact period
+    (driver/bpm/bed.py)."""
     from driver.bpm.impact import lj_units, plane_law  # noqa: PLC0415
 
     m, sc, a = cfg.model, cfg.scenario, cfg.model.assembly
     un = lj_units(m.particle.units)
     dt = min(m.timestep, plane_law(m.particle.contact, un)["period"] / sc.steps_per_period) * un["tau"]
-    travel = 0.01 * a.box[2]
-    t = travel / sc.fill_speed + travel / sc.platen_speed * (2.0 if sc.unload else 1.0) + sc.hold_time
+    t = (BPM_BED_FILL_TRAVEL * a.box[2] / sc.fill_speed + sc.hold_time
+         + BPM_BED_LOAD_TRAVEL * a.box[2] / sc.platen_speed * (2.0 if sc.unload else 1.0))
     bonds = int(round(BPM_BONDS_PER_PARTICLE[3] * particles))
     angles = int(round(BPM_ANGLES_PER_PARTICLE[3] * particles))
     return SizeEstimate(
