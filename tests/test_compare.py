@@ -179,8 +179,8 @@ def test_compare_file_unknown_keys_list_the_compare_files_own_keys(tmp_path):
         load_compare(write(tmp_path, "c.yaml", ok + "output: {dir: x}\nbcm: {n_cellz: 200}\nbpm: {lambda: 1.01}\n"))
     lines = str(info.value).splitlines()[1:]
     assert sorted(lines) == sorted([
-        "  output: unknown key 'output'; allowed keys: name, material, test, grid, bcm, bpm, scenario, base, curves, "
-        "breakup_fraction, z_agree, workers",
+        "  output: unknown key 'output'; allowed keys: name, material, test, assembly, grid, bcm, bpm, scenario, base, "
+        "curves, breakup_fraction, z_agree, workers",
         "  bcm.n_cellz: unknown key 'n_cellz'; allowed keys: n_cells, cell_size",
         "  bpm.lambda: unknown key 'lambda'; allowed keys: particles_across, particle_size, theta_c_deg, lambda_c"])
     with pytest.raises(ConfigError,
