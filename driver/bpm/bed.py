@@ -20,8 +20,6 @@ intact bond, whether they were ever bonded or not.
 
 from __future__ import annotations
 
-import io
-import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,9 +28,8 @@ import numpy as np
 
 from driver.assembly import dense_start, grain_sizes, loose_start
 from driver.bpm.clipped import box_side, clip_packing, parent_in_a, voronoi_cells
-from driver.bpm.datafile import write_references
-from driver.bpm.impact import DIAMETER, lj_units, plane_law
-from driver.bpm.network import delaunay_network, repulsion_at_break
+from driver.bpm.impact import DIAMETER, lj_units, plane_law, write_sphere_data
+from driver.bpm.network import Network, delaunay_network, repulsion_at_break
 from driver.bpm.packing import Packing, cached_packing
 from driver.cache import cache_base
 from runfiles.atomic import atomic_save
@@ -101,29 +98,13 @@ def build_bpm_bed(cfg) -> tuple[BpmBed, np.ndarray, object, dict]:
 
 
 def write_bed_data(path: Path, bed: BpmBed, box_a: np.ndarray) -> None:
-    """Data file for `atom_style hybrid angle sphere` (id type x y z molecule diameter density;
-    molecule = grain id), the LAMMPS box around the rigid box [0, box_a] with a margin of two
-    diameters; and its reference file (driver/bpm/datafile.py)."""
-    x, n = bed.positions, len(bed.positions)
-    lo, hi = np.full(3, -2.0 * DIAMETER), np.asarray(box_a, float) + 2.0 * DIAMETER
-    out = io.StringIO()
-    out.write(f"LAMMPS data file: BPM bed, {n} atoms in {int(bed.grain.max())} grains (driver.bpm.bed)\n\n"
-              f"{n} atoms\n{len(bed.bonds)} bonds\n{len(bed.angles)} angles\n\n1 atom types\n1 bond types\n"
-              "1 angle types\n\n")
-    for k, ax in enumerate("xyz"):
-        out.write(f"{lo[k]:.17g} {hi[k]:.17g} {ax}lo {ax}hi\n")
-    out.write("\nMasses\n\n1 1.0\n\nAtoms # hybrid\n\n")
-    density = 6.0 / math.pi / DIAMETER ** 3
-    out.writelines(f"{i + 1} 1 {q[0]!r} {q[1]!r} {q[2]!r} {g} {DIAMETER!r} {density!r}\n"
-                   for i, (q, g) in enumerate(zip(x.tolist(), bed.grain.tolist())))
-    if len(bed.bonds):
-        out.write("\nBonds\n\n")
-        out.writelines(f"{k + 1} 1 {i + 1} {j + 1}\n" for k, (i, j) in enumerate(bed.bonds.tolist()))
-    if len(bed.angles):
-        out.write("\nAngles\n\n")
-        out.writelines(f"{k + 1} 1 {i + 1} {v + 1} {j + 1}\n" for k, (i, v, j) in enumerate(bed.angles.tolist()))
-    atomic_save(path, lambda f: Path(f).write_text(out.getvalue()))
-    write_references(path.with_suffix(".refs"), x, bed.bonds, bed.angles)
+    """The BPM data file and its references (driver/bpm/impact.py write_sphere_data, molecule =
+    grain id), the LAMMPS box around the rigid box [0, box_a] with a margin of two diameters."""
+    net = Network(bonds=bed.bonds, r0=bed.r0, angles=bed.angles, theta0=np.zeros(len(bed.angles)),
+                  n_atoms=len(bed.positions))
+    margin = 2.0 * DIAMETER
+    write_sphere_data(path, bed.positions, net, (np.full(3, -margin), np.asarray(box_a, float) + margin),
+                      grain=bed.grain)
 
 
 def place_bpm_bed(cfg, rd) -> dict:

@@ -92,20 +92,24 @@ def plane_fix(law: dict, group: str = "all", fix_id: str = "plane", clamp: bool 
     return f"fix             {fix_id} {group} wall/gran {plane_law_args(law, clamp)} zplane 0.0 NULL contacts"
 
 
-def write_sphere_data(path: Path, x: np.ndarray, net: Network, box: tuple[np.ndarray, np.ndarray]) -> None:
+def write_sphere_data(path: Path, x: np.ndarray, net: Network, box: tuple[np.ndarray, np.ndarray],
+                      grain: np.ndarray | None = None) -> None:
     """Data file for `atom_style hybrid angle sphere` (id type x y z molecule diameter density),
-    diameter a, density 6 / pi (mass m = 1); and its reference file (driver/bpm/datafile.py)."""
+    diameter a, density 6 / pi (mass m = 1), molecule the particle's grain (a bed's,
+    driver/bpm/bed.py; 0 for one particle); and its reference file (driver/bpm/datafile.py)."""
     n = len(x)
     lo, hi = box
+    mol = np.zeros(n, dtype=int) if grain is None else np.asarray(grain, dtype=int)
     out = io.StringIO()
-    out.write(f"LAMMPS data file: BPM particle, {n} atoms (driver.bpm.impact)\n\n"
+    out.write(f"LAMMPS data file: BPM {'particle' if grain is None else 'bed'}, {n} atoms (driver.bpm)\n\n"
               f"{n} atoms\n{net.n_bonds} bonds\n{net.n_angles} angles\n\n1 atom types\n1 bond types\n"
               "1 angle types\n\n")
     for k, ax in enumerate("xyz"):
         out.write(f"{lo[k]:.17g} {hi[k]:.17g} {ax}lo {ax}hi\n")
     out.write("\nMasses\n\n1 1.0\n\nAtoms # hybrid\n\n")
     density = 6.0 / math.pi / DIAMETER ** 3
-    out.writelines(f"{i + 1} 1 {p[0]!r} {p[1]!r} {p[2]!r} 0 {DIAMETER!r} {density!r}\n" for i, p in enumerate(x.tolist()))
+    out.writelines(f"{i + 1} 1 {p[0]!r} {p[1]!r} {p[2]!r} {g} {DIAMETER!r} {density!r}\n"
+                   for i, (p, g) in enumerate(zip(x.tolist(), mol.tolist())))
     if net.n_bonds:
         out.write("\nBonds\n\n")
         out.writelines(f"{k + 1} 1 {i + 1} {j + 1}\n" for k, (i, j) in enumerate(net.bonds.tolist()))

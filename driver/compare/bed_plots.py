@@ -13,16 +13,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from analysis.plots import PlotGuard  # noqa: E402
+from driver.compare.crush_plots import _save  # noqa: E402
 from driver.compare.plots import STYLE  # noqa: E402
-from runfiles.atomic import atomic_save  # noqa: E402
-
-
-def _save(fig, path: Path, title: str) -> None:
-    if title:
-        fig.suptitle(title, fontsize=9)
-    fig.tight_layout()
-    atomic_save(path, lambda p: fig.savefig(p, format="png"))
-    plt.close(fig)
 
 
 def plot_compression(curves: dict[str, list[dict[str, Any]]], path: Path, title: str = "") -> None:
