@@ -132,7 +132,7 @@ def phase_checks(cfg, system: dict) -> tuple[list[str], list[str]]:
         f'variable        to_hold equal "(v_p0 == 2) && (v_sv_now >= {target!r})"',
         f'variable        to_unload equal "(v_p0 == 3) && (v_t_now >= v_t_hold + {sc.hold_time / un["tau"]!r})"',
         f'variable        to_done equal "(v_p0 == 4) && (v_sv_now <= {start!r})"',
-        # the rest is quenched (the cells stopped at every check, as the BCM bed's); the fill is
+        # the rest is quenched (the particles stopped at every check, as the BCM bed's); the fill is
         # damped by a drag instead (FILL_DAMPING_TIME): quenched, a grain moves only by what the
         # platen's push accelerates it to within one check, so the bed is compacted under a
         # platen stress that grows with fill_speed and the column's mass (measured: 2-8 MPa at
@@ -160,8 +160,7 @@ def phase_checks(cfg, system: dict) -> tuple[list[str], list[str]]:
         # the platen's speed for the next window, of the phase now: the fill servo-controlled by
         # the bottom's stress (full speed until the stress goes through the bed, then slowing,
         # never up), the rest by the platen's own towards start_stress (at rest_speed, up at most
-        # SERVO_BACK of it),
-        # the loading and unloading at platen_speed, else still
+        # SERVO_BACK of it), the loading and unloading at platen_speed, else still
         f'variable        v_next equal "(v_phase == 0)*{v_fill!r}*ternary(v_svb_now < {start!r}, '
         f'1 - v_svb_now/{start!r}, 0) + (v_phase == 1)*{v_rest!r}*ternary(1 - v_sv_now/{start!r} < {-SERVO_BACK!r}, '
         f'{-SERVO_BACK!r}, 1 - v_sv_now/{start!r}) + (v_phase == 2)*{v_load!r} - (v_phase == 4)*{v_load!r}"',
