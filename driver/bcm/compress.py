@@ -34,6 +34,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import driver
+from driver import bed_phases
 from driver.bcm import styles
 from driver.bcm.bed import place_bed
 from driver.bcm.impact import SYSTEM_FRESH, SYSTEM_RESUME, _dump_commands, periodic_dumps
@@ -54,8 +55,9 @@ FILL_TOLERANCE = 0.2
 #: while the bed rests, the servo backs the platen up at most at this fraction of its speed
 SERVO_BACK = 0.2
 #: the commands (quoted, for an `if`) that stop every cell: velocities and angular momenta zeroed
-STOP_CELLS = ('"velocity all set 0.0 0.0 0.0" "set group all d2_bcm_angmom[1] 0.0" '
-              '"set group all d2_bcm_angmom[2] 0.0" "set group all d2_bcm_angmom[3] 0.0"')
+STOP_CELL_COMMANDS = ["velocity all set 0.0 0.0 0.0", "set group all d2_bcm_angmom[1] 0.0",
+                      "set group all d2_bcm_angmom[2] 0.0", "set group all d2_bcm_angmom[3] 0.0"]
+STOP_CELLS = bed_phases.quoted(STOP_CELL_COMMANDS)
 #: the rest ends in the loading when the platen still carries this fraction of start_stress,
 #: else in another fill (the bed let go of the platen: not jammed yet)
 REST_HOLDS = 0.5
@@ -92,60 +94,33 @@ def wall_sum_lines() -> str:
 
 
 def phase_checks(cfg: RunConfig) -> tuple[list[str], list[str]]:
-    """(check lines, checkpoint variables) of the phase chain: the transitions, evaluated on
-    the values at the check (p0: the phase before it, so one check moves one phase at most)."""
+    """(check lines, checkpoint variables) of the phase chain (driver/bed_phases.py, with the
+    BCM's fill and rest ends and its switch to the loading)."""
     m, sc = cfg.model, cfg.scenario
-    after_target = 3 if sc.hold_time > 0 else (4 if sc.unload else 5)
-    after_hold = 4 if sc.unload else 5
-    bond_on = styles.bond_coeff(m)  # the configured G_c
-    friction_on = styles.pair_coeff(m)  # the model's mu
     lines = [
-        "variable        p0 equal ${phase}",
-        "variable        sv_now equal ${sv}",
-        "variable        svb_now equal ${sv_bottom}",
-        "variable        ke_now equal ${ke}",
-        "variable        el_now equal ${elastic}",
-        "variable        t_now equal $(time:%.17g)",
+        *bed_phases.SNAPSHOT,
         # the fill ends when the servo has brought the stress through the bed: the bottom carries
         # 1 - FILL_TOLERANCE of start_stress (the platen carries more: the side walls' friction holds
         # part of the load, as in any oedometer)
         f'variable        to_rest equal "(v_p0 == 0) && (v_svb_now >= {(1 - FILL_TOLERANCE) * sc.start_stress!r})"',
         f'variable        rested equal "(v_p0 == 1) && ((v_ke_now <= {sc.rest_ke!r}*v_el_now) || '
         f'(v_t_now >= v_t_rest + {sc.rest_time!r}))"',
-        # a bed that let go of the platen while it rested was not jammed yet: filled again
-        f'variable        to_load equal "v_rested && (v_sv_now >= {REST_HOLDS * sc.start_stress!r})"',
-        f'variable        to_fill equal "v_rested && (v_sv_now < {REST_HOLDS * sc.start_stress!r})"',
-        f'variable        to_hold equal "(v_p0 == 2) && (v_sv_now >= {sc.target_stress!r})"',
-        f'variable        to_unload equal "(v_p0 == 3) && (v_t_now >= v_t_hold + {sc.hold_time!r})"',
-        f'variable        to_done equal "(v_p0 == 4) && (v_sv_now <= {sc.start_stress!r})"',
+        *bed_phases.transitions(sc.start_stress, sc.target_stress, sc.hold_time, REST_HOLDS),
         # the fill and the rest are quenched: the cells are stopped at every check, so the bed is
         # compacted as by an overdamped motion and the grains' nearly undamped inner modes (the
         # interfaces' e_n^2 is close to 1) are not left ringing by the platen's first blows
         'if              "${p0} <= 1" then ' + STOP_CELLS,
-        'if              "${to_rest} > 0" then "variable phase equal 1" "variable t_rest equal ${t_now}"',
-        'if              "${to_fill} > 0" then "variable phase equal 0" "variable refills equal $(v_refills+1)"',
+        *bed_phases.REST_AND_FILL,
         # the loading starts from rest: rattlers (grains touching nothing keep their speed, there
-        # is no gravity) and what is left of the fill's ringing are stopped
-        'if              "${to_load} > 0" then "variable phase equal 2" "' + bond_on + '" "' + friction_on + '" '
-        + STOP_CELLS + ' "variable t_load equal ${t_now}" "variable h_load equal ${height}" '
-        + " ".join(f'"{c}"' for c in _dump_commands("load").splitlines()),
+        # is no gravity) and what is left of the fill's ringing are stopped; breaking on (the
+        # configured G_c), the model's mu
+        bed_phases.load_begins([styles.bond_coeff(m), styles.pair_coeff(m), *STOP_CELL_COMMANDS],
+                               _dump_commands("load").splitlines()),
     ]
-    names = ["phase", "t_rest", "refills", "t_load", "h_load", "t_hold"]
-    for k, frac in enumerate(sc.grading_at):
-        g = f"g{k + 1}"
-        lines += [f'variable        {g}_now equal "(v_{g} == 0) && (v_p0 == 2) && '
-                  f'(v_sv_now >= {frac * sc.target_stress!r})"',
-                  f'if              "${{{g}_now}} > 0" then "variable {g} equal 1" '
-                  + " ".join(f'"{c}"' for c in _dump_commands(grading_dump_name(k)).splitlines())]
-        names.append(g)
-    lines += [
-        f'if              "${{to_hold}} > 0" then "variable phase equal {after_target}" '
-        '"variable t_hold equal ${t_now}"',
-        f'if              "${{to_unload}} > 0" then "variable phase equal {after_hold}"',
-        'if              "${to_done} > 0" then "variable phase equal 5"',
-        'variable        done equal "v_phase == 5"',
-    ]
-    return lines, names
+    grading, flags = bed_phases.grading_checks(sc.grading_at, sc.target_stress,
+                                               lambda k: _dump_commands(grading_dump_name(k)).splitlines())
+    return ([*lines, *grading, *bed_phases.phase_ends(sc.hold_time, sc.unload), bed_phases.DONE],
+            [*bed_phases.PHASE_VARIABLES, *flags])
 
 
 def build_system(cfg: RunConfig, rd: RunDir) -> dict:

@@ -36,6 +36,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from driver import bed_phases
 from driver.bpm.bed import place_bpm_bed
 from driver.bpm.impact import DIAMETER, SYSTEM_FRESH, plane_law_args
 from driver.bpm.input_blocks import SYSTEM_RESUME, comm_cutoff, common_values
@@ -80,10 +81,6 @@ def dump_commands(name: str) -> list[str]:
             f"write_dump      all local dumps/bonds.{name}.lammpstrj {BONDS_DUMP.args()} modify {BONDS_DUMP.modify()}"]
 
 
-def _quoted(commands: list[str]) -> str:
-    return " ".join(f'"{c}"' for c in commands)
-
-
 def platen_to(name: str) -> list[str]:
     """The commands (between runs, at step N) that set the platen's speed (a/tau, down positive)
     to the value of the constant variable `name` from the next step on: its height and step
@@ -113,25 +110,14 @@ def phase_checks(cfg, system: dict) -> tuple[list[str], list[str]]:
     v_fill, v_load = sc.fill_speed * speed, sc.platen_speed * speed
     # the rest's servo speed: scenario.rest_speed, else fill_speed (module docstring)
     v_rest = (sc.fill_speed if sc.rest_speed is None else sc.rest_speed) * speed
-    after_target = 3 if sc.hold_time > 0 else (4 if sc.unload else 5)
-    after_hold = 4 if sc.unload else 5
     lines = [
-        "variable        p0 equal ${phase}",
-        "variable        sv_now equal ${sv}",
-        "variable        svb_now equal ${sv_bottom}",
-        "variable        ke_now equal ${ke}",
-        "variable        el_now equal ${elastic}",
-        "variable        t_now equal $(time:%.17g)",
+        *bed_phases.SNAPSHOT,
         f'variable        to_rest equal "(v_p0 == 0) && (v_svb_now >= {(1 - FILL_TOLERANCE) * start!r})"',
         # the rest also waits for the servo to bring the platen's stress down to REST_ABOVE x
         # start_stress (a fast fill leaves it far above: 8 MPa after a 20 m/s fill of 30 grains)
         f'variable        rested equal "(v_p0 == 1) && ((v_ke_now <= {sc.rest_ke!r}*v_el_now) || '
         f'(v_t_now >= v_t_rest + {sc.rest_time / un["tau"]!r})) && (v_sv_now <= {REST_ABOVE * start!r})"',
-        f'variable        to_load equal "v_rested && (v_sv_now >= {REST_HOLDS * start!r})"',
-        f'variable        to_fill equal "v_rested && (v_sv_now < {REST_HOLDS * start!r})"',
-        f'variable        to_hold equal "(v_p0 == 2) && (v_sv_now >= {target!r})"',
-        f'variable        to_unload equal "(v_p0 == 3) && (v_t_now >= v_t_hold + {sc.hold_time / un["tau"]!r})"',
-        f'variable        to_done equal "(v_p0 == 4) && (v_sv_now <= {start!r})"',
+        *bed_phases.transitions(start, target, sc.hold_time / un["tau"], REST_HOLDS),
         # the rest is quenched (the particles stopped at every check, as the BCM bed's); the fill is
         # damped by a drag instead (FILL_DAMPING_TIME): quenched, a grain moves only by what the
         # platen's push accelerates it to within one check, so the bed is compacted under a
@@ -139,24 +125,12 @@ def phase_checks(cfg, system: dict) -> tuple[list[str], list[str]]:
         # 3 m/s on the 8-grain test bed, 83 MPa at 10 m/s on 30 grains); left free, the grains
         # the platen first meets fly across the box (no gravity) and the bed rattles
         f'if              "${{p0}} == 1" then {STOP_PARTICLES}',
-        'if              "${to_rest} > 0" then "variable phase equal 1" "variable t_rest equal ${t_now}"',
-        'if              "${to_fill} > 0" then "variable phase equal 0" "variable refills equal $(v_refills+1)"',
-        'if              "${to_load} > 0" then "variable phase equal 2" ' + _quoted(coefficients(m, fill=False))
-        + f" {STOP_PARTICLES} " + '"variable t_load equal ${t_now}" "variable h_load equal ${height}" '
-        + _quoted(dump_commands("load")),
+        *bed_phases.REST_AND_FILL,
+        bed_phases.load_begins([*coefficients(m, fill=False), STOP_PARTICLES.strip('"')], dump_commands("load")),
     ]
-    names = ["phase", "t_rest", "refills", "t_load", "h_load", "t_hold"]
-    for k, frac in enumerate(sc.grading_at):
-        g = f"g{k + 1}"
-        lines += [f'variable        {g}_now equal "(v_{g} == 0) && (v_p0 == 2) && (v_sv_now >= {frac * target!r})"',
-                  f'if              "${{{g}_now}} > 0" then "variable {g} equal 1" '
-                  + _quoted(dump_commands(grading_dump_name(k)))]
-        names.append(g)
+    grading, flags = bed_phases.grading_checks(sc.grading_at, target, lambda k: dump_commands(grading_dump_name(k)))
     lines += [
-        f'if              "${{to_hold}} > 0" then "variable phase equal {after_target}" '
-        '"variable t_hold equal ${t_now}"',
-        f'if              "${{to_unload}} > 0" then "variable phase equal {after_hold}"',
-        'if              "${to_done} > 0" then "variable phase equal 5"',
+        *grading, *bed_phases.phase_ends(sc.hold_time, sc.unload),
         # the platen's speed for the next window, of the phase now: the fill servo-controlled by
         # the bottom's stress (full speed until the stress goes through the bed, then slowing,
         # never up), the rest by the platen's own towards start_stress (at rest_speed, up at most
@@ -166,9 +140,9 @@ def phase_checks(cfg, system: dict) -> tuple[list[str], list[str]]:
         f'{-SERVO_BACK!r}, 1 - v_sv_now/{start!r}) + (v_phase == 2)*{v_load!r} - (v_phase == 4)*{v_load!r}"',
         "variable        v_new equal $(v_v_next:%.17g)",
         *platen_to("v_new"),
-        'variable        done equal "v_phase == 5"',
+        bed_phases.DONE,
     ]
-    return lines, names
+    return lines, [*bed_phases.PHASE_VARIABLES, *flags]
 
 
 def wall_lines(law: dict, box_a: list[float]) -> str:
@@ -209,7 +183,8 @@ def render_inputs(cfg, plugin_path: Path, system: dict) -> tuple[str, str, dict,
     pair = f"pair_coeff      1 1 1.0 {DIAMETER!r} {m.gamma:.12g}"
     fill_styles = "\n".join(["pair_style      cr/repulsion", pair, "",
                              "# breaking off while the bed is filled (the model's coefficients from the loading on)",
-                             "bond_style      breakable/cr", "angle_style     breakable/cr", *coefficients(m, fill=True)])
+                             "bond_style      breakable/cr", "angle_style     breakable/cr",
+                             *coefficients(m, fill=True)])
     common = common_values(
         # the ghosts reach the angles' arms at the larger of the fill's and the model's critical stretch
         cfg, plugin_path, comm_cutoff(m.model_copy(update={"lambda_c": max(m.lambda_c, FILL_LAMBDA)}),
@@ -217,7 +192,8 @@ def render_inputs(cfg, plugin_path: Path, system: dict) -> tuple[str, str, dict,
         a_m=f"{un['a']:.6g}", m_kg=f"{un['m']:.6g}", u_J=f"{un['u']:.6g}", tau_s=f"{un['tau']:.17g}",
         timestep=f"{dt:.12g}", steps_per_period=f"{sc.steps_per_period:g}", kn=f"{law['kn']:.12g}",
         kt=f"{law['kt']:.12g}", eta_n=f"{law['eta_n']:.12g}", mu=f"{law['mu']:.12g}", wall_law=plane_law_args(law),
-        walls=wall_lines(law, box_a), fill_damping_time=repr(FILL_DAMPING_TIME), box_x=repr(box_a[0]), box_y=repr(box_a[1]), top_h0=repr(box_a[2]),
+        walls=wall_lines(law, box_a), fill_damping_time=repr(FILL_DAMPING_TIME), box_x=repr(box_a[0]),
+        box_y=repr(box_a[1]), top_h0=repr(box_a[2]),
         solid_volume=repr(system["solid_volume_a3"]), phase_setup=phase_setup, periodic_dumps=periodic,
         window_steps=window)
     setup = render(

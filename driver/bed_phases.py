@@ -1,0 +1,83 @@
+"""The phase chain both beds share (issue 25): the LAMMPS lines that driver/bcm/compress.py and
+driver/bpm/compress.py run at each check (0 fill, 1 rest, 2 load, 3 hold, 4 unload, 5 done; each
+module's docstring says what its phases do). A check first takes the values it decides on
+(SNAPSHOT: p0 is the phase before it, so one check moves one phase at most); each model adds
+the ends of its fill and rest, what it does when the loading begins, and, for the BPM, the
+platen's next speed. Stresses, times and the dump commands are each model's own (SI for the
+BCM, LJ units for the BPM)."""
+
+from __future__ import annotations
+
+from typing import Callable
+
+#: the values a check decides on
+SNAPSHOT = [
+    "variable        p0 equal ${phase}",
+    "variable        sv_now equal ${sv}",
+    "variable        svb_now equal ${sv_bottom}",
+    "variable        ke_now equal ${ke}",
+    "variable        el_now equal ${elastic}",
+    "variable        t_now equal $(time:%.17g)",
+]
+#: the phase chain's own checkpoint variables (the grading dumps' flags g1.. come after them)
+PHASE_VARIABLES = ["phase", "t_rest", "refills", "t_load", "h_load", "t_hold"]
+#: the run ends at phase 5 (the schedule's settled variable)
+DONE = 'variable        done equal "v_phase == 5"'
+
+
+def quoted(commands: list[str]) -> str:
+    """Commands as the quoted arguments of an `if ... then`."""
+    return " ".join(f'"{c}"' for c in commands)
+
+
+def transitions(start: float, target: float, hold_time: float, rest_holds: float) -> list[str]:
+    """After the model's `rested`: to the loading (the platen still carries rest_holds x start)
+    or back to the fill (a bed that let go of the platen while it rested was not jammed yet),
+    to the hold at the target, to the unloading after hold_time, done back at start."""
+    return [
+        f'variable        to_load equal "v_rested && (v_sv_now >= {rest_holds * start!r})"',
+        f'variable        to_fill equal "v_rested && (v_sv_now < {rest_holds * start!r})"',
+        f'variable        to_hold equal "(v_p0 == 2) && (v_sv_now >= {target!r})"',
+        f'variable        to_unload equal "(v_p0 == 3) && (v_t_now >= v_t_hold + {hold_time!r})"',
+        f'variable        to_done equal "(v_p0 == 4) && (v_sv_now <= {start!r})"',
+    ]
+
+
+#: the rest and the fill begun, after the model's quench line
+REST_AND_FILL = [
+    'if              "${to_rest} > 0" then "variable phase equal 1" "variable t_rest equal ${t_now}"',
+    'if              "${to_fill} > 0" then "variable phase equal 0" "variable refills equal $(v_refills+1)"',
+]
+
+
+def load_begins(switch_on: list[str], dumps: list[str]) -> str:
+    """The loading begun: the model's `switch_on` commands (breaking on, the particles stopped),
+    the loading's start time and height, the start state dumped."""
+    return ('if              "${to_load} > 0" then "variable phase equal 2" ' + quoted(switch_on)
+            + ' "variable t_load equal ${t_now}" "variable h_load equal ${height}" ' + quoted(dumps))
+
+
+def grading_checks(grading_at: list[float], target: float, dumps: Callable[[int], list[str]]
+                   ) -> tuple[list[str], list[str]]:
+    """(lines, flags): the state dumped (dumps(k)) the first time the loading's stress passes
+    each of grading_at x target; the flags g1.. are checkpoint variables."""
+    lines, names = [], []
+    for k, frac in enumerate(grading_at):
+        g = f"g{k + 1}"
+        lines += [f'variable        {g}_now equal "(v_{g} == 0) && (v_p0 == 2) && (v_sv_now >= {frac * target!r})"',
+                  f'if              "${{{g}_now}} > 0" then "variable {g} equal 1" ' + quoted(dumps(k))]
+        names.append(g)
+    return lines, names
+
+
+def phase_ends(hold_time: float, unload: bool) -> list[str]:
+    """The target reached (to the hold, the unloading or the end), the hold over, the unloading
+    done."""
+    after_target = 3 if hold_time > 0 else (4 if unload else 5)
+    after_hold = 4 if unload else 5
+    return [
+        f'if              "${{to_hold}} > 0" then "variable phase equal {after_target}" '
+        '"variable t_hold equal ${t_now}"',
+        f'if              "${{to_unload}} > 0" then "variable phase equal {after_hold}"',
+        'if              "${to_done} > 0" then "variable phase equal 5"',
+    ]
