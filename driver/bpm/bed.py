@@ -28,11 +28,10 @@ import numpy as np
 
 from driver.assembly import dense_start, grain_sizes, loose_start
 from driver.bpm.clipped import box_side, clip_packing, parent_in_a, voronoi_cells
-from driver.bpm.impact import DIAMETER, lj_units, plane_law, write_sphere_data
+from driver.bpm.impact import DIAMETER, lj_units, plane_law, write_sphere_data, write_voronoi_tables
 from driver.bpm.network import Network, delaunay_network, repulsion_at_break
 from driver.bpm.packing import Packing, cached_packing
 from driver.cache import cache_base
-from runfiles.atomic import atomic_save
 
 
 @dataclass
@@ -117,11 +116,7 @@ def place_bpm_bed(cfg, rd) -> dict:
     a = un["a"]
     box_a = np.asarray(start.box, float) / a
     write_bed_data(rd.root / "system.data", bed, box_a)
-    atomic_save(rd.root / "bond_areas.txt", lambda f: np.savetxt(
-        f, np.column_stack([bed.bonds + 1, bed.bond_area]), fmt=["%d", "%d", "%.17g"],
-        header="id1 id2 area_a2 (Voronoi face between the two particles, clipped to the grain's parent)"))
-    atomic_save(rd.root / "particle_volumes.txt", lambda f: np.savetxt(
-        f, bed.volume, fmt="%.17g", header="Voronoi volume of each particle (a^3, id order), clipped to its grain"))
+    write_voronoi_tables(rd.root, bed.bonds, bed.bond_area, bed.volume, "its grain's parent")
     law = plane_law(p.contact, un)
     dt = min(m.timestep, law["period"] / sc.steps_per_period)
     counts = np.bincount(bed.grain - 1)

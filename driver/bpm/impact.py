@@ -120,6 +120,18 @@ def write_sphere_data(path: Path, x: np.ndarray, net: Network, box: tuple[np.nda
     write_references(path.with_suffix(".refs"), x, net.bonds, net.angles)
 
 
+def write_voronoi_tables(root: Path, bonds: np.ndarray, bond_area: np.ndarray, volume: np.ndarray,
+                         clipped_to: str) -> None:
+    """bond_areas.txt (bond i j, 1-based ids, and its Voronoi face area, a^2) and
+    particle_volumes.txt (each particle's Voronoi volume, a^3, id order) of cells clipped to
+    `clipped_to` (the analysis reads them: W_f's areas, fragment volumes)."""
+    atomic_save(root / "bond_areas.txt", lambda f: np.savetxt(
+        f, np.column_stack([bonds + 1, bond_area]), fmt=["%d", "%d", "%.17g"],
+        header=f"id1 id2 area_a2 (Voronoi face between the two particles, clipped to {clipped_to})"))
+    atomic_save(root / "particle_volumes.txt", lambda f: np.savetxt(
+        f, volume, fmt="%.17g", header=f"Voronoi volume of each particle (a^3, id order), clipped to {clipped_to}"))
+
+
 def build_particle(cfg, seed: int, gap: float | None = None) -> dict:
     """The clipped, bonded, oriented and placed particle (LJ units) and its facts; its lowest
     sphere `gap` m above the plane (default: scenario.gap diameters, the impact's)."""
@@ -150,12 +162,7 @@ def build_system(cfg, rd, gap: float | None = None) -> dict:
     lo = np.array([x[:, 0].min() - 2.0, x[:, 1].min() - 2.0, -1.0])
     hi = np.array([x[:, 0].max() + 2.0, x[:, 1].max() + 2.0, x[:, 2].max() + 2.0])
     write_sphere_data(rd.root / "system.data", x, net, (lo, hi))
-    # bond i j (1-based ids) and its Voronoi face area (a^2); particle volumes (a^3)
-    atomic_save(rd.root / "bond_areas.txt", lambda f: np.savetxt(
-        f, np.column_stack([net.bonds + 1, cells.bond_area]), fmt=["%d", "%d", "%.17g"],
-        header="id1 id2 area_a2 (Voronoi face between the two particles, clipped to the parent)"))
-    atomic_save(rd.root / "particle_volumes.txt", lambda f: np.savetxt(
-        f, cells.volume, fmt="%.17g", header="Voronoi volume of each particle (a^3, id order), clipped to the parent"))
+    write_voronoi_tables(rd.root, net.bonds, cells.bond_area, cells.volume, "the parent")
     law = plane_law(p.contact, un)
     dt = min(m.timestep, law["period"] / sc.steps_per_period)
     n = len(x)
