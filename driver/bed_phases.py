@@ -21,6 +21,13 @@ SNAPSHOT = [
 ]
 #: the phase chain's own checkpoint variables (the grading dumps' flags g1.. come after them)
 PHASE_VARIABLES = ["phase", "t_rest", "refills", "t_load", "h_load", "t_hold"]
+#: the rest does not end while the platen carries more than this multiple of start_stress
+REST_ABOVE = 2.0
+#: the fill ends when the bottom carries 1 - FILL_TOLERANCE of start_stress (the stress has gone
+#: through the bed; the platen carries more: the side walls' friction holds part of the load)
+FILL_TOLERANCE = 0.2
+#: while the bed rests, the servo backs the platen up at most at this fraction of its speed
+SERVO_BACK = 0.2
 #: the run ends at phase 5 (the schedule's settled variable)
 DONE = 'variable        done equal "v_phase == 5"'
 
@@ -28,6 +35,26 @@ DONE = 'variable        done equal "v_phase == 5"'
 def quoted(commands: list[str]) -> str:
     """Commands as the quoted arguments of an `if ... then`."""
     return " ".join(f'"{c}"' for c in commands)
+
+
+def filled(start: float, checks: int = 1) -> list[str]:
+    """The fill is over: the bottom carries 1 - FILL_TOLERANCE of start (the servo has brought the
+    stress through the bed) at `checks` checks in a row (the count is the checkpoint variable
+    fill_hits when checks > 1: a grain's blow on the bottom is no stress through the bed)."""
+    reached = f"(v_svb_now >= {(1 - FILL_TOLERANCE) * start!r})"
+    if checks == 1:
+        return [f'variable        to_rest equal "(v_p0 == 0) && {reached}"']
+    return [f"variable        fill_hits equal $((v_p0 == 0)*{reached}*(v_fill_hits+1))",
+            f'variable        to_rest equal "v_fill_hits >= {checks}"']
+
+
+def rested(rest_ke: float, rest_time: float, rest_above: float) -> str:
+    """The rest is over: the kinetic energy is below rest_ke of the elastic energy the bed holds
+    (the bed in equilibrium) or rest_time has passed since the rest began, and the platen carries
+    at most rest_above (a fast fill leaves it far above start_stress: the servo first brings it
+    down, else the loading would start above its target)."""
+    return (f'variable        rested equal "(v_p0 == 1) && ((v_ke_now <= {rest_ke!r}*v_el_now) || '
+            f'(v_t_now >= v_t_rest + {rest_time!r})) && (v_sv_now <= {rest_above!r})"')
 
 
 def transitions(start: float, target: float, hold_time: float, rest_holds: float) -> list[str]:
@@ -43,7 +70,7 @@ def transitions(start: float, target: float, hold_time: float, rest_holds: float
     ]
 
 
-#: the rest and the fill begun, after the model's quench line
+#: the rest and the fill begun
 REST_AND_FILL = [
     'if              "${to_rest} > 0" then "variable phase equal 1" "variable t_rest equal ${t_now}"',
     'if              "${to_fill} > 0" then "variable phase equal 0" "variable refills equal $(v_refills+1)"',

@@ -54,12 +54,6 @@ REST_HOLDS = 0.5
 #: moving stops within some ten particle diameters, and the drag on the column the platen pushes
 #: stays small (lammps_inputs/bpm_compress.in)
 FILL_DAMPING_TIME = 20.0
-#: the rest does not end while the platen carries more than this multiple of start_stress
-REST_ABOVE = 2.0
-#: the fill ends when the bottom carries 1 - FILL_TOLERANCE of start_stress (the BCM bed's rule)
-FILL_TOLERANCE = 0.2
-#: while the bed rests, the servo backs the platen up at most at this fraction of fill_speed
-SERVO_BACK = 0.2
 #: the running integrals of lammps_inputs/bpm_compress.in and the samples they start from, saved
 #: with each checkpoint and restored as the base a resumed run adds to (`<name>_base`)
 INTEGRALS = ("walls_work", "top_work", "damp_pair", "damp_bond", "walls_pw", "top_pw", "damp_pair_pw",
@@ -110,13 +104,13 @@ def phase_checks(cfg, system: dict) -> tuple[list[str], list[str]]:
     v_fill, v_load = sc.fill_speed * speed, sc.platen_speed * speed
     # the rest's servo speed: scenario.rest_speed, else fill_speed (module docstring)
     v_rest = (sc.fill_speed if sc.rest_speed is None else sc.rest_speed) * speed
+    back = bed_phases.SERVO_BACK
     lines = [
         *bed_phases.SNAPSHOT,
-        f'variable        to_rest equal "(v_p0 == 0) && (v_svb_now >= {(1 - FILL_TOLERANCE) * start!r})"',
+        *bed_phases.filled(start),
         # the rest also waits for the servo to bring the platen's stress down to REST_ABOVE x
         # start_stress (a fast fill leaves it far above: 8 MPa after a 20 m/s fill of 30 grains)
-        f'variable        rested equal "(v_p0 == 1) && ((v_ke_now <= {sc.rest_ke!r}*v_el_now) || '
-        f'(v_t_now >= v_t_rest + {sc.rest_time / un["tau"]!r})) && (v_sv_now <= {REST_ABOVE * start!r})"',
+        bed_phases.rested(sc.rest_ke, sc.rest_time / un["tau"], bed_phases.REST_ABOVE * start),
         *bed_phases.transitions(start, target, sc.hold_time / un["tau"], REST_HOLDS),
         # the rest is quenched (the particles stopped at every check, as the BCM bed's); the fill is
         # damped by a drag instead (FILL_DAMPING_TIME): quenched, a grain moves only by what the
@@ -136,8 +130,8 @@ def phase_checks(cfg, system: dict) -> tuple[list[str], list[str]]:
         # never up), the rest by the platen's own towards start_stress (at rest_speed, up at most
         # SERVO_BACK of it), the loading and unloading at platen_speed, else still
         f'variable        v_next equal "(v_phase == 0)*{v_fill!r}*ternary(v_svb_now < {start!r}, '
-        f'1 - v_svb_now/{start!r}, 0) + (v_phase == 1)*{v_rest!r}*ternary(1 - v_sv_now/{start!r} < {-SERVO_BACK!r}, '
-        f'{-SERVO_BACK!r}, 1 - v_sv_now/{start!r}) + (v_phase == 2)*{v_load!r} - (v_phase == 4)*{v_load!r}"',
+        f'1 - v_svb_now/{start!r}, 0) + (v_phase == 1)*{v_rest!r}*ternary(1 - v_sv_now/{start!r} < {-back!r}, '
+        f'{-back!r}, 1 - v_sv_now/{start!r}) + (v_phase == 2)*{v_load!r} - (v_phase == 4)*{v_load!r}"',
         "variable        v_new equal $(v_v_next:%.17g)",
         *platen_to("v_new"),
         bed_phases.DONE,

@@ -109,13 +109,13 @@ class CompressScenario(_Strict):
                                                              "particles have no friction: 0 only)")
     rest_speed: float | None = Field(None, gt=0.0, le=10.0,
                                      description="fastest the platen's servo moves it while the bed rests, m/s "
-                                                 "(None: platen_speed for a BCM bed, fill_speed for a BPM bed); set "
+                                                 "(None: fill_speed); set "
                                                  "it to compare loadings at several platen speeds from one and the "
                                                  "same start")
     rest_ke: float = Field(1e-3, gt=0.0, lt=1.0,
                            description="the dense start is at rest, and breaking switched on, once the kinetic "
-                                       "energy gathered between two checks (the cells are stopped at each) is below "
-                                       "this fraction of the elastic energy the bed holds (or after rest_time)")
+                                       "energy is below this fraction of the elastic energy the bed holds (or after "
+                                       "rest_time)")
     rest_time: float = Field(2e-4, gt=0.0, description="the longest the bed rests before loading, s")
     hold_time: float = Field(0.0, ge=0.0, description="time the platen holds still at the target stress, s")
     unload: bool = Field(True, description="after the target (and the hold), the platen goes back up at platen_speed "
