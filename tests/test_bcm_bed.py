@@ -114,6 +114,26 @@ def test_bed_runs_through_its_phases(small_bed):
     assert breaks.step.min() > loading.step.min()
 
 
+def test_fill_ends_on_a_stress_through_the_bed(small_bed):
+    """The fill ends (the rest begins) only after FILL_CHECKS checks in a row with the bottom at
+    1 - FILL_TOLERANCE of start_stress (a grain's blow on the bottom is no stress through the
+    bed), and the drag of the fill and the rest is gone from the loading on (the loading's
+    account closes: test_bed_analysis)."""
+    from driver import bed_phases
+    from driver.bcm.compress import FILL_CHECKS
+
+    rec = read_compress_record(small_bed / "thermo.dat").set_index("step")
+    cfg = parse_config(bed_config(small_bed))
+    every = cfg.scenario.check_every
+    phase = rec.phase
+    starts = phase.index[(phase == 1) & (phase.shift(1) == 0)]
+    assert len(starts) >= 1
+    for s in starts:
+        checks = [s - k * every for k in range(FILL_CHECKS)]
+        bottom = rec.sigma_v_bottom.loc[checks].to_numpy()
+        assert (bottom >= (1 - bed_phases.FILL_TOLERANCE) * cfg.scenario.start_stress).all(), (s, bottom)
+
+
 def test_bed_record_is_what_the_box_says(small_bed):
     """Void ratio = box volume / solid volume - 1 with the platen's height; the platen moves
     at platen_speed down while loading and up while unloading, never faster than fill_speed
