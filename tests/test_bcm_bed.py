@@ -120,7 +120,6 @@ def test_fill_ends_on_a_stress_through_the_bed(small_bed):
     bed), and the drag of the fill and the rest is gone from the loading on (the loading's
     account closes: test_bed_analysis)."""
     from driver import bed_phases
-    from driver.bcm.compress import FILL_CHECKS
 
     rec = read_compress_record(small_bed / "thermo.dat").set_index("step")
     cfg = parse_config(bed_config(small_bed))
@@ -129,7 +128,7 @@ def test_fill_ends_on_a_stress_through_the_bed(small_bed):
     starts = phase.index[(phase == 1) & (phase.shift(1) == 0)]
     assert len(starts) >= 1
     for s in starts:
-        checks = [s - k * every for k in range(FILL_CHECKS)]
+        checks = [s - k * every for k in range(bed_phases.FILL_CHECKS)]
         bottom = rec.sigma_v_bottom.loc[checks].to_numpy()
         assert (bottom >= (1 - bed_phases.FILL_TOLERANCE) * cfg.scenario.start_stress).all(), (s, bottom)
 

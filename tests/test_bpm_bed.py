@@ -164,8 +164,8 @@ def test_bpm_bed_refuses_a_bed_without_grains_or_in_2d(tmp_path):
 
 @pytest.mark.mpi
 def test_one_and_two_ranks_agree_through_the_first_break(tmp_path, plugin_path):
-    """A weak bed of 4 grains (lambda_c 1.002, theta_c 1 degree: the first bond breaks at the
-    loading's first step, 2,001, strained past its lambda_c by the fill) with a short rest
+    """A weak bed of 4 grains (lambda_c 1.002, theta_c 1 degree: the first bond breaks soon after
+    the loading begins, at step 3,329 (loading from 3,300), strained past its lambda_c by the fill) with a short rest
     (3e-6 s: two runs of a bed drift apart, measured 1e-12 at step 3,200 to 7e-8 by 9,600 with a
     rest of 5e-5 s), on 1 and 2 MPI ranks: the records agree to 1e-9 (relative to each column's
     largest value) up to the first break's step, and the break log's rows up to and including

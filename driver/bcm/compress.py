@@ -54,10 +54,6 @@ BREAKING_OFF = 1.0e30
 #: and a grain set moving stops within a few contacts' time (the BPM bed's drag is 20 tau, some
 #: 30 of its contact periods: driver/bpm/compress.py)
 FILL_DAMPING_PERIODS = 100.0
-#: the fill ends when the bottom has carried 1 - FILL_TOLERANCE of start_stress at this many checks
-#: in a row (a grain the platen pushes strikes the bottom for a few checks; measured: fills ended
-#: by such blows left beds that were not jammed, at void ratios 0.05-0.1 above the jammed one)
-FILL_CHECKS = 5
 #: the commands (quoted, for an `if`) that stop every cell: velocities and angular momenta zeroed
 STOP_CELL_COMMANDS = ["velocity all set 0.0 0.0 0.0", "set group all d2_bcm_angmom[1] 0.0",
                       "set group all d2_bcm_angmom[2] 0.0", "set group all d2_bcm_angmom[3] 0.0"]
@@ -102,7 +98,7 @@ def phase_checks(cfg: RunConfig) -> tuple[list[str], list[str]]:
     m, sc = cfg.model, cfg.scenario
     lines = [
         *bed_phases.SNAPSHOT,
-        *bed_phases.filled(sc.start_stress, FILL_CHECKS),
+        *bed_phases.filled(sc.start_stress),
         bed_phases.rested(sc.rest_ke, sc.rest_time, bed_phases.REST_ABOVE * sc.start_stress),
         *bed_phases.transitions(sc.start_stress, sc.target_stress, sc.hold_time, REST_HOLDS),
         # the fill and the rest are damped by the drag (lammps_inputs/bcm_compress.in), not quenched:
@@ -120,7 +116,7 @@ def phase_checks(cfg: RunConfig) -> tuple[list[str], list[str]]:
     grading, flags = bed_phases.grading_checks(sc.grading_at, sc.target_stress,
                                                lambda k: _dump_commands(grading_dump_name(k)).splitlines())
     return ([*lines, *grading, *bed_phases.phase_ends(sc.hold_time, sc.unload), bed_phases.DONE],
-            [*bed_phases.PHASE_VARIABLES, "fill_hits", *flags])
+            [*bed_phases.PHASE_VARIABLES, *flags])
 
 
 def build_system(cfg: RunConfig, rd: RunDir) -> dict:
