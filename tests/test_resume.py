@@ -333,7 +333,9 @@ def test_sigint_stops_two_rank_bcm_impact_and_resume_completes(tmp_path, plugin_
 
 @pytest.mark.slow
 @pytest.mark.parametrize("example,at", [
-    ("bcm_impact_quick.yaml", 0.5),
+    # the example's copy of test_sigint_stops_bcm_impact_and_resume_is_identical (46 s), which CI
+    # runs on its smaller BCM impact; extended to keep .ci/run under 15 minutes
+    pytest.param("bcm_impact_quick.yaml", 0.5, marks=pytest.mark.extended),
     # another model's copy (59 s): the BPM's resume also runs in CI through the crush's
     # (tests/test_bpm_crush.py); extended to keep .ci/run under 15 minutes with the beds' tests
     pytest.param("bpm_shear_2d.yaml", 0.5, marks=pytest.mark.extended)])

@@ -7,17 +7,17 @@ of phases that the driver's checks advance (every scenario.check_every steps):
   servo-controlled by the bottom wall's stress (velocity -fill_speed (1 - sigma_bottom /
   start_stress), never up: at full speed until the stress goes through the bed, then slowing),
   every cell damped by a drag -m v / t_d (fill_damping_time, FILL_DAMPING_PERIODS shortest
-  contact periods: the grains' inner modes die out with it), until the bottom carries 1 - FILL_TOLERANCE of start_stress (the platen carries more: the
-  side walls' friction holds part of the load);
-1 rest: the drag on, the platen servo-controlled by its own stress towards start_stress at
-  rest_speed (platen_speed unless set: one start for loadings at several speeds), up at most
-  SERVO_BACK of it; once the kinetic energy is below rest_ke of the elastic energy the bed holds
-  (interfaces, contacts, walls: the bed is in equilibrium, the fill's strain relaxed) or after
-  rest_time, and the platen carries at most REST_ABOVE x start_stress: if the platen carries
-  at least REST_HOLDS of start_stress the cells are stopped, the drag switched off, breaking
-  switched on (the configured G_c), the contacts' friction set to the model's and the start
-  state dumped; else the bed was not jammed (it let go of the platen) and is filled again
-  (phase 0);
+  contact periods: the grains' inner modes die out with it), until the bottom has carried
+  1 - FILL_TOLERANCE of start_stress at FILL_CHECKS checks in a row (driver/bed_phases.py);
+1 rest: the drag on, the platen servo-controlled by the mean of its own and the bottom's stresses
+  towards start_stress (the platen alone reads the drag on a column it pushes, and the side
+  walls' friction) at rest_speed (fill_speed unless set: one start for loadings at several
+  speeds), up at most SERVO_BACK of it; once the kinetic energy is below rest_ke of the elastic
+  energy the bed holds (interfaces, contacts, walls: the bed is in equilibrium) or after
+  rest_time, and the platen carries at most REST_ABOVE x start_stress: if the platen and the
+  bottom both carry at least REST_HOLDS of start_stress the cells are stopped, the drag switched
+  off, breaking switched on (the configured G_c), the contacts' friction set to the model's and
+  the start state dumped; else the bed was not jammed and is filled again (phase 0);
 2 load: the platen down at platen_speed until target_stress; the cells and interfaces are
   dumped as the stress first passes each of grading_at x target_stress;
 3 hold (hold_time > 0), 4 unload (up at platen_speed, to start_stress), 5 done: the run ends.

@@ -8,16 +8,16 @@ scenario.check_every steps), as the BCM bed's (driver/bcm/compress.py), in LJ un
   angles' critical bend 180 degrees: neither breaks under the fill's small strains), the
   platen servo-controlled by the bottom's stress (down at fill_speed (1 - sigma_bottom /
   start_stress), never up), every particle damped by a drag -m v / FILL_DAMPING_TIME, until
-  the bottom carries 1 - FILL_TOLERANCE of start_stress;
+  the bottom has carried 1 - FILL_TOLERANCE of start_stress at FILL_CHECKS checks in a row
+  (driver/bed_phases.py);
 1 rest: the platen servo-controlled by its own stress towards start_stress (at rest_speed,
-  fill_speed unless set, up at most SERVO_BACK of it; the BCM bed's runs at platen_speed unless
-  set: a quenched rest after the BPM's fill needs the faster servo), the particles stopped at
-  every check; once the kinetic energy gathered since the last check is below rest_ke of the
-  elastic energy the bed holds (pairs, bonds, angles, walls) or after rest_time, and the platen
-  carries at most REST_ABOVE x start_stress (unlike the BCM bed's rest): if the platen carries
-  at least REST_HOLDS of start_stress, the particles are stopped once more, the model's bond
-  and angle coefficients set (breaking on) and the start state dumped; else the bed let go of
-  the platen and is filled again (phase 0);
+  fill_speed unless set, up at most SERVO_BACK of it), the particles stopped at every check;
+  once the kinetic energy gathered since the last check is below rest_ke of the elastic energy
+  the bed holds (pairs, bonds, angles, walls) or after rest_time, and the platen carries at most
+  REST_ABOVE x start_stress: if the platen and the bottom both carry at least REST_HOLDS of
+  start_stress, the particles are stopped once more, the model's bond and angle coefficients
+  set (breaking on) and the start state dumped; else the bed let go of the platen and is filled
+  again (phase 0);
 2 load: the platen down at platen_speed until target_stress; the atoms and bonds dumped as the
   stress first passes each of grading_at x target_stress;
 3 hold (hold_time > 0), 4 unload (up at platen_speed, to start_stress), 5 done: the run ends.
