@@ -14,10 +14,10 @@ of phases that the driver's checks advance (every scenario.check_every steps):
   walls' friction) at rest_speed (fill_speed unless set: one start for loadings at several
   speeds), up at most SERVO_BACK of it; once the kinetic energy is below rest_ke of the elastic
   energy the bed holds (interfaces, contacts, walls: the bed is in equilibrium) or after
-  rest_time, and the platen carries at most REST_ABOVE x start_stress: if the platen and the
-  bottom both carry at least REST_HOLDS of start_stress the cells are stopped, the drag switched
-  off, breaking switched on (the configured G_c), the contacts' friction set to the model's and
-  the start state dumped; else the bed was not jammed and is filled again (phase 0);
+  rest_time, and the platen carries at most REST_ABOVE x start_stress: if the platen carries
+  at least REST_HOLDS of start_stress the cells are stopped, the drag switched off, breaking
+  switched on (the configured G_c), the contacts' friction set to the model's and the start
+  state dumped; else the bed was not jammed and is filled again (phase 0);
 2 load: the platen down at platen_speed until target_stress; the cells and interfaces are
   dumped as the stress first passes each of grading_at x target_stress;
 3 hold (hold_time > 0), 4 unload (up at platen_speed, to start_stress), 5 done: the run ends.

@@ -14,10 +14,9 @@ scenario.check_every steps), as the BCM bed's (driver/bcm/compress.py), in LJ un
   fill_speed unless set, up at most SERVO_BACK of it), the particles stopped at every check;
   once the kinetic energy gathered since the last check is below rest_ke of the elastic energy
   the bed holds (pairs, bonds, angles, walls) or after rest_time, and the platen carries at most
-  REST_ABOVE x start_stress: if the platen and the bottom both carry at least REST_HOLDS of
-  start_stress, the particles are stopped once more, the model's bond and angle coefficients
-  set (breaking on) and the start state dumped; else the bed let go of the platen and is filled
-  again (phase 0);
+  REST_ABOVE x start_stress: if the platen carries at least REST_HOLDS of start_stress, the
+  particles are stopped once more, the model's bond and angle coefficients set (breaking on)
+  and the start state dumped; else the bed let go of the platen and is filled again (phase 0);
 2 load: the platen down at platen_speed until target_stress; the atoms and bonds dumped as the
   stress first passes each of grading_at x target_stress;
 3 hold (hold_time > 0), 4 unload (up at platen_speed, to start_stress), 5 done: the run ends.
