@@ -101,8 +101,9 @@ def test_force_chain_through_two_grains(tmp_path, plugin_path, monkeypatch):
     them one above the other), loaded to 1 MPa and held 4e-4 s (17,400 steps): the bed comes to
     rest (kinetic energy at most 1.1e-9 J over the window, 3e-4 of the 3.8e-6 J of elastic energy
     it holds: the grains' inner modes, whose interfaces hardly damp, still ring; 1.2e-11 J when
-    the fill was quenched) with the platen at 0.90 MPa. The model's friction (mu = 0.3) holds the column: frictionless,
-    the upper grain slides off the lower one while loading and both lose every contact. The
+    the fill was quenched) with the platen at 0.90 MPa. The model's friction (mu = 0.3) holds
+    the column: frictionless, the upper grain slides off the lower one while loading and both
+    lose every contact. The
     run's in.lammps is run again in a copy of the run with fix store/force around the walls
     (with_force_stages; the record it writes is the driver's, line for line) and held 2,000
     steps more (T = 4.6e-5 s), writing at every step, per grain: the contact force from the other
@@ -119,8 +120,7 @@ def test_force_chain_through_two_grains(tmp_path, plugin_path, monkeypatch):
     and 0.07 % below the contact); the side walls (normal forces 0.61 N in all) hold 0.007 N of
     the lower grain and -0.003 N of the upper one by friction (Coulomb: at most mu = 0.3 times
     their normal force, 0.18 N); so contact, bottom and platen agree to 2 % but for that
-    friction, and each grain is in balance once it is counted. The
-    tolerance of the balance: a grain's mean net force over T is (p(T) - p(0)) / T (velocity
+    friction, and each grain is in balance once it is counted. The tolerance of the balance: a grain's mean net force over T is (p(T) - p(0)) / T (velocity
     Verlet: the trapezoid over the steps; measured equal to 6 digits), and a grain's momentum is
     at most sqrt(2 M K) (K, the whole bed's kinetic energy, holds its centre-of-mass motion), so
     |mean net force| <= 2 sqrt(2 M K_max) / T = 9.8e-3 N (2e-3 of the force) with K_max =
