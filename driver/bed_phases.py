@@ -23,6 +23,9 @@ SNAPSHOT = [
 PHASE_VARIABLES = ["phase", "t_rest", "refills", "t_load", "h_load", "t_hold", "fill_hits"]
 #: the rest does not end while the platen carries more than this multiple of start_stress
 REST_ABOVE = 2.0
+#: the rest ends in the loading when the platen still carries this fraction of start_stress,
+#: else in another fill (the bed let go of the platen: not jammed yet)
+REST_HOLDS = 0.5
 #: the fill ends when the bottom carries 1 - FILL_TOLERANCE of start_stress (the stress has gone
 #: through the bed; the platen carries more: the side walls' friction holds part of the load)
 FILL_TOLERANCE = 0.2
@@ -42,33 +45,34 @@ def quoted(commands: list[str]) -> str:
     return " ".join(f'"{c}"' for c in commands)
 
 
-def filled(start: float, checks: int = FILL_CHECKS) -> list[str]:
+def filled(start: float) -> list[str]:
     """The fill is over: the bottom carries 1 - FILL_TOLERANCE of start (the servo has brought the
-    stress through the bed) at `checks` checks in a row (their count is the checkpoint variable
+    stress through the bed) at FILL_CHECKS checks in a row (their count is the checkpoint variable
     fill_hits: a grain's blow on the bottom is no stress through the bed)."""
     reached = f"(v_svb_now >= {(1 - FILL_TOLERANCE) * start!r})"
     return [f"variable        fill_hits equal $((v_p0 == 0)*{reached}*(v_fill_hits+1))",
-            f'variable        to_rest equal "v_fill_hits >= {checks}"']
+            f'variable        to_rest equal "v_fill_hits >= {FILL_CHECKS}"']
 
 
-def rested(rest_ke: float, rest_time: float, rest_above: float) -> str:
+def rested(rest_ke: float, rest_time: float, start: float) -> str:
     """The rest is over: the kinetic energy is below rest_ke of the elastic energy the bed holds
     (the bed in equilibrium) or rest_time has passed since the rest began, and the platen carries
-    at most rest_above (a fast fill leaves it far above start_stress: the servo first brings it
-    down, else the loading would start above its target)."""
+    at most REST_ABOVE x start (a fast fill leaves it far above start_stress: the servo first
+    brings it down, else the loading would start above its target)."""
     return (f'variable        rested equal "(v_p0 == 1) && ((v_ke_now <= {rest_ke!r}*v_el_now) || '
-            f'(v_t_now >= v_t_rest + {rest_time!r})) && (v_sv_now <= {rest_above!r})"')
+            f'(v_t_now >= v_t_rest + {rest_time!r})) && (v_sv_now <= {REST_ABOVE * start!r})"')
 
 
-def transitions(start: float, target: float, hold_time: float, rest_holds: float) -> list[str]:
-    """After the model's `rested`: to the loading (the platen still carries rest_holds x start)
+def transitions(start: float, target: float, hold_time: float) -> list[str]:
+    """After the model's `rested`: to the loading (the platen still carries REST_HOLDS x start)
     or back to the fill (a bed that let go of the platen while it rested was not jammed yet),
     to the hold at the target, to the unloading after hold_time, done back at start. (Asking the
     bottom to carry it too kept the damped BCM bed, whose rest still rattles, out of its loading:
     30 grains went fill, rest, fill for 45,000 steps.)"""
+    hold = REST_HOLDS * start
     return [
-        f'variable        to_load equal "v_rested && (v_sv_now >= {rest_holds * start!r})"',
-        f'variable        to_fill equal "v_rested && (v_sv_now < {rest_holds * start!r})"',
+        f'variable        to_load equal "v_rested && (v_sv_now >= {hold!r})"',
+        f'variable        to_fill equal "v_rested && (v_sv_now < {hold!r})"',
         f'variable        to_hold equal "(v_p0 == 2) && (v_sv_now >= {target!r})"',
         f'variable        to_unload equal "(v_p0 == 3) && (v_t_now >= v_t_hold + {hold_time!r})"',
         f'variable        to_done equal "(v_p0 == 4) && (v_sv_now <= {start!r})"',

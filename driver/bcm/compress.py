@@ -57,9 +57,6 @@ FILL_DAMPING_PERIODS = 100.0
 #: the commands (quoted, for an `if`) that stop every cell: velocities and angular momenta zeroed
 STOP_CELL_COMMANDS = ["velocity all set 0.0 0.0 0.0", "set group all d2_bcm_angmom[1] 0.0",
                       "set group all d2_bcm_angmom[2] 0.0", "set group all d2_bcm_angmom[3] 0.0"]
-#: the rest ends in the loading when the platen still carries this fraction of start_stress,
-#: else in another fill (the bed let go of the platen: not jammed yet)
-REST_HOLDS = 0.5
 #: the six walls (their fix ids: the record's BED_WALLS): face, and the axis whose far side of
 #: the box the wall is on (None: at 0)
 WALLS = tuple(zip(BED_WALLS, ("zlo", "zhi", "xlo", "xhi", "ylo", "yhi"), (None, 2, None, 0, None, 1)))
@@ -99,8 +96,8 @@ def phase_checks(cfg: RunConfig) -> tuple[list[str], list[str]]:
     lines = [
         *bed_phases.SNAPSHOT,
         *bed_phases.filled(sc.start_stress),
-        bed_phases.rested(sc.rest_ke, sc.rest_time, bed_phases.REST_ABOVE * sc.start_stress),
-        *bed_phases.transitions(sc.start_stress, sc.target_stress, sc.hold_time, REST_HOLDS),
+        bed_phases.rested(sc.rest_ke, sc.rest_time, sc.start_stress),
+        *bed_phases.transitions(sc.start_stress, sc.target_stress, sc.hold_time),
         # the fill and the rest are damped by the drag (lammps_inputs/bcm_compress.in), not quenched:
         # a bed whose cells are stopped at every check moves only by what one check's forces
         # accelerate it to, so it leaves the rest out of equilibrium and creeps away from the

@@ -47,8 +47,6 @@ from runfiles.records import BONDS_DUMP, BPM_COMPRESS_RECORD, atoms_dump
 
 #: critical stretch of bonds and angles while the bed is filled and rests (breaking off)
 FILL_LAMBDA = 1.2
-#: the rest ends in the loading when the platen still carries this fraction of start_stress
-REST_HOLDS = 0.5
 #: while the bed is filled every particle feels a drag -m v / FILL_DAMPING_TIME (tau): a grain set
 #: moving stops within some ten particle diameters, and the drag on the column the platen pushes
 #: stays small (lammps_inputs/bpm_compress.in)
@@ -109,8 +107,8 @@ def phase_checks(cfg, system: dict) -> tuple[list[str], list[str]]:
         *bed_phases.filled(start),
         # the rest also waits for the servo to bring the platen's stress down to REST_ABOVE x
         # start_stress (a fast fill leaves it far above: 8 MPa after a 20 m/s fill of 30 grains)
-        bed_phases.rested(sc.rest_ke, sc.rest_time / un["tau"], bed_phases.REST_ABOVE * start),
-        *bed_phases.transitions(start, target, sc.hold_time / un["tau"], REST_HOLDS),
+        bed_phases.rested(sc.rest_ke, sc.rest_time / un["tau"], start),
+        *bed_phases.transitions(start, target, sc.hold_time / un["tau"]),
         # the rest is quenched (the particles stopped at every check, as the BCM bed's); the fill is
         # damped by a drag instead (FILL_DAMPING_TIME): quenched, a grain moves only by what the
         # platen's push accelerates it to within one check, so the bed is compacted under a
