@@ -158,7 +158,11 @@ def run_session(run_dir: Path, ranks: int, checkpoint: Path | None = None) -> di
     """The driver's session on `ranks` ranks (the command line of driver/runner.py), fresh or from
     `checkpoint`; its log's loop times (summed), steps and atoms, and the process's wall time."""
     from driver.engine import venv_bin  # noqa: PLC0415
+    from driver.rundir import has_marker  # noqa: PLC0415
 
+    # the files of the last session are removed only in a run directory the driver made (build())
+    if not has_marker(run_dir):
+        raise RuntimeError(f"{run_dir} is not a run directory of this tool: nothing in it is removed")
     (run_dir / "log.lammps").unlink(missing_ok=True)
     for name in ("thermo.dat", "breaks.dat", "outcome.json", ".session_error.json"):
         (run_dir / name).unlink(missing_ok=True)
