@@ -18,6 +18,12 @@ SNAPSHOT = [
     "variable        ke_now equal ${ke}",
     "variable        el_now equal ${elastic}",
     "variable        t_now equal $(time:%.17g)",
+    # the means over the last check window (each model's input: fix check_mean), which the fill's
+    # and the rest's rules decide on: at a check the platen's and the bottom's stresses are
+    # spikes of grains' blows as often as a stress through the bed (measured: 0, 1.3e5 and 3.2e5 Pa
+    # at checks 1,000 steps apart on the 30-grain BCM bed at rest under 5e4 Pa)
+    "variable        svm_now equal ${sv_mean}",
+    "variable        svbm_now equal ${svb_mean}",
 ]
 #: the phase chain's own checkpoint variables (the grading dumps' flags g1.. come after them)
 PHASE_VARIABLES = ["phase", "t_rest", "refills", "t_load", "h_load", "t_hold", "fill_hits"]
@@ -36,6 +42,37 @@ SERVO_BACK = 0.2
 #: by such blows left beds that were not jammed: BCM void ratios 0.05-0.1 above the jammed one,
 #: a BPM bed of 8 grains loaded from e = 3.0 at zero stress for 350,000 steps)
 FILL_CHECKS = 5
+#: while the bed rests every element feels a drag -m v / t_d, t_d = REST_DAMPING_PERIODS shortest
+#: contact periods: near the critical damping of the bed's slowest modes, so that the rest calms
+#: it within rest_time. The BCM's rest with its fill's drag (100 periods) took the kinetic energy
+#: down by e^2 only in a 100-period rest: the bed rattled, let go of the platen and went fill, rest,
+#: fill at steps_per_period 100; the BPM's rest was quenched (its particles stopped at every check),
+#: which kept the fill's push locked in (the bottom at 15 x start_stress as the loading began)
+REST_DAMPING_PERIODS = 10.0
+#: each time the bed goes back to the fill its speed is halved, at most FILL_HALVINGS times:
+#: a fill that ends with the bed in motion leaves it compacted by its blows, not jammed, and its
+#: rest lets go of the platen (measured: the 8-grain BPM test bed went fill, rest, fill 19 times at
+#: the full fill speed, the fills ending with more kinetic than elastic energy); a slower fill
+#: brings the bed to jamming without the blows
+FILL_HALVINGS = 4
+#: the fill speed's factor after `refills` returns to the fill (an equal-style variable)
+FILL_SCALE = ('variable        fill_scale equal '
+              f'"0.5^(v_refills*(v_refills < {FILL_HALVINGS}) + {FILL_HALVINGS}*(v_refills >= {FILL_HALVINGS}))"')
+
+#: the check log, phases.dat: a line per check with the values its rules decided on and the phase it
+#: left (the record of why a fill or a rest ended; runfiles.records.read_record reads it)
+CHECK_LOG_FILE = "phases.dat"
+CHECK_LOG_COLUMNS = ["step", "phase_before", "phase", "sigma_v_mean", "sigma_v_bottom_mean", "ke", "elastic",
+                     "fill_hits"]
+CHECK_LOG = ('print           "$(step) ${p0} ${phase} ${svm_now} ${svbm_now} ${ke_now} ${el_now} ${fill_hits}" '
+             f'append {CHECK_LOG_FILE} screen no')
+
+
+#: the command (the fresh start's) that begins the check log with its title line; the stresses
+#: and energies are in the model's units (SI for the BCM, LJ for the BPM: system.json's units)
+CHECK_LOG_TITLE = f'print           "# {" ".join(CHECK_LOG_COLUMNS)}" file {CHECK_LOG_FILE} screen no'
+
+
 #: the run ends at phase 5 (the schedule's settled variable)
 DONE = 'variable        done equal "v_phase == 5"'
 
@@ -46,10 +83,14 @@ def quoted(commands: list[str]) -> str:
 
 
 def filled(start: float) -> list[str]:
-    """The fill is over: the bottom carries 1 - FILL_TOLERANCE of start (the servo has brought the
-    stress through the bed) at FILL_CHECKS checks in a row (their count is the checkpoint variable
-    fill_hits: a grain's blow on the bottom is no stress through the bed)."""
-    reached = f"(v_svb_now >= {(1 - FILL_TOLERANCE) * start!r})"
+    """The fill is over: the bottom and the platen carry 1 - FILL_TOLERANCE of start on the mean
+    over a check window (the servo has brought the stress through the bed) and the bed holds more
+    elastic than kinetic energy (the stress is the bed's, not its blows': measured, fills that
+    ended with more kinetic energy left beds that let go of the platen as they rested) at
+    FILL_CHECKS checks in a row (their count is the checkpoint variable fill_hits: a grain's blow
+    on the bottom is no stress through the bed)."""
+    reached = (f"(v_svbm_now >= {(1 - FILL_TOLERANCE) * start!r})*(v_svm_now >= {(1 - FILL_TOLERANCE) * start!r})"
+               "*(v_ke_now <= v_el_now)")
     return [f"variable        fill_hits equal $((v_p0 == 0)*{reached}*(v_fill_hits+1))",
             f'variable        to_rest equal "v_fill_hits >= {FILL_CHECKS}"']
 
@@ -57,22 +98,23 @@ def filled(start: float) -> list[str]:
 def rested(rest_ke: float, rest_time: float, start: float) -> str:
     """The rest is over: the kinetic energy is below rest_ke of the elastic energy the bed holds
     (the bed in equilibrium) or rest_time has passed since the rest began, and the platen carries
-    at most REST_ABOVE x start (a fast fill leaves it far above start_stress: the servo first
-    brings it down, else the loading would start above its target)."""
+    at most REST_ABOVE x start on the window's mean (a fast fill leaves it far above
+    start_stress: the servo first backs it up, else the loading would start above its target)."""
     return (f'variable        rested equal "(v_p0 == 1) && ((v_ke_now <= {rest_ke!r}*v_el_now) || '
-            f'(v_t_now >= v_t_rest + {rest_time!r})) && (v_sv_now <= {REST_ABOVE * start!r})"')
+            f'(v_t_now >= v_t_rest + {rest_time!r})) && (v_svm_now <= {REST_ABOVE * start!r})"')
 
 
 def transitions(start: float, target: float, hold_time: float) -> list[str]:
-    """After the model's `rested`: to the loading (the platen still carries REST_HOLDS x start)
-    or back to the fill (a bed that let go of the platen while it rested was not jammed yet),
+    """After the model's `rested`: to the loading (the platen still carries REST_HOLDS x start on
+    the window's mean) or back to the fill (a bed that let go of the platen while it rested was
+    not jammed yet),
     to the hold at the target, to the unloading after hold_time, done back at start. (Asking the
     bottom to carry it too kept the damped BCM bed, whose rest still rattles, out of its loading:
     30 grains went fill, rest, fill for 45,000 steps.)"""
     hold = REST_HOLDS * start
     return [
-        f'variable        to_load equal "v_rested && (v_sv_now >= {hold!r})"',
-        f'variable        to_fill equal "v_rested && (v_sv_now < {hold!r})"',
+        f'variable        to_load equal "v_rested && (v_svm_now >= {hold!r})"',
+        f'variable        to_fill equal "v_rested && (v_svm_now < {hold!r})"',
         f'variable        to_hold equal "(v_p0 == 2) && (v_sv_now >= {target!r})"',
         f'variable        to_unload equal "(v_p0 == 3) && (v_t_now >= v_t_hold + {hold_time!r})"',
         f'variable        to_done equal "(v_p0 == 4) && (v_sv_now <= {start!r})"',

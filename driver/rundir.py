@@ -52,6 +52,8 @@ LAYOUT_FILES = (STATUS, MARKER, LOCK, "input.yaml", "config.resolved.yaml", "pro
                 "log.lammps", "log.*.lammps", "thermo.dat", "interfaces.txt", "cells.txt", "voronoi_cells.txt",
                 "snapshots.json", "outcome.json", "log.session.txt", "report.md", "report.html", ".session_error.json",
                 "system.refs", "breaks.dat",  # BPM reference geometry; break-event log (BPM and BCM)
+                "phases.dat",  # a bed's check log (driver/bed_phases.py)
+                "bond_areas.txt", "particle_volumes.txt",  # BPM impact, crush and bed: Voronoi areas, volumes
                 "phase_*.lammps", "calibration_start.lammpstrj",  # BPM moduli test: phases, undeformed state
                 ".*.tmp*")
 LAYOUT_DIRS = {

@@ -115,22 +115,40 @@ def test_bed_runs_through_its_phases(small_bed):
 
 
 def test_fill_ends_on_a_stress_through_the_bed(small_bed):
-    """The fill ends (the rest begins) only after FILL_CHECKS checks in a row with the bottom at
-    1 - FILL_TOLERANCE of start_stress (a grain's blow on the bottom is no stress through the
-    bed), and the drag of the fill and the rest is gone from the loading on (the loading's
-    account closes: test_bed_analysis)."""
+    """The check log (phases.dat) follows the rules of driver/bed_phases.py: each line's phase
+    before is the previous line's phase; the fill ends (the rest begins) only after FILL_CHECKS
+    checks in a row with the bottom and the platen at 1 - FILL_TOLERANCE of start_stress on the
+    window's mean (a grain's blow on the bottom is no stress through the bed); the loading begins
+    from a rest with the platen's mean between REST_HOLDS and REST_ABOVE x start_stress. The drag
+    of the fill and the rest is gone from the loading on (the loading's account closes:
+    test_bed_analysis)."""
     from driver import bed_phases
+    from runfiles.records import read_record
 
-    rec = read_compress_record(small_bed / "thermo.dat").set_index("step")
+    log = read_record(small_bed / bed_phases.CHECK_LOG_FILE, bed_phases.CHECK_LOG_COLUMNS)
     cfg = parse_config(bed_config(small_bed))
-    every = cfg.scenario.check_every
-    phase = rec.phase
-    starts = phase.index[(phase == 1) & (phase.shift(1) == 0)]
-    assert len(starts) >= 1
-    for s in starts:
-        checks = [s - k * every for k in range(bed_phases.FILL_CHECKS)]
-        bottom = rec.sigma_v_bottom.loc[checks].to_numpy()
-        assert (bottom >= (1 - bed_phases.FILL_TOLERANCE) * cfg.scenario.start_stress).all(), (s, bottom)
+    start = cfg.scenario.start_stress
+    assert len(log) >= 3 and (log.phase_before.to_numpy()[1:] == log.phase.to_numpy()[:-1]).all()
+    assert (np.diff(log.step) == cfg.scenario.check_every).all()
+    rests = np.flatnonzero((log.phase_before == 0) & (log.phase == 1))
+    assert len(rests) >= 1
+    reach = (1 - bed_phases.FILL_TOLERANCE) * start
+    for k in rests:
+        window = log.iloc[k - bed_phases.FILL_CHECKS + 1:k + 1]
+        assert len(window) == bed_phases.FILL_CHECKS and (window.phase_before == 0).all()
+        assert (window.sigma_v_bottom_mean >= reach).all() and (window.sigma_v_mean >= reach).all(), window
+        assert log.fill_hits.iloc[k] == bed_phases.FILL_CHECKS
+    loads = log[(log.phase_before == 1) & (log.phase == 2)]
+    assert len(loads) == 1
+    mean = loads.sigma_v_mean.iloc[0]
+    assert bed_phases.REST_HOLDS * start <= mean <= bed_phases.REST_ABOVE * start
+
+
+def test_every_file_of_the_run_is_the_tools_own(small_bed):
+    """A re-run starts clean only from files the run layout names (driver/rundir.py)."""
+    from driver.rundir import RunDir
+
+    assert RunDir(small_bed).foreign_entries() == []
 
 
 def test_bed_record_is_what_the_box_says(small_bed):

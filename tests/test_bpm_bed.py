@@ -151,6 +151,14 @@ def test_bed_energy_account_closes(small_bpm_bed):
     assert (small_bpm_bed / "plots" / "compression.png").exists()
 
 
+def test_every_file_of_the_run_is_the_tools_own(small_bpm_bed):
+    """A re-run starts clean only from files the run layout names (driver/rundir.py): the BPM
+    bed's Voronoi areas and volumes and its check log were once left behind as foreign."""
+    from driver.rundir import RunDir
+
+    assert RunDir(small_bpm_bed).foreign_entries() == []
+
+
 def test_bpm_bed_refuses_a_bed_without_grains_or_in_2d(tmp_path):
     raw = bpm_bed_config(tmp_path)
     del raw["model"]["assembly"]

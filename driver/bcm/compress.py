@@ -5,19 +5,22 @@ of phases that the driver's checks advance (every scenario.check_every steps):
 0 fill: breaking switched off (the interfaces' G_c set to BREAKING_OFF), the cell contacts'
   friction fill_friction (frictionless by default: a dense start), the top platen
   servo-controlled by the bottom wall's stress (velocity -fill_speed (1 - sigma_bottom /
-  start_stress), never up: at full speed until the stress goes through the bed, then slowing),
+  start_stress), never up: at full speed until the stress goes through the bed, then slowing;
+  half as fast at each return to the fill, bed_phases.FILL_HALVINGS times at most),
   every cell damped by a drag -m v / t_d (fill_damping_time, FILL_DAMPING_PERIODS shortest
-  contact periods: the grains' inner modes die out with it), until the bottom has carried
-  1 - FILL_TOLERANCE of start_stress at FILL_CHECKS checks in a row (driver/bed_phases.py);
-1 rest: the drag on, the platen servo-controlled by the mean of its own and the bottom's stresses
-  towards start_stress (the platen alone reads the drag on a column it pushes, and the side
-  walls' friction) at rest_speed (fill_speed unless set: one start for loadings at several
-  speeds), up at most SERVO_BACK of it; once the kinetic energy is below rest_ke of the elastic
-  energy the bed holds (interfaces, contacts, walls: the bed is in equilibrium) or after
-  rest_time, and the platen carries at most REST_ABOVE x start_stress: if the platen carries
-  at least REST_HOLDS of start_stress the cells are stopped, the drag switched off, breaking
-  switched on (the configured G_c), the contacts' friction set to the model's and the start
-  state dumped; else the bed was not jammed and is filled again (phase 0);
+  contact periods: the grains' inner modes die out with it), until the bottom and the platen
+  have carried 1 - FILL_TOLERANCE of start_stress on the mean over a check window at
+  FILL_CHECKS checks in a row (driver/bed_phases.py);
+1 rest: a stronger drag (rest_damping_time, REST_DAMPING_PERIODS shortest contact periods); the
+  platen still, or backing up while the mean of its own and the bottom's stresses is above
+  REST_ABOVE x start_stress (at rest_speed, fill_speed unless set, times that mean's excess in
+  units of start_stress, at most SERVO_BACK of it: a rest that pushes the bed down agitates it,
+  one that backs up from start_stress on overshoots); once the kinetic energy is below rest_ke of
+  the elastic energy the bed holds (interfaces, contacts, walls: the bed is in equilibrium) or
+  after rest_time, and the platen carries at most REST_ABOVE x start_stress (window means): if
+  the platen carries at least REST_HOLDS of start_stress the cells are stopped, the drag switched
+  off, breaking switched on (the configured G_c), the contacts' friction set to the model's and
+  the start state dumped; else the bed was not jammed and is filled again (phase 0);
 2 load: the platen down at platen_speed until target_stress; the cells and interfaces are
   dumped as the stress first passes each of grading_at x target_stress;
 3 hold (hold_time > 0), 4 unload (up at platen_speed, to start_stress), 5 done: the run ends.
@@ -112,7 +115,7 @@ def phase_checks(cfg: RunConfig) -> tuple[list[str], list[str]]:
     ]
     grading, flags = bed_phases.grading_checks(sc.grading_at, sc.target_stress,
                                                lambda k: _dump_commands(grading_dump_name(k)).splitlines())
-    return ([*lines, *grading, *bed_phases.phase_ends(sc.hold_time, sc.unload), bed_phases.DONE],
+    return ([*lines, *grading, *bed_phases.phase_ends(sc.hold_time, sc.unload), bed_phases.CHECK_LOG, bed_phases.DONE],
             [*bed_phases.PHASE_VARIABLES, *flags])
 
 
@@ -121,7 +124,9 @@ def build_system(cfg: RunConfig, rd: RunDir) -> dict:
     facts = place_bed(cfg, rd)
     sc = cfg.scenario
     t_d = FILL_DAMPING_PERIODS * facts["shortest_period"]
-    return {**facts, "platen_speed": sc.platen_speed, "fill_damping_time": t_d, "grading_at": list(sc.grading_at),
+    return {**facts, "platen_speed": sc.platen_speed, "fill_damping_time": t_d,
+            "rest_damping_time": bed_phases.REST_DAMPING_PERIODS * facts["shortest_period"],
+            "grading_at": list(sc.grading_at),
             "grading_dumps": [grading_dump_name(k) for k in range(len(sc.grading_at))]}
 
 
@@ -142,7 +147,10 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
         comm_cutoff=f"{comm_cutoff:.9g}", walls=wall_lines(m, r_m, box), wall_sums=wall_sum_lines(),
         box_x=repr(box[0]), box_y=repr(box[1]), solid_volume=repr(system["solid_volume"]),
         fill_speed=repr(sc.fill_speed), platen_speed=repr(sc.platen_speed), start_stress=repr(sc.start_stress),
-        servo_back=repr(bed_phases.SERVO_BACK), fill_damping_time=f"{system['fill_damping_time']:.9g}",
+        servo_back=repr(bed_phases.SERVO_BACK), rest_above=repr(bed_phases.REST_ABOVE),
+        fill_scale=bed_phases.FILL_SCALE,
+        fill_damping_time=f"{system['fill_damping_time']:.9g}",
+        rest_damping_time=f"{system['rest_damping_time']:.9g}",
         rest_speed=repr(sc.fill_speed if sc.rest_speed is None else sc.rest_speed),
         skin=f"{skin:.9g}", steps_per_period=f"{sc.steps_per_period:g}",
         period=f"{system['shortest_period']:.6g}", timestep=f"{dt:.12g}",
@@ -154,7 +162,7 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
         pair_setup=styles.pair_setup(m, r_m, mu=sc.fill_friction) + "  # the fill's friction until the loading",
         bond_setup=styles.bond_setup(m, G_c=BREAKING_OFF) + "  # breaking off while the bed is filled",
         phase_setup=phase_setup, record_target="file thermo.dat",
-        start="run             0\n" + _dump_commands("start"), **common)
+        start="run             0\n" + _dump_commands("start") + "\n" + bed_phases.CHECK_LOG_TITLE, **common)
     resume = render(
         "bcm_compress.in", role="Start from a checkpoint (resume.lammps: -var checkpoint FILE).",
         system=SYSTEM_RESUME, pair_setup="# pair style, coefficients and counters: from the checkpoint",

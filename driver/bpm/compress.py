@@ -7,16 +7,20 @@ scenario.check_every steps), as the BCM bed's (driver/bcm/compress.py), in LJ un
 0 fill: breaking switched off (bonds and angles with the critical stretch FILL_LAMBDA and the
   angles' critical bend 180 degrees: neither breaks under the fill's small strains), the
   platen servo-controlled by the bottom's stress (down at fill_speed (1 - sigma_bottom /
-  start_stress), never up), every particle damped by a drag -m v / FILL_DAMPING_TIME, until
-  the bottom has carried 1 - FILL_TOLERANCE of start_stress at FILL_CHECKS checks in a row
-  (driver/bed_phases.py);
-1 rest: the platen servo-controlled by its own stress towards start_stress (at rest_speed,
-  fill_speed unless set, up at most SERVO_BACK of it), the particles stopped at every check;
-  once the kinetic energy gathered since the last check is below rest_ke of the elastic energy
-  the bed holds (pairs, bonds, angles, walls) or after rest_time, and the platen carries at most
-  REST_ABOVE x start_stress: if the platen carries at least REST_HOLDS of start_stress, the
-  particles are stopped once more, the model's bond and angle coefficients set (breaking on)
-  and the start state dumped; else the bed let go of the platen and is filled again (phase 0);
+  start_stress), never up; half as fast at each return to the fill, bed_phases.FILL_HALVINGS
+  times at most), every particle damped by a drag -m v / FILL_DAMPING_TIME, until
+  the bottom and the platen have carried 1 - FILL_TOLERANCE of start_stress on the mean over a
+  check window at FILL_CHECKS checks in a row (driver/bed_phases.py);
+1 rest: every particle damped by a stronger drag, -m v / t_d with t_d = REST_DAMPING_PERIODS
+  wall contact periods (driver/bed_phases.py); the platen still, or backing up while the mean of
+  its own and the bottom's stresses over the last check window is above REST_ABOVE x
+  start_stress (at rest_speed, fill_speed unless set, times that mean's excess in units of
+  start_stress, at most SERVO_BACK of it); once the kinetic energy is below rest_ke of the
+  elastic energy the bed holds (pairs, bonds, angles, walls) or after rest_time, and the platen
+  carries at most REST_ABOVE x start_stress: if the platen carries at least REST_HOLDS of
+  start_stress, the particles are stopped, the model's bond and angle coefficients set
+  (breaking on) and the start state dumped; else the bed let go of the platen and is filled
+  again (phase 0);
 2 load: the platen down at platen_speed until target_stress; the atoms and bonds dumped as the
   stress first passes each of grading_at x target_stress;
 3 hold (hold_time > 0), 4 unload (up at platen_speed, to start_stress), 5 done: the run ends.
@@ -109,26 +113,25 @@ def phase_checks(cfg, system: dict) -> tuple[list[str], list[str]]:
         # start_stress (a fast fill leaves it far above: 8 MPa after a 20 m/s fill of 30 grains)
         bed_phases.rested(sc.rest_ke, sc.rest_time / un["tau"], start),
         *bed_phases.transitions(start, target, sc.hold_time / un["tau"]),
-        # the rest is quenched (the particles stopped at every check, as the BCM bed's); the fill is
-        # damped by a drag instead (FILL_DAMPING_TIME): quenched, a grain moves only by what the
-        # platen's push accelerates it to within one check, so the bed is compacted under a
-        # platen stress that grows with fill_speed and the column's mass (measured: 2-8 MPa at
-        # 3 m/s on the 8-grain test bed, 83 MPa at 10 m/s on 30 grains); left free, the grains
-        # the platen first meets fly across the box (no gravity) and the bed rattles
-        f'if              "${{p0}} == 1" then {STOP_PARTICLES}',
         *bed_phases.REST_AND_FILL,
         bed_phases.load_begins([*coefficients(m, fill=False), STOP_PARTICLES.strip('"')], dump_commands("load")),
     ]
     grading, flags = bed_phases.grading_checks(sc.grading_at, target, lambda k: dump_commands(grading_dump_name(k)))
     lines += [
-        *grading, *bed_phases.phase_ends(sc.hold_time, sc.unload),
+        *grading, *bed_phases.phase_ends(sc.hold_time, sc.unload), bed_phases.CHECK_LOG,
         # the platen's speed for the next window, of the phase now: the fill servo-controlled by
         # the bottom's stress (full speed until the stress goes through the bed, then slowing,
-        # never up), the rest by the platen's own towards start_stress (at rest_speed, up at most
-        # SERVO_BACK of it), the loading and unloading at platen_speed, else still
-        f'variable        v_next equal "(v_phase == 0)*{v_fill!r}*ternary(v_svb_now < {start!r}, '
-        f'1 - v_svb_now/{start!r}, 0) + (v_phase == 1)*{v_rest!r}*ternary(1 - v_sv_now/{start!r} < {-back!r}, '
-        f'{-back!r}, 1 - v_sv_now/{start!r}) + (v_phase == 2)*{v_load!r} - (v_phase == 4)*{v_load!r}"',
+        # never up; slower at each return to the fill), the rest still, or backing up while the
+        # mean of the platen's and the bottom's stresses over the window is above REST_ABOVE x
+        # start (at rest_speed times the excess in units of start, at most SERVO_BACK of it: a
+        # rest that pushes the bed agitates it, one that backs up from start_stress on
+        # overshoots: both measured on the BCM bed), the loading and unloading at platen_speed,
+        # else still
+        f'variable        rest_err equal "{bed_phases.REST_ABOVE!r} - 0.5*(v_svm_now + v_svbm_now)/{start!r}"',
+        bed_phases.FILL_SCALE,
+        f'variable        v_next equal "(v_phase == 0)*{v_fill!r}*v_fill_scale*ternary(v_svb_now < {start!r}, '
+        f'1 - v_svb_now/{start!r}, 0) + (v_phase == 1)*{v_rest!r}*ternary(v_rest_err < {-back!r}, '
+        f'{-back!r}, (v_rest_err < 0)*v_rest_err) + (v_phase == 2)*{v_load!r} - (v_phase == 4)*{v_load!r}"',
         "variable        v_new equal $(v_v_next:%.17g)",
         *platen_to("v_new"),
         bed_phases.DONE,
@@ -183,14 +186,15 @@ def render_inputs(cfg, plugin_path: Path, system: dict) -> tuple[str, str, dict,
         a_m=f"{un['a']:.6g}", m_kg=f"{un['m']:.6g}", u_J=f"{un['u']:.6g}", tau_s=f"{un['tau']:.17g}",
         timestep=f"{dt:.12g}", steps_per_period=f"{sc.steps_per_period:g}", kn=f"{law['kn']:.12g}",
         kt=f"{law['kt']:.12g}", eta_n=f"{law['eta_n']:.12g}", mu=f"{law['mu']:.12g}", wall_law=plane_law_args(law),
-        walls=wall_lines(law, box_a), fill_damping_time=repr(FILL_DAMPING_TIME), box_x=repr(box_a[0]),
+        walls=wall_lines(law, box_a), fill_damping_time=repr(FILL_DAMPING_TIME),
+        rest_damping_time=repr(bed_phases.REST_DAMPING_PERIODS * law["period"]), box_x=repr(box_a[0]),
         box_y=repr(box_a[1]), top_h0=repr(box_a[2]),
         solid_volume=repr(system["solid_volume_a3"]), phase_setup=phase_setup, periodic_dumps=periodic,
         window_steps=window)
     setup = render(
         "bpm_compress.in", role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).",
         system=SYSTEM_FRESH, styles=fill_styles, record_target="file thermo.dat", step0=0,
-        start="run             0\n" + "\n".join(dump_commands("start")), **common)
+        start="\n".join(["run             0", *dump_commands("start"), bed_phases.CHECK_LOG_TITLE]), **common)
     resume = render(
         "bpm_compress.in", role="Start from a checkpoint (resume.lammps: -var checkpoint FILE).",
         system=SYSTEM_RESUME, styles="# pair, bond and angle styles with their coefficients (the phase's): from the "
