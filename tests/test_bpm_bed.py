@@ -151,6 +151,30 @@ def test_bed_energy_account_closes(small_bpm_bed):
     assert (small_bpm_bed / "plots" / "compression.png").exists()
 
 
+def test_the_loading_starts_from_a_calm_balanced_bed(small_bpm_bed):
+    """The check log (phases.dat): the loading begins after a rest with the platen's mean between
+    REST_HOLDS and REST_ABOVE x start_stress, the bottom carrying what the platen does and the bed
+    calm (measured: the two within 5 %, the kinetic energy 2.8e-2 of the elastic one after the
+    test's short rest, where the fills ended at 0.5-0.7; the quenched rest began the loading with
+    the bottom at 15 x start_stress and the platen at 1.2 x)."""
+    from driver import bed_phases
+    from runfiles.records import read_record
+
+    log = read_record(small_bpm_bed / bed_phases.CHECK_LOG_FILE, bed_phases.CHECK_LOG_COLUMNS)
+    assert (log.phase_before.to_numpy()[1:] == log.phase.to_numpy()[:-1]).all()
+    system = json.loads((small_bpm_bed / "system.json").read_text())
+    import yaml
+
+    config = yaml.safe_load((small_bpm_bed / "config.resolved.yaml").read_text())
+    start = config["scenario"]["start_stress"] * system["units"]["a"] ** 3 / system["units"]["u"]  # LJ
+    loads = log[(log.phase_before == 1) & (log.phase == 2)]
+    assert len(loads) == 1
+    top, bottom = loads.sigma_v_mean.iloc[0], loads.sigma_v_bottom_mean.iloc[0]
+    assert bed_phases.REST_HOLDS * start <= top <= bed_phases.REST_ABOVE * start
+    assert abs(bottom - top) <= 0.25 * top
+    assert loads.ke.iloc[0] <= 0.1 * loads.elastic.iloc[0]
+
+
 def test_every_file_of_the_run_is_the_tools_own(small_bpm_bed):
     """A re-run starts clean only from files the run layout names (driver/rundir.py): the BPM
     bed's Voronoi areas and volumes and its check log were once left behind as foreign."""
