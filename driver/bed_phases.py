@@ -121,11 +121,15 @@ def transitions(start: float, target: float, hold_time: float) -> list[str]:
     ]
 
 
-#: the rest and the fill begun
-REST_AND_FILL = [
-    'if              "${to_rest} > 0" then "variable phase equal 1" "variable t_rest equal ${t_now}"',
-    'if              "${to_fill} > 0" then "variable phase equal 0" "variable refills equal $(v_refills+1)"',
-]
+def rest_and_fill(rest_begins: list[str] = (), fill_begins: list[str] = ()) -> list[str]:
+    """The rest and the fill begun, each with the model's own commands (the BCM's contact
+    friction: the model's in the rest, fill_friction in the fill)."""
+    return [
+        'if              "${to_rest} > 0" then "variable phase equal 1" "variable t_rest equal ${t_now}"'
+        + "".join(f' "{c}"' for c in rest_begins),
+        'if              "${to_fill} > 0" then "variable phase equal 0" "variable refills equal $(v_refills+1)"'
+        + "".join(f' "{c}"' for c in fill_begins),
+    ]
 
 
 def load_begins(switch_on: list[str], dumps: list[str]) -> str:

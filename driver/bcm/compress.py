@@ -105,8 +105,11 @@ def phase_checks(cfg: RunConfig) -> tuple[list[str], list[str]]:
         # a bed whose cells are stopped at every check moves only by what one check's forces
         # accelerate it to, so it leaves the rest out of equilibrium and creeps away from the
         # platen once loaded (measured: 30 grains quenched from a 14 MPa fill, sigma_v 50 kPa at
-        # the rest's end, 0-10 kPa for the loading's first 12,000 steps at 0.1 m/s)
-        *bed_phases.REST_AND_FILL,
+        # the rest's end, 0-10 kPa for the loading's first 12,000 steps at 0.1 m/s). The rest has
+        # the model's friction: a frictionless bed under a still platen creeps into its voids
+        # (measured: the 8-grain test bed's stress fell from 5e4 to 4e2 Pa in a rest, and it went
+        # fill, rest, fill nine times); the fill fill_friction again
+        *bed_phases.rest_and_fill([styles.pair_coeff(m)], [styles.pair_coeff(m, mu=sc.fill_friction)]),
         # the loading starts from rest: rattlers (grains touching nothing keep their speed, there
         # is no gravity) and what is left of the fill's ringing are stopped; breaking on (the
         # configured G_c), the model's mu

@@ -113,7 +113,7 @@ def phase_checks(cfg, system: dict) -> tuple[list[str], list[str]]:
         # start_stress (a fast fill leaves it far above: 8 MPa after a 20 m/s fill of 30 grains)
         bed_phases.rested(sc.rest_ke, sc.rest_time / un["tau"], start),
         *bed_phases.transitions(start, target, sc.hold_time / un["tau"]),
-        *bed_phases.REST_AND_FILL,
+        *bed_phases.rest_and_fill(),
         bed_phases.load_begins([*coefficients(m, fill=False), STOP_PARTICLES.strip('"')], dump_commands("load")),
     ]
     grading, flags = bed_phases.grading_checks(sc.grading_at, target, lambda k: dump_commands(grading_dump_name(k)))
