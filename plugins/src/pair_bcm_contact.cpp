@@ -65,7 +65,7 @@ enum { S_PARTNER, S_KEY, S_STEP, S_U, S_FT = 6 };
 PairBcmContact::PairBcmContact(LAMMPS *_lmp) :
     Pair(_lmp), rm(0.0), nslots(64), kn(nullptr), kt(nullptr), en2(nullptr), mu(nullptr),
     alpha(nullptr), iquat(-1), ihist(-1), maxrad(0.0), warned_slots(false), w_fric(0.0), w_drop(0.0),
-    nevals(0), saved_at(-1), saved{0.0, 0.0, 0.0, 0.0}
+    written_step(-1), nevals(0), saved_at(-1), saved{0.0, 0.0, 0.0, 0.0}
 {
   single_enable = 0;
   // settings, coefficients and the cumulative [4]-[7] go to restart files; the tangential
@@ -312,14 +312,30 @@ void PairBcmContact::collect_last_springs(bigint written)
   const tagint *tag = atom->tag;
   const int nall = atom->nlocal + atom->nghost;
   double **hist = atom->darray[ihist];
-  for (int i = 0; i < nall; i++) {
-    const double *h = hist[i];
-    for (int m = 0; m < nslots; m++, h += SLOT) {
-      if (h[S_PARTNER] == 0.0 || h[S_STEP] != before) continue;
-      const tagint partner = static_cast<tagint>(h[S_PARTNER]);
-      LastSpring e{std::min(tag[i], partner), std::max(tag[i], partner), h[S_KEY],
-                   {h[S_U], h[S_U + 1], h[S_U + 2]}};
-      last_springs.push_back(e);
+  auto take = [&](int i, const double *h) {
+    const tagint partner = static_cast<tagint>(h[S_PARTNER]);
+    LastSpring e{std::min(tag[i], partner), std::max(tag[i], partner), h[S_KEY],
+                 {h[S_U], h[S_U + 1], h[S_U + 2]}};
+    last_springs.push_back(e);
+  };
+  // the slots that this rank wrote at that step, in the order of the full scan below (atom,
+  // then slot): the same springs in the same order, so the same sort. Usable when that was
+  // the last step, no reneighboring came since (neighbor->ago >= 1: the rows of this step's
+  // ghosts and atoms are those of the last step) and no setup evaluation (written_step reset)
+  if (written_step >= 0 && written_step == written && neighbor->ago >= 1 &&
+      update->setupflag == 0) {
+    std::sort(written_prev.begin(), written_prev.end());
+    written_prev.erase(std::unique(written_prev.begin(), written_prev.end()), written_prev.end());
+    for (const int64_t w : written_prev) {
+      const int i = static_cast<int>(w >> 32), m = static_cast<int>(w & 0xffffffff);
+      const double *h = hist[i] + SLOT * m;
+      if (i < nall && h[S_PARTNER] != 0.0 && h[S_STEP] == before) take(i, h);
+    }
+  } else {
+    for (int i = 0; i < nall; i++) {
+      const double *h = hist[i];
+      for (int m = 0; m < nslots; m++, h += SLOT)
+        if (h[S_PARTNER] != 0.0 && h[S_STEP] == before) take(i, h);
     }
   }
   if (last_springs.empty()) return;
@@ -453,7 +469,10 @@ void PairBcmContact::compute(int eflag, int vflag)
   damp_work.begin(lmp, "pair_style bcm/contact");
   all_work.begin(lmp, "pair_style bcm/contact");
   // the springs of the last step, to book those that no point carries on (dropped_springs)
+  written_prev.swap(written_slots);
   collect_last_springs(advance ? step - 1 : step);
+  written_slots.clear();
+  written_step = -1;
 
   const int inum = list->inum;
   const int *ilist = list->ilist;
@@ -560,6 +579,7 @@ void PairBcmContact::compute(int eflag, int vflag)
           int m = find_slot(o, partner, key, step);
           if (m < 0) m = free_slot(o, step);
           if (m >= 0) {
+            written_slots.push_back(static_cast<int64_t>(o) << 32 | m);
             double *dst = &hist[o][SLOT * m];
             dst[S_PARTNER] = static_cast<double>(partner);
             dst[S_KEY] = key;
@@ -620,6 +640,8 @@ void PairBcmContact::compute(int eflag, int vflag)
     }
   }
 
+  // this advancing evaluation's writes are all of the slots stamped with its step
+  if (advance) written_step = step;
   pvector[0] = static_cast<double>(npoints);
   pvector[1] = static_cast<double>(npairs);
   pvector[2] = static_cast<double>(nlost);

@@ -80,6 +80,13 @@ class PairBcmContact : public Pair {
   std::vector<LastSpring> last_springs;
   std::unordered_map<std::pair<tagint, tagint>, std::pair<int, int>, PairHash> last_range;
   void collect_last_springs(bigint written);
+  // the slots (atom index << 32 | slot) written by this rank's advancing evaluation at step
+  // written_step: between two reneighborings no other slot gets that step's stamp (ghost rows
+  // are sent, atoms exchanged and sorted only at reneighboring), so the next step collects
+  // them from this list instead of scanning every slot of every cell; -1: not usable (a
+  // setup evaluation came since, or none was recorded)
+  std::vector<int64_t> written_slots, written_prev;
+  bigint written_step;
   double dropped_springs(int a, int b, double ktij, double dt, int np, bool advance);
 
   // restart files: LAMMPS calls the pair's write_restart on rank 0 only, so the cumulative
