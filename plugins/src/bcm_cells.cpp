@@ -607,11 +607,48 @@ struct Collector {
 
 }    // namespace
 
-int LAMMPS_NS::bcm_find_contacts(const BcmSpaceCell &sa, const BcmSpaceCell &sb, double dcut,
-                                 BcmContactWork &work, std::vector<BcmContactPoint> &out)
+bool LAMMPS_NS::bcm_cores_apart(const BcmSpaceCell &sa, const BcmSpaceCell &sb, double dcut)
 {
   const Side A(sa), B(sb);
-  if (separated(A, B, dcut) || separated(B, A, dcut)) return 0;
+  return separated(A, B, dcut) || separated(B, A, dcut);
+}
+
+namespace {
+
+// the largest margin over the face planes of S: min(hc, least vertex height) - dcut of O
+double apart_margin(const Side &S, const Side &O, double dcut, double best)
+{
+  for (int f = 0; f < S.c.nf; f++) {
+    const double *pl = S.n(f);
+    const double hc = dot(pl, O.x) - pl[3];
+    // the centre's height counts too (separated() skips a plane with the centre below
+    // dcut), so hc - dcut bounds this plane's margin
+    if (hc - dcut <= best) continue;
+    double m = hc - dcut;
+    for (int k = 0; k < O.c.nv && m > best; k++) m = std::min(m, dot(pl, O.v(k)) - pl[3] - dcut);
+    if (m > best) best = m;
+  }
+  return best;
+}
+
+}    // namespace
+
+double LAMMPS_NS::bcm_apart_margin(const BcmSpaceCell &sa, const BcmSpaceCell &sb, double dcut,
+                                   int &side)
+{
+  const Side A(sa), B(sb);
+  const double ma = apart_margin(A, B, dcut, -HUGE_VAL);
+  const double mb = apart_margin(B, A, dcut, ma);
+  side = mb > ma ? 1 : 0;
+  return std::max(ma, mb);
+}
+
+int LAMMPS_NS::bcm_find_contacts(const BcmSpaceCell &sa, const BcmSpaceCell &sb, double dcut,
+                                 BcmContactWork &work, std::vector<BcmContactPoint> &out,
+                                 bool apart_tested)
+{
+  const Side A(sa), B(sb);
+  if (!apart_tested && (separated(A, B, dcut) || separated(B, A, dcut))) return 0;
 
   const double scale = A.c.rbound + B.c.rbound;
   const double rmin = std::min(A.c.rbound, B.c.rbound);

@@ -276,6 +276,82 @@ int PairBcmContact::place(int i)
   return placed[i];
 }
 
+/* ----------------------------------------------------------------------
+   separation certificates (see pair_bcm_contact.h): P = R_A^T (x_B - x_A) and
+   M = q_A^* q_B of a pair (a = A, b = B) from unit quaternions (fix bcm/rigid keeps them
+   normalised: a certificate needs |q|^2 within 1e-12 of 1)
+------------------------------------------------------------------------- */
+
+static bool relative_state(const double *xa, const double *xb, const double *qa, const double *qb,
+                           double *P, double *M)
+{
+  if (std::fabs(BcmRigid::quat_norm2(qa) - 1.0) > 1.0e-12 ||
+      std::fabs(BcmRigid::quat_norm2(qb) - 1.0) > 1.0e-12)
+    return false;
+  const double D[3] = {xb[0] - xa[0], xb[1] - xa[1], xb[2] - xa[2]};
+  // R(q)^T D = D - 2 w (u x D) + 2 u x (u x D), q = (w, u)
+  const double w = qa[0], u[3] = {qa[1], qa[2], qa[3]};
+  double t[3], t2[3];
+  cross(u, D, t);
+  cross(u, t, t2);
+  for (int d = 0; d < 3; d++) P[d] = D[d] - 2.0 * w * t[d] + 2.0 * t2[d];
+  // q_A^* q_B = (w_a w_b + u_a . u_b, w_a u_b - w_b u_a - u_a x u_b)
+  const double *ub = qb + 1;
+  double c[3];
+  cross(u, ub, c);
+  M[0] = w * qb[0] + dot(u, ub);
+  for (int d = 0; d < 3; d++) M[1 + d] = w * ub[d] - qb[0] * u[d] - c[d];
+  return true;
+}
+
+bool PairBcmContact::still_apart(const ApartCert &c, int a, int b) const
+{
+  if (c.ta != atom->tag[a] || c.tb != atom->tag[b]) return false;
+  double P[3], M[4];
+  if (!relative_state(atom->x[a], atom->x[b], atom->darray[iquat][a], atom->darray[iquat][b], P,
+                      M))
+    return false;
+  const double dp[3] = {P[0] - c.p[0], P[1] - c.p[1], P[2] - c.p[2]};
+  // |R(M) - R(M1)| = 2 |Im(M1^* M)| (the sine of half the angle between them, twice)
+  const double w1 = c.q[0], u1[3] = {c.q[1], c.q[2], c.q[3]};
+  double cr[3], im[3];
+  cross(u1, M + 1, cr);
+  for (int d = 0; d < 3; d++) im[d] = w1 * M[1 + d] - M[0] * u1[d] - cr[d];
+  const double moved = std::sqrt(dot(dp, dp)) + 2.0 * std::sqrt(dot(im, im)) * c.lever;
+  return moved < c.margin;
+}
+
+void PairBcmContact::certify(ApartCert &c, int a, int b, const BcmSpaceCell &sa,
+                             const BcmSpaceCell &sb, double dcut) const
+{
+  c.ta = 0;
+  double P[3], M[4];
+  const double *xa = atom->x[a], *xb = atom->x[b];
+  if (!relative_state(xa, xb, atom->darray[iquat][a], atom->darray[iquat][b], P, M)) return;
+  int side = 0;
+  const double m = bcm_apart_margin(sa, sb, dcut, side);
+  const double ra = sa.cell->rbound, rb = sb.cell->rbound;
+  const double plen = std::sqrt(dot(P, P));
+  const double lever = side == 0 ? rb : plen + ra;
+  // allowances: P1 and M1 kept in single precision (each relative 2^-24: 1.2e-7 |P1| and
+  // 3e-7 lever with margin to spare), round-off of the placed cores and of these sums
+  const double margin = m - 1.2e-7 * plen - 3.0e-7 * lever - 1.0e-9 * (ra + rb + plen) -
+      1.0e-13 * (std::fabs(xa[0]) + std::fabs(xa[1]) + std::fabs(xa[2]) + std::fabs(xb[0]) +
+                 std::fabs(xb[1]) + std::fabs(xb[2]));
+  if (!(margin > 0.0)) return;
+  float mf = static_cast<float>(margin);
+  if (static_cast<double>(mf) > margin) mf = std::nextafter(mf, 0.0f);
+  float lf = static_cast<float>(lever);
+  if (static_cast<double>(lf) < lever) lf = std::nextafter(lf, HUGE_VALF);
+  if (!(mf > 0.0f)) return;
+  for (int d = 0; d < 3; d++) c.p[d] = static_cast<float>(P[d]);
+  for (int d = 0; d < 4; d++) c.q[d] = static_cast<float>(M[d]);
+  c.margin = mf;
+  c.lever = lf;
+  c.ta = atom->tag[a];
+  c.tb = atom->tag[b];
+}
+
 /* ---------------------------------------------------------------------- */
 
 int PairBcmContact::find_slot(int i, tagint partner, double key, bigint step) const
@@ -478,6 +554,13 @@ void PairBcmContact::compute(int eflag, int vflag)
   const int *ilist = list->ilist;
   const int *numneigh = list->numneigh;
   int **firstneigh = list->firstneigh;
+  // separation certificates: one per unbonded entry of this list, in its order
+  if (list != cert_list || neighbor->ncalls != cert_ncalls || !advance) {
+    certs.clear();
+    cert_list = list;
+    cert_ncalls = neighbor->ncalls;
+  }
+  std::size_t nentry = 0;
 
   for (int ii = 0; ii < inum; ii++) {
     const int i = ilist[ii];
@@ -487,6 +570,8 @@ void PairBcmContact::compute(int eflag, int vflag)
       int j = jlist[jj];
       if (weight[sbmask(j)] == 0.0) continue;    // bonded: an interface, not a contact
       j &= NEIGHMASK;
+      if (nentry == certs.size()) certs.emplace_back();
+      ApartCert &cert = certs[nentry++];
 
       // A = the smaller tag: both cells' history copies and every rank agree on the order
       const int a = tag[i] < tag[j] ? i : j;
@@ -499,7 +584,9 @@ void PairBcmContact::compute(int eflag, int vflag)
       const bool counted = newton_pair || a < nlocal;
       const int itype = type[i], jtype = type[j];
       const double kn_ = kn[itype][jtype], kt_ = kt[itype][jtype], mu_ = mu[itype][jtype];
-      if (dot(dx, dx) >= reach * reach) {
+      // outside the bounding spheres, or still apart by the face plane of its certificate:
+      // no point, the cells not placed
+      if (dot(dx, dx) >= reach * reach || still_apart(cert, a, b)) {
         if (!last_range.empty()) {
           const double lost = dropped_springs(a, b, kt_, dt, 0, advance);
           if (counted) w_drop += lost;
@@ -511,7 +598,13 @@ void PairBcmContact::compute(int eflag, int vflag)
       const BcmSpaceCell sa{table.get(), ca, x[a], &geom[oa], &geom[oa + 3 * ca->nv]};
       const BcmSpaceCell sb{table.get(), cb, x[b], &geom[ob], &geom[ob + 3 * cb->nv]};
       points.clear();
-      const int np = bcm_find_contacts(sa, sb, dcut, work, points);
+      int np = 0;
+      if (bcm_cores_apart(sa, sb, dcut)) {
+        certify(cert, a, b, sa, sb, dcut);
+      } else {
+        cert.ta = 0;
+        np = bcm_find_contacts(sa, sb, dcut, work, points, true);
+      }
       // springs of the last step that no current point carries on: their energy is lost
       if (!last_range.empty()) {
         const double lost = dropped_springs(a, b, kt_, dt, np, advance);
@@ -778,7 +871,8 @@ double PairBcmContact::memory_usage()
 {
   double bytes = Pair::memory_usage();
   bytes += sizeof(double) * geom.capacity() + sizeof(int) * placed.capacity() +
-      sizeof(void *) * cell_of.capacity() + sizeof(BcmContactPoint) * points.capacity();
+      sizeof(void *) * cell_of.capacity() + sizeof(BcmContactPoint) * points.capacity() +
+      sizeof(ApartCert) * certs.capacity();
   if (table) bytes += table->memory_usage();
   return bytes;
 }

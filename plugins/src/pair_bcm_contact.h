@@ -106,6 +106,27 @@ class PairBcmContact : public Pair {
   std::vector<BcmContactPoint> points;
   BcmContactWork work;
 
+  // separation certificates (issue 27), one per unbonded entry of the neighbour list, in the
+  // list's order, for a pair whose cores bcm_cores_apart() found apart: the pair's tags, its
+  // relative position and orientation then in A's body frame (P = R_A^T (x_B - x_A),
+  // M = q_A^* q_B) and the margin of the separating face plane less round-off allowances.
+  // The heights over that plane of the other core's points move by at most
+  // |P - P1| + |R(M) - R(M1)| lever (lever: the radius of B for a plane of A, |P1| + the
+  // radius of A for a plane of B), so while that bound stays below the margin the cores are
+  // still apart by that plane: the pair is skipped without placing its cells, exactly as the
+  // test would have skipped it. Cleared when the list is rebuilt and at a setup evaluation.
+  struct ApartCert {
+    tagint ta = 0, tb = 0;    // the pair (0: no certificate)
+    float p[3], q[4];         // P1, M1
+    float margin, lever;
+  };
+  std::vector<ApartCert> certs;
+  NeighList *cert_list = nullptr;
+  bigint cert_ncalls = -1;
+  bool still_apart(const ApartCert &c, int a, int b) const;
+  void certify(ApartCert &c, int a, int b, const BcmSpaceCell &sa, const BcmSpaceCell &sb,
+               double dcut) const;
+
   void allocate();
   const BcmCells::Cell *cell(int i);
   int place(int i);
