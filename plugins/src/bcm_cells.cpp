@@ -643,6 +643,41 @@ double LAMMPS_NS::bcm_apart_margin(const BcmSpaceCell &sa, const BcmSpaceCell &s
   return std::max(ma, mb);
 }
 
+namespace {
+
+// over O's planes (heights h of S's vertices, their largest hmax): the least over S's edges
+// of the edge's best plane (the larger height of its lower end), and the least hmax
+void dead_margins(const Side &S, const Side &O, const std::vector<double> &h,
+                  const std::vector<double> &hmax, double &edges, double &verts)
+{
+  const int nfo = O.c.nf;
+  edges = HUGE_VAL;
+  for (int ie = 0; ie < S.c.ne; ie++) {
+    const int *ed = S.e(ie);
+    const double *ha = &h[static_cast<std::size_t>(ed[0]) * nfo];
+    const double *hb = &h[static_cast<std::size_t>(ed[1]) * nfo];
+    double best = -HUGE_VAL;
+    for (int f = 0; f < nfo; f++) best = std::max(best, std::min(ha[f], hb[f]));
+    edges = std::min(edges, best);
+  }
+  verts = HUGE_VAL;
+  for (int k = 0; k < S.c.nv; k++) verts = std::min(verts, hmax[k]);
+}
+
+}    // namespace
+
+double LAMMPS_NS::bcm_dead_margin(const BcmSpaceCell &sa, const BcmSpaceCell &sb, double dcut,
+                                  const BcmContactWork &work)
+{
+  const Side A(sa), B(sb);
+  double ea, va, eb, vb;
+  dead_margins(A, B, work.ha, work.hmaxa, ea, va);
+  dead_margins(B, A, work.hb, work.hmaxb, eb, vb);
+  // (every vertex ends an edge, so the dead edges of one core already put its vertices
+  // dcut above a plane of the other; both kept for certainty)
+  return std::min(std::min(va, vb), std::max(ea, eb)) - dcut;
+}
+
 int LAMMPS_NS::bcm_find_contacts(const BcmSpaceCell &sa, const BcmSpaceCell &sb, double dcut,
                                  BcmContactWork &work, std::vector<BcmContactPoint> &out,
                                  bool apart_tested)

@@ -121,6 +121,16 @@ bool bcm_cores_apart(const BcmSpaceCell &A, const BcmSpaceCell &B, double dcut);
    B. Returns the margin (< 0: none; the test passed by the centre test alone). */
 double bcm_apart_margin(const BcmSpaceCell &A, const BcmSpaceCell &B, double dcut, int &side);
 
+/* For cores not apart by a face plane, right after bcm_find_contacts(A, B, ..., work, ...,
+   apart_tested = true) found no point, from the heights it left in work: the margin by which
+   every vertex of each core lies dcut or more above some plane of the other (no vertex-face,
+   vertex-edge or vertex-vertex point) and every edge of one of the cores, both its ends, dcut
+   or more above one plane of the other (all its edges dead: no edge-edge point), less dcut.
+   While each of these heights moves by less than the margin, bcm_find_contacts finds no
+   point. < 0: none. */
+double bcm_dead_margin(const BcmSpaceCell &A, const BcmSpaceCell &B, double dcut,
+                       const BcmContactWork &work);
+
 /* Index into atom->darray of a per-atom array `name` (ncols columns) kept by a hidden
    fix lazy/store of id fix_id (created if absent), so that it migrates with the atoms,
    follows sorting and goes to restart files; ghost = also communicated to ghost atoms at

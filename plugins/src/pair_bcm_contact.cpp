@@ -322,17 +322,18 @@ bool PairBcmContact::still_apart(const ApartCert &c, int a, int b) const
 }
 
 void PairBcmContact::certify(ApartCert &c, int a, int b, const BcmSpaceCell &sa,
-                             const BcmSpaceCell &sb, double dcut) const
+                             const BcmSpaceCell &sb, double m, int side) const
 {
   c.ta = 0;
+  if (!(m > 0.0)) return;
   double P[3], M[4];
   const double *xa = atom->x[a], *xb = atom->x[b];
   if (!relative_state(xa, xb, atom->darray[iquat][a], atom->darray[iquat][b], P, M)) return;
-  int side = 0;
-  const double m = bcm_apart_margin(sa, sb, dcut, side);
   const double ra = sa.cell->rbound, rb = sb.cell->rbound;
   const double plen = std::sqrt(dot(P, P));
-  const double lever = side == 0 ? rb : plen + ra;
+  // B's points over A's planes move by |P - P1| + |R(M) - R(M1)| r_B at most, A's over B's
+  // by |P - P1| + |R(M) - R(M1)| (|P1| + r_A); side 2: heights both ways round
+  const double lever = side == 0 ? rb : side == 1 ? plen + ra : std::max(rb, plen + ra);
   // allowances: P1 and M1 kept in single precision (each relative 2^-24: 1.2e-7 |P1| and
   // 3e-7 lever with margin to spare), round-off of the placed cores and of these sums
   const double margin = m - 1.2e-7 * plen - 3.0e-7 * lever - 1.0e-9 * (ra + rb + plen) -
@@ -600,10 +601,13 @@ void PairBcmContact::compute(int eflag, int vflag)
       points.clear();
       int np = 0;
       if (bcm_cores_apart(sa, sb, dcut)) {
-        certify(cert, a, b, sa, sb, dcut);
+        int side = 0;
+        const double m = bcm_apart_margin(sa, sb, dcut, side);
+        certify(cert, a, b, sa, sb, m, side);
       } else {
-        cert.ta = 0;
         np = bcm_find_contacts(sa, sb, dcut, work, points, true);
+        cert.ta = 0;
+        if (np == 0) certify(cert, a, b, sa, sb, bcm_dead_margin(sa, sb, dcut, work), 2);
       }
       // springs of the last step that no current point carries on: their energy is lost
       if (!last_range.empty()) {

@@ -125,7 +125,7 @@ class PairBcmContact : public Pair {
   bigint cert_ncalls = -1;
   bool still_apart(const ApartCert &c, int a, int b) const;
   void certify(ApartCert &c, int a, int b, const BcmSpaceCell &sa, const BcmSpaceCell &sb,
-               double dcut) const;
+               double margin, int side) const;
 
   void allocate();
   const BcmCells::Cell *cell(int i);
