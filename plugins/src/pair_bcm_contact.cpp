@@ -34,6 +34,7 @@
 
 #include "atom.h"
 #include "bcm_contact_law.h"
+#include "bcm_motion.h"
 #include "bcm_rigid.h"
 #include "comm.h"
 #include "error.h"
@@ -277,78 +278,26 @@ int PairBcmContact::place(int i)
 }
 
 /* ----------------------------------------------------------------------
-   separation certificates (see pair_bcm_contact.h): P = R_A^T (x_B - x_A) and
-   M = q_A^* q_B of a pair (a = A, b = B) from unit quaternions (fix bcm/rigid keeps them
-   normalised: a certificate needs |q|^2 within 1e-12 of 1)
+   separation certificates (see pair_bcm_contact.h and bcm_motion.h)
 ------------------------------------------------------------------------- */
-
-static bool relative_state(const double *xa, const double *xb, const double *qa, const double *qb,
-                           double *P, double *M)
-{
-  if (std::fabs(BcmRigid::quat_norm2(qa) - 1.0) > 1.0e-12 ||
-      std::fabs(BcmRigid::quat_norm2(qb) - 1.0) > 1.0e-12)
-    return false;
-  const double D[3] = {xb[0] - xa[0], xb[1] - xa[1], xb[2] - xa[2]};
-  // R(q)^T D = D - 2 w (u x D) + 2 u x (u x D), q = (w, u)
-  const double w = qa[0], u[3] = {qa[1], qa[2], qa[3]};
-  double t[3], t2[3];
-  cross(u, D, t);
-  cross(u, t, t2);
-  for (int d = 0; d < 3; d++) P[d] = D[d] - 2.0 * w * t[d] + 2.0 * t2[d];
-  // q_A^* q_B = (w_a w_b + u_a . u_b, w_a u_b - w_b u_a - u_a x u_b)
-  const double *ub = qb + 1;
-  double c[3];
-  cross(u, ub, c);
-  M[0] = w * qb[0] + dot(u, ub);
-  for (int d = 0; d < 3; d++) M[1 + d] = w * ub[d] - qb[0] * u[d] - c[d];
-  return true;
-}
 
 bool PairBcmContact::still_apart(const ApartCert &c, int a, int b) const
 {
   if (c.ta != atom->tag[a] || c.tb != atom->tag[b]) return false;
-  double P[3], M[4];
-  if (!relative_state(atom->x[a], atom->x[b], atom->darray[iquat][a], atom->darray[iquat][b], P,
-                      M))
-    return false;
-  const double dp[3] = {P[0] - c.p[0], P[1] - c.p[1], P[2] - c.p[2]};
-  // |R(M) - R(M1)| = 2 |Im(M1^* M)| (the sine of half the angle between them, twice)
-  const double w1 = c.q[0], u1[3] = {c.q[1], c.q[2], c.q[3]};
-  double cr[3], im[3];
-  cross(u1, M + 1, cr);
-  for (int d = 0; d < 3; d++) im[d] = w1 * M[1 + d] - M[0] * u1[d] - cr[d];
-  const double moved = std::sqrt(dot(dp, dp)) + 2.0 * std::sqrt(dot(im, im)) * c.lever;
-  return moved < c.margin;
+  double **quat = atom->darray[iquat];
+  return BcmMotion::holds(c.motion, atom->x[a], atom->x[b], quat[a], quat[b]);
 }
 
 void PairBcmContact::certify(ApartCert &c, int a, int b, const BcmSpaceCell &sa,
                              const BcmSpaceCell &sb, double m, int side) const
 {
   c.ta = 0;
-  if (!(m > 0.0)) return;
-  double P[3], M[4];
-  const double *xa = atom->x[a], *xb = atom->x[b];
-  if (!relative_state(xa, xb, atom->darray[iquat][a], atom->darray[iquat][b], P, M)) return;
+  double **quat = atom->darray[iquat];
+  // side 0: B's points over a plane of A; 1: A's over a plane of B; 2: both ways round
   const double ra = sa.cell->rbound, rb = sb.cell->rbound;
-  const double plen = std::sqrt(dot(P, P));
-  // B's points over A's planes move by |P - P1| + |R(M) - R(M1)| r_B at most, A's over B's
-  // by |P - P1| + |R(M) - R(M1)| (|P1| + r_A); side 2: heights both ways round
-  const double lever = side == 0 ? rb : side == 1 ? plen + ra : std::max(rb, plen + ra);
-  // allowances: P1 and M1 kept in single precision (each relative 2^-24: 1.2e-7 |P1| and
-  // 3e-7 lever with margin to spare), round-off of the placed cores and of these sums
-  const double margin = m - 1.2e-7 * plen - 3.0e-7 * lever - 1.0e-9 * (ra + rb + plen) -
-      1.0e-13 * (std::fabs(xa[0]) + std::fabs(xa[1]) + std::fabs(xa[2]) + std::fabs(xb[0]) +
-                 std::fabs(xb[1]) + std::fabs(xb[2]));
-  if (!(margin > 0.0)) return;
-  float mf = static_cast<float>(margin);
-  if (static_cast<double>(mf) > margin) mf = std::nextafter(mf, 0.0f);
-  float lf = static_cast<float>(lever);
-  if (static_cast<double>(lf) < lever) lf = std::nextafter(lf, HUGE_VALF);
-  if (!(mf > 0.0f)) return;
-  for (int d = 0; d < 3; d++) c.p[d] = static_cast<float>(P[d]);
-  for (int d = 0; d < 4; d++) c.q[d] = static_cast<float>(M[d]);
-  c.margin = mf;
-  c.lever = lf;
+  if (!BcmMotion::certify(c.motion, atom->x[a], atom->x[b], quat[a], quat[b], m,
+                          side != 1 ? rb : -1.0, side != 0 ? ra : -1.0, ra + rb))
+    return;
   c.ta = atom->tag[a];
   c.tb = atom->tag[b];
 }

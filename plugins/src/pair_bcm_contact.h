@@ -10,6 +10,7 @@
 
 #include "bcm_cells.h"
 #include "bcm_kick_work.h"
+#include "bcm_motion.h"
 #include "pair.h"
 
 #include <memory>
@@ -117,8 +118,7 @@ class PairBcmContact : public Pair {
   // test would have skipped it. Cleared when the list is rebuilt and at a setup evaluation.
   struct ApartCert {
     tagint ta = 0, tb = 0;    // the pair (0: no certificate)
-    float p[3], q[4];         // P1, M1
-    float margin, lever;
+    BcmMotion::Cert motion;   // P1, M1, margin, lever arm (bcm_motion.h)
   };
   std::vector<ApartCert> certs;
   NeighList *cert_list = nullptr;
