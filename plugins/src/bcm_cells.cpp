@@ -607,11 +607,83 @@ struct Collector {
 
 }    // namespace
 
-int LAMMPS_NS::bcm_find_contacts(const BcmSpaceCell &sa, const BcmSpaceCell &sb, double dcut,
-                                 BcmContactWork &work, std::vector<BcmContactPoint> &out)
+bool LAMMPS_NS::bcm_cores_apart(const BcmSpaceCell &sa, const BcmSpaceCell &sb, double dcut)
 {
   const Side A(sa), B(sb);
-  if (separated(A, B, dcut) || separated(B, A, dcut)) return 0;
+  return separated(A, B, dcut) || separated(B, A, dcut);
+}
+
+namespace {
+
+// the largest margin over the face planes of S: min(hc, least vertex height) - dcut of O
+double apart_margin(const Side &S, const Side &O, double dcut, double best)
+{
+  for (int f = 0; f < S.c.nf; f++) {
+    const double *pl = S.n(f);
+    const double hc = dot(pl, O.x) - pl[3];
+    // the centre's height counts too (separated() skips a plane with the centre below
+    // dcut), so hc - dcut bounds this plane's margin
+    if (hc - dcut <= best) continue;
+    double m = hc - dcut;
+    for (int k = 0; k < O.c.nv && m > best; k++) m = std::min(m, dot(pl, O.v(k)) - pl[3] - dcut);
+    if (m > best) best = m;
+  }
+  return best;
+}
+
+}    // namespace
+
+double LAMMPS_NS::bcm_apart_margin(const BcmSpaceCell &sa, const BcmSpaceCell &sb, double dcut,
+                                   int &side)
+{
+  const Side A(sa), B(sb);
+  const double ma = apart_margin(A, B, dcut, -HUGE_VAL);
+  const double mb = apart_margin(B, A, dcut, ma);
+  side = mb > ma ? 1 : 0;
+  return std::max(ma, mb);
+}
+
+namespace {
+
+// over O's planes (heights h of S's vertices, their largest hmax): the least over S's edges
+// of the edge's best plane (the larger height of its lower end), and the least hmax
+void dead_margins(const Side &S, const Side &O, const std::vector<double> &h,
+                  const std::vector<double> &hmax, double &edges, double &verts)
+{
+  const int nfo = O.c.nf;
+  edges = HUGE_VAL;
+  for (int ie = 0; ie < S.c.ne; ie++) {
+    const int *ed = S.e(ie);
+    const double *ha = &h[static_cast<std::size_t>(ed[0]) * nfo];
+    const double *hb = &h[static_cast<std::size_t>(ed[1]) * nfo];
+    double best = -HUGE_VAL;
+    for (int f = 0; f < nfo; f++) best = std::max(best, std::min(ha[f], hb[f]));
+    edges = std::min(edges, best);
+  }
+  verts = HUGE_VAL;
+  for (int k = 0; k < S.c.nv; k++) verts = std::min(verts, hmax[k]);
+}
+
+}    // namespace
+
+double LAMMPS_NS::bcm_dead_margin(const BcmSpaceCell &sa, const BcmSpaceCell &sb, double dcut,
+                                  const BcmContactWork &work)
+{
+  const Side A(sa), B(sb);
+  double ea, va, eb, vb;
+  dead_margins(A, B, work.ha, work.hmaxa, ea, va);
+  dead_margins(B, A, work.hb, work.hmaxb, eb, vb);
+  // (every vertex ends an edge, so the dead edges of one core already put its vertices
+  // dcut above a plane of the other; both kept for certainty)
+  return std::min(std::min(va, vb), std::max(ea, eb)) - dcut;
+}
+
+int LAMMPS_NS::bcm_find_contacts(const BcmSpaceCell &sa, const BcmSpaceCell &sb, double dcut,
+                                 BcmContactWork &work, std::vector<BcmContactPoint> &out,
+                                 bool apart_tested)
+{
+  const Side A(sa), B(sb);
+  if (!apart_tested && (separated(A, B, dcut) || separated(B, A, dcut))) return 0;
 
   const double scale = A.c.rbound + B.c.rbound;
   const double rmin = std::min(A.c.rbound, B.c.rbound);

@@ -106,7 +106,30 @@ struct BcmContactWork {
    contact comes out as the corners of the overlap polygon of the two faces (>= 3 points),
    an edge-face contact as its 2 ends. Appends to out; returns the number appended. */
 int bcm_find_contacts(const BcmSpaceCell &A, const BcmSpaceCell &B, double dcut,
-                      BcmContactWork &work, std::vector<BcmContactPoint> &out);
+                      BcmContactWork &work, std::vector<BcmContactPoint> &out,
+                      bool apart_tested = false);
+
+/* The early exit of bcm_find_contacts: a face plane of one core with the whole other core
+   dcut or more beyond it (then it finds no point). bcm_find_contacts(..., apart_tested = true)
+   leaves this test out, for a caller that made it and found the cores not apart. */
+bool bcm_cores_apart(const BcmSpaceCell &A, const BcmSpaceCell &B, double dcut);
+
+/* For cores found apart by bcm_cores_apart: the face plane of either core with the largest
+   margin, the least height of the other core's vertices and centre over it less dcut (each
+   of them dcut + margin or more above it: while the cores move relative to each other by
+   less than the margin, bcm_cores_apart holds by that plane). side = 0: a plane of A, 1: of
+   B. Returns the margin (< 0: none; the test passed by the centre test alone). */
+double bcm_apart_margin(const BcmSpaceCell &A, const BcmSpaceCell &B, double dcut, int &side);
+
+/* For cores not apart by a face plane, right after bcm_find_contacts(A, B, ..., work, ...,
+   apart_tested = true) found no point, from the heights it left in work: the margin by which
+   every vertex of each core lies dcut or more above some plane of the other (no vertex-face,
+   vertex-edge or vertex-vertex point) and every edge of one of the cores, both its ends, dcut
+   or more above one plane of the other (all its edges dead: no edge-edge point), less dcut.
+   While each of these heights moves by less than the margin, bcm_find_contacts finds no
+   point. < 0: none. */
+double bcm_dead_margin(const BcmSpaceCell &A, const BcmSpaceCell &B, double dcut,
+                       const BcmContactWork &work);
 
 /* Index into atom->darray of a per-atom array `name` (ncols columns) kept by a hidden
    fix lazy/store of id fix_id (created if absent), so that it migrates with the atoms,

@@ -422,6 +422,8 @@ void BondBcmGriffith::rebuild_cache()
       }
   }
   cache_store = atom->nmax > 0 ? store[0] : nullptr;
+  quiet_cert.assign(nbondlist, QuietCert());
+  moves_known = false;
   cache_valid = true;
   atoms_moved = false;
   dirty = false;
@@ -532,10 +534,17 @@ void BondBcmGriffith::compute(int eflag, int vflag)
   int **bondlist = neighbor->bondlist;
   const int nbondlist = neighbor->nbondlist;
   Point pts[BcmInterfaceTable::MAX_POINTS];
+  // quiet certificates: made and used at steps only
+  const bool step = now.kind == EVAL_STEP;
+  cell_moves(step);
+  long nbroken = 0;
 
   for (int nb = 0; nb < nbondlist; nb++) {
     const int type = bondlist[nb][2];
-    if (type <= 0) continue;
+    if (type <= 0) {
+      quiet_cert[nb].left = -1.0f;    // not evaluated: its certificate would miss this step
+      continue;
+    }
     Entry &e = cache[nb];
     double *rec = &records[e.roff];
     if (type != e.type) {
@@ -543,7 +552,10 @@ void BondBcmGriffith::compute(int eflag, int vflag)
       e.type = type;
     }
     double *slot = rec + R_SLOT;    // working copy of the slot header
-    if (slot[H_BROKEN] == RETIRED) continue;    // for good: the pair style's now
+    if (slot[H_BROKEN] == RETIRED) {    // for good: the pair style's now
+      quiet_cert[nb].left = -1.0f;
+      continue;
+    }
     const int np = e.npts, P = padded(np);
     double *fd = rec + R_FD;    // damping forces of the last evaluation, rows of P
     const double *g = rec + record_geometry(np);    // normal in cell 1's frame, b1 rows, b2 rows
@@ -581,7 +593,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
         interface_points(p, g, np, pts);
         break_interface(e, rec, p, pts, r.stored, now);
       }
-    } else if (quiet(e, rec, p, g)) {
+    } else if (quiet_now(e, nb, rec, p, g, step)) {
       // every point open, none closed at the last evaluation, no damping force left: the
       // contact law would add zeros only (forces, energies, friction, slip, damping power)
       // and write what the state holds already; the damping work of the last evaluation is
@@ -608,6 +620,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     else if (slot[H_BROKEN] != INTACT)
       contact_forces(e, type, rec, p, pts, just_broke, e_before, now, r);
 
+    if (slot[H_BROKEN] != INTACT) nbroken++;
     slot[H_PD] = r.pd;
     slot[H_E_EL] = r.stored;
     slot[H_LAST_KIND] = now.kind;
@@ -615,6 +628,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     // a quiet interface's load is zero: adding it changes no force, torque, energy or virial
     if (!quiet_broken) apply(e, p, r);
   }
+  nbroken_last = nbroken;
 }
 
 /* ----------------------------------------------------------------------
@@ -627,7 +641,8 @@ void BondBcmGriffith::compute(int eflag, int vflag)
    zeros it would take are zeros)
 ------------------------------------------------------------------------- */
 
-bool BondBcmGriffith::quiet(const Entry &e, const double *rec, const Pair &p, const double *g)
+bool BondBcmGriffith::quiet(const Entry &e, const double *rec, const Pair &p, const double *g,
+                            double *least)
 {
   const double rsum = atom->radius[e.c1] + atom->radius[e.c2];
   if (dot(p.d12, p.d12) >= rsum * rsum) return false;    // retiring: contact_forces()
@@ -647,6 +662,110 @@ bool BondBcmGriffith::quiet(const Entry &e, const double *rec, const Pair &p, co
     base::interface_gaps(p, np, P, g + 3, g + 3 + 3 * P, dn);
   for (int k = 0; k < np; k++)
     if (dn[k] - cb[NCONTACT * k + C_SHIFT] < 0.0) return false;    // closed (contact law)
+  if (least) {
+    *least = HUGE_VAL;
+    for (int k = 0; k < np; k++) *least = std::min(*least, dn[k] - cb[NCONTACT * k + C_SHIFT]);
+  }
+  return true;
+}
+
+/* ----------------------------------------------------------------------
+   each cell's move since the last step, for the quiet certificates: x - x_prev and
+   |R(q) - R(q_prev)| = 2 |Im(q_prev^* q)| (unit quaternions; HUGE_VAL when one is more than
+   1e-12 from unit length, or the last step's cells are not known: after the cache was
+   rebuilt, or a setup evaluation, whose certificates are dropped). Not at a step: the
+   certificates are dropped and the cells forgotten.
+------------------------------------------------------------------------- */
+
+void BondBcmGriffith::cell_moves(bool step)
+{
+  const int nall = atom->nlocal + atom->nghost;
+  // not at a step, or no broken interface at the last evaluation (none can hold a
+  // certificate at the next step): nothing kept
+  if (!step || nbroken_last == 0) {
+    if (moves_known) quiet_cert.assign(quiet_cert.size(), QuietCert());
+    moves_known = false;
+    return;
+  }
+  double **x = atom->x, **quat = atom->darray[iquat];
+  const bool known = moves_known && cell_prev.size() == 7 * (size_t) nall;
+  if (!known) quiet_cert.assign(quiet_cert.size(), QuietCert());
+  cell_prev.resize(7 * (size_t) nall);
+  cell_move.resize(4 * (size_t) nall);
+  for (int i = 0; i < nall; i++) {
+    double *prev = &cell_prev[7 * (size_t) i], *mv = &cell_move[4 * (size_t) i];
+    const double *q = quat[i];
+    if (known) {
+      for (int c = 0; c < 3; c++) mv[c] = x[i][c] - prev[c];
+      const double *q0 = prev + 3;
+      if (std::fabs(BcmRigid::quat_norm2(q) - 1.0) > 1.0e-12 ||
+          std::fabs(BcmRigid::quat_norm2(q0) - 1.0) > 1.0e-12) {
+        mv[3] = HUGE_VAL;
+      } else {
+        // Im(q0^* q) = w0 u - w u0 - u0 x u
+        double cr[3], im[3];
+        BcmRigid::cross(q0 + 1, q + 1, cr);
+        for (int c = 0; c < 3; c++) im[c] = q0[0] * q[1 + c] - q[0] * q0[1 + c] - cr[c];
+        mv[3] = 2.0 * std::sqrt(dot(im, im));
+      }
+    }
+    for (int c = 0; c < 3; c++) prev[c] = x[i][c];
+    for (int c = 0; c < 4; c++) prev[3 + c] = q[c];
+  }
+  moves_known = true;
+}
+
+/* ----------------------------------------------------------------------
+   quiet() of a broken interface, or what it would answer. In cell 1's frame a gap is
+   dn = n_body . (R_1^T (x_2 - x_1) + R_1^T R_2 b2 - b1): over one step it moves by at most
+   |D' - D| + |R_1' - R_1| (|D'| + |b2|) + |R_2' - R_2| |b2| (D = x_2 - x_1). An interface
+   quiet at its last evaluation (its state unwritten since) whose certificate has some of its
+   least gap left after this step's bound, and whose cells still overlap by their bounding
+   spheres, is quiet again; otherwise quiet() decides, and a quiet interface gets a
+   certificate (its least gap dn - s less allowances for round-off: 1e-9 of the lever arm
+   and |D|, 1e-13 of the coordinates), one that is not loses it.
+------------------------------------------------------------------------- */
+
+bool BondBcmGriffith::quiet_now(const Entry &e, int nb, const double *rec, const Pair &p,
+                                const double *g, bool step)
+{
+  QuietCert &qc = quiet_cert[nb];
+  const double d2 = dot(p.d12, p.d12);
+  if (step && qc.left > 0.0f) {
+    const double *m1 = &cell_move[4 * (size_t) e.c1], *m2 = &cell_move[4 * (size_t) e.c2];
+    const double dd[3] = {m2[0] - m1[0], m2[1] - m1[1], m2[2] - m1[2]};
+    const double arm2 = qc.arm2;
+    // the bound, 1e-9 over its own round-off
+    const double moved =
+        (std::sqrt(dot(dd, dd)) + m1[3] * (std::sqrt(d2) + arm2) + m2[3] * arm2) * (1.0 + 1.0e-9);
+    const double left = static_cast<double>(qc.left) - moved;
+    const double rsum = atom->radius[e.c1] + atom->radius[e.c2];
+    if (left > 0.0 && d2 < rsum * rsum) {
+      // rounded down to single precision: float(y) <= y (1 + 2^-24)
+      const float lf = static_cast<float>(left * (1.0 - 0x1p-22));
+      qc.left = lf;
+      if (lf > 0.0f) return true;
+    }
+  }
+  double least = 0.0;
+  const bool q = quiet(e, rec, p, g, step ? &least : nullptr);
+  qc.left = -1.0f;
+  if (!q || !step) return q;
+  // the lever arm: the farthest anchor of cell 2 from its centre
+  const int np = e.npts, P = padded(np);
+  const double *b2 = g + 3 + 3 * P;
+  double arm2 = 0.0;
+  for (int k = 0; k < np; k++)
+    arm2 = std::max(arm2, b2[k] * b2[k] + b2[P + k] * b2[P + k] + b2[2 * P + k] * b2[2 * P + k]);
+  arm2 = std::sqrt(arm2);
+  const double *x1 = atom->x[e.c1], *x2 = atom->x[e.c2];
+  const double left = least - 1.0e-9 * (arm2 + std::sqrt(d2)) -
+      1.0e-13 * (std::fabs(x1[0]) + std::fabs(x1[1]) + std::fabs(x1[2]) + std::fabs(x2[0]) +
+                 std::fabs(x2[1]) + std::fabs(x2[2]));
+  if (!(left > 0.0)) return true;
+  // rounded down and up to single precision
+  qc.left = static_cast<float>(left * (1.0 - 0x1p-22));
+  qc.arm2 = static_cast<float>(arm2 * (1.0 + 0x1p-22));
   return true;
 }
 

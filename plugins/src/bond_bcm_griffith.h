@@ -119,6 +119,24 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   std::vector<int> entry_of_slot;
   // per owned and ghost cell, this evaluation: BcmInterfaceKinematics::pack_cell()
   std::vector<double> cells;
+  // quiet certificates (issue 27): a broken interface found quiet at a step keeps what is
+  // left of its least gap (dn - s over its points, less round-off allowances), less at each
+  // later step a bound on how far its gaps can have moved over that step (quiet_now()); while
+  // some is left, and the interface was quiet at each evaluation since (nothing wrote its
+  // state), quiet() would find it quiet again and is not run. Per entry: what is left (<= 0:
+  // none) and the lever arm (its farthest anchor of cell 2). Per owned and ghost cell: its
+  // position and orientation at the last step, and its move over this one (|R - R_prev| and
+  // x - x_prev). Cleared with the cache (atoms change index) and at any evaluation that is
+  // not a step; 8 bytes per interface, 88 per cell.
+  struct QuietCert {
+    float left = -1.0f, arm2 = 0.0f;
+  };
+  std::vector<QuietCert> quiet_cert;
+  std::vector<double> cell_prev;    // 7 per cell: x, q at the last step
+  std::vector<double> cell_move;    // 4 per cell: x - x_prev, |R - R_prev| (HUGE_VAL: unknown)
+  bool moves_known = false;         // cell_prev holds the last step's cells, same indices
+  long nbroken_last = 0;            // broken interfaces at the last evaluation (0: none kept)
+  void cell_moves(bool step);
 
   int store_index;     // atom->darray index of the per-slot state
   int iquat;           // atom->darray index of d2_bcm_quat
@@ -147,7 +165,10 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   const double *slot_of(int i, int j) const;
   long slot_offset(int i, int m) const;
   void interface_points(const Pair &p, const double *g, int np, Point *pts);
-  bool quiet(const Entry &e, const double *rec, const Pair &p, const double *g);
+  bool quiet(const Entry &e, const double *rec, const Pair &p, const double *g,
+             double *least = nullptr);
+  bool quiet_now(const Entry &e, int nb, const double *rec, const Pair &p, const double *g,
+                 bool step);
   void break_interface(Entry &e, double *rec, const Pair &p, const Point *pts,
                        double stored, const Clock &now);
   void contact_forces(const Entry &e, int type, double *rec, const Pair &p, const Point *pts,

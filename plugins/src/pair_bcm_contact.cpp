@@ -34,6 +34,7 @@
 
 #include "atom.h"
 #include "bcm_contact_law.h"
+#include "bcm_motion.h"
 #include "bcm_rigid.h"
 #include "comm.h"
 #include "error.h"
@@ -65,7 +66,7 @@ enum { S_PARTNER, S_KEY, S_STEP, S_U, S_FT = 6 };
 PairBcmContact::PairBcmContact(LAMMPS *_lmp) :
     Pair(_lmp), rm(0.0), nslots(64), kn(nullptr), kt(nullptr), en2(nullptr), mu(nullptr),
     alpha(nullptr), iquat(-1), ihist(-1), maxrad(0.0), warned_slots(false), w_fric(0.0), w_drop(0.0),
-    nevals(0), saved_at(-1), saved{0.0, 0.0, 0.0, 0.0}
+    written_step(-1), nevals(0), saved_at(-1), saved{0.0, 0.0, 0.0, 0.0}
 {
   single_enable = 0;
   // settings, coefficients and the cumulative [4]-[7] go to restart files; the tangential
@@ -276,6 +277,31 @@ int PairBcmContact::place(int i)
   return placed[i];
 }
 
+/* ----------------------------------------------------------------------
+   separation certificates (see pair_bcm_contact.h and bcm_motion.h)
+------------------------------------------------------------------------- */
+
+bool PairBcmContact::still_apart(const ApartCert &c, int a, int b) const
+{
+  if (c.ta != atom->tag[a] || c.tb != atom->tag[b]) return false;
+  double **quat = atom->darray[iquat];
+  return BcmMotion::holds(c.motion, atom->x[a], atom->x[b], quat[a], quat[b]);
+}
+
+void PairBcmContact::certify(ApartCert &c, int a, int b, const BcmSpaceCell &sa,
+                             const BcmSpaceCell &sb, double m, int side) const
+{
+  c.ta = 0;
+  double **quat = atom->darray[iquat];
+  // side 0: B's points over a plane of A; 1: A's over a plane of B; 2: both ways round
+  const double ra = sa.cell->rbound, rb = sb.cell->rbound;
+  if (!BcmMotion::certify(c.motion, atom->x[a], atom->x[b], quat[a], quat[b], m,
+                          side != 1 ? rb : -1.0, side != 0 ? ra : -1.0, ra + rb))
+    return;
+  c.ta = atom->tag[a];
+  c.tb = atom->tag[b];
+}
+
 /* ---------------------------------------------------------------------- */
 
 int PairBcmContact::find_slot(int i, tagint partner, double key, bigint step) const
@@ -312,14 +338,30 @@ void PairBcmContact::collect_last_springs(bigint written)
   const tagint *tag = atom->tag;
   const int nall = atom->nlocal + atom->nghost;
   double **hist = atom->darray[ihist];
-  for (int i = 0; i < nall; i++) {
-    const double *h = hist[i];
-    for (int m = 0; m < nslots; m++, h += SLOT) {
-      if (h[S_PARTNER] == 0.0 || h[S_STEP] != before) continue;
-      const tagint partner = static_cast<tagint>(h[S_PARTNER]);
-      LastSpring e{std::min(tag[i], partner), std::max(tag[i], partner), h[S_KEY],
-                   {h[S_U], h[S_U + 1], h[S_U + 2]}};
-      last_springs.push_back(e);
+  auto take = [&](int i, const double *h) {
+    const tagint partner = static_cast<tagint>(h[S_PARTNER]);
+    LastSpring e{std::min(tag[i], partner), std::max(tag[i], partner), h[S_KEY],
+                 {h[S_U], h[S_U + 1], h[S_U + 2]}};
+    last_springs.push_back(e);
+  };
+  // the slots that this rank wrote at that step, in the order of the full scan below (atom,
+  // then slot): the same springs in the same order, so the same sort. Usable when that was
+  // the last step, no reneighboring came since (neighbor->ago >= 1: the rows of this step's
+  // ghosts and atoms are those of the last step) and no setup evaluation (written_step reset)
+  if (written_step >= 0 && written_step == written && neighbor->ago >= 1 &&
+      update->setupflag == 0) {
+    std::sort(written_prev.begin(), written_prev.end());
+    written_prev.erase(std::unique(written_prev.begin(), written_prev.end()), written_prev.end());
+    for (const int64_t w : written_prev) {
+      const int i = static_cast<int>(w >> 32), m = static_cast<int>(w & 0xffffffff);
+      const double *h = hist[i] + SLOT * m;
+      if (i < nall && h[S_PARTNER] != 0.0 && h[S_STEP] == before) take(i, h);
+    }
+  } else {
+    for (int i = 0; i < nall; i++) {
+      const double *h = hist[i];
+      for (int m = 0; m < nslots; m++, h += SLOT)
+        if (h[S_PARTNER] != 0.0 && h[S_STEP] == before) take(i, h);
     }
   }
   if (last_springs.empty()) return;
@@ -453,12 +495,22 @@ void PairBcmContact::compute(int eflag, int vflag)
   damp_work.begin(lmp, "pair_style bcm/contact");
   all_work.begin(lmp, "pair_style bcm/contact");
   // the springs of the last step, to book those that no point carries on (dropped_springs)
+  written_prev.swap(written_slots);
   collect_last_springs(advance ? step - 1 : step);
+  written_slots.clear();
+  written_step = -1;
 
   const int inum = list->inum;
   const int *ilist = list->ilist;
   const int *numneigh = list->numneigh;
   int **firstneigh = list->firstneigh;
+  // separation certificates: one per unbonded entry of this list, in its order
+  if (list != cert_list || neighbor->ncalls != cert_ncalls || !advance) {
+    certs.clear();
+    cert_list = list;
+    cert_ncalls = neighbor->ncalls;
+  }
+  std::size_t nentry = 0;
 
   for (int ii = 0; ii < inum; ii++) {
     const int i = ilist[ii];
@@ -468,6 +520,8 @@ void PairBcmContact::compute(int eflag, int vflag)
       int j = jlist[jj];
       if (weight[sbmask(j)] == 0.0) continue;    // bonded: an interface, not a contact
       j &= NEIGHMASK;
+      if (nentry == certs.size()) certs.emplace_back();
+      ApartCert &cert = certs[nentry++];
 
       // A = the smaller tag: both cells' history copies and every rank agree on the order
       const int a = tag[i] < tag[j] ? i : j;
@@ -480,7 +534,9 @@ void PairBcmContact::compute(int eflag, int vflag)
       const bool counted = newton_pair || a < nlocal;
       const int itype = type[i], jtype = type[j];
       const double kn_ = kn[itype][jtype], kt_ = kt[itype][jtype], mu_ = mu[itype][jtype];
-      if (dot(dx, dx) >= reach * reach) {
+      // outside the bounding spheres, or still apart by the face plane of its certificate:
+      // no point, the cells not placed
+      if (dot(dx, dx) >= reach * reach || still_apart(cert, a, b)) {
         if (!last_range.empty()) {
           const double lost = dropped_springs(a, b, kt_, dt, 0, advance);
           if (counted) w_drop += lost;
@@ -492,7 +548,16 @@ void PairBcmContact::compute(int eflag, int vflag)
       const BcmSpaceCell sa{table.get(), ca, x[a], &geom[oa], &geom[oa + 3 * ca->nv]};
       const BcmSpaceCell sb{table.get(), cb, x[b], &geom[ob], &geom[ob + 3 * cb->nv]};
       points.clear();
-      const int np = bcm_find_contacts(sa, sb, dcut, work, points);
+      int np = 0;
+      if (bcm_cores_apart(sa, sb, dcut)) {
+        int side = 0;
+        const double m = bcm_apart_margin(sa, sb, dcut, side);
+        certify(cert, a, b, sa, sb, m, side);
+      } else {
+        np = bcm_find_contacts(sa, sb, dcut, work, points, true);
+        cert.ta = 0;
+        if (np == 0) certify(cert, a, b, sa, sb, bcm_dead_margin(sa, sb, dcut, work), 2);
+      }
       // springs of the last step that no current point carries on: their energy is lost
       if (!last_range.empty()) {
         const double lost = dropped_springs(a, b, kt_, dt, np, advance);
@@ -560,6 +625,7 @@ void PairBcmContact::compute(int eflag, int vflag)
           int m = find_slot(o, partner, key, step);
           if (m < 0) m = free_slot(o, step);
           if (m >= 0) {
+            written_slots.push_back(static_cast<int64_t>(o) << 32 | m);
             double *dst = &hist[o][SLOT * m];
             dst[S_PARTNER] = static_cast<double>(partner);
             dst[S_KEY] = key;
@@ -620,6 +686,8 @@ void PairBcmContact::compute(int eflag, int vflag)
     }
   }
 
+  // this advancing evaluation's writes are all of the slots stamped with its step
+  if (advance) written_step = step;
   pvector[0] = static_cast<double>(npoints);
   pvector[1] = static_cast<double>(npairs);
   pvector[2] = static_cast<double>(nlost);
@@ -756,7 +824,8 @@ double PairBcmContact::memory_usage()
 {
   double bytes = Pair::memory_usage();
   bytes += sizeof(double) * geom.capacity() + sizeof(int) * placed.capacity() +
-      sizeof(void *) * cell_of.capacity() + sizeof(BcmContactPoint) * points.capacity();
+      sizeof(void *) * cell_of.capacity() + sizeof(BcmContactPoint) * points.capacity() +
+      sizeof(ApartCert) * certs.capacity();
   if (table) bytes += table->memory_usage();
   return bytes;
 }

@@ -10,6 +10,7 @@
 
 #include "bcm_cells.h"
 #include "bcm_kick_work.h"
+#include "bcm_motion.h"
 #include "pair.h"
 
 #include <memory>
@@ -80,6 +81,13 @@ class PairBcmContact : public Pair {
   std::vector<LastSpring> last_springs;
   std::unordered_map<std::pair<tagint, tagint>, std::pair<int, int>, PairHash> last_range;
   void collect_last_springs(bigint written);
+  // the slots (atom index << 32 | slot) written by this rank's advancing evaluation at step
+  // written_step: between two reneighborings no other slot gets that step's stamp (ghost rows
+  // are sent, atoms exchanged and sorted only at reneighboring), so the next step collects
+  // them from this list instead of scanning every slot of every cell; -1: not usable (a
+  // setup evaluation came since, or none was recorded)
+  std::vector<int64_t> written_slots, written_prev;
+  bigint written_step;
   double dropped_springs(int a, int b, double ktij, double dt, int np, bool advance);
 
   // restart files: LAMMPS calls the pair's write_restart on rank 0 only, so the cumulative
@@ -98,6 +106,26 @@ class PairBcmContact : public Pair {
   std::vector<double> geom;      // 3 nv vertices then 4 nf planes per placed cell
   std::vector<BcmContactPoint> points;
   BcmContactWork work;
+
+  // separation certificates (issue 27), one per unbonded entry of the neighbour list, in the
+  // list's order, for a pair whose cores bcm_cores_apart() found apart: the pair's tags, its
+  // relative position and orientation then in A's body frame (P = R_A^T (x_B - x_A),
+  // M = q_A^* q_B) and the margin of the separating face plane less round-off allowances.
+  // The heights over that plane of the other core's points move by at most
+  // |P - P1| + |R(M) - R(M1)| lever (lever: the radius of B for a plane of A, |P1| + the
+  // radius of A for a plane of B), so while that bound stays below the margin the cores are
+  // still apart by that plane: the pair is skipped without placing its cells, exactly as the
+  // test would have skipped it. Cleared when the list is rebuilt and at a setup evaluation.
+  struct ApartCert {
+    tagint ta = 0, tb = 0;    // the pair (0: no certificate)
+    BcmMotion::Cert motion;   // P1, M1, margin, lever arm (bcm_motion.h)
+  };
+  std::vector<ApartCert> certs;
+  NeighList *cert_list = nullptr;
+  bigint cert_ncalls = -1;
+  bool still_apart(const ApartCert &c, int a, int b) const;
+  void certify(ApartCert &c, int a, int b, const BcmSpaceCell &sa, const BcmSpaceCell &sb,
+               double margin, int side) const;
 
   void allocate();
   const BcmCells::Cell *cell(int i);
