@@ -104,8 +104,9 @@ class CompressScenario(_Strict):
                               description="speed of the platen while the bed is brought to its dense start, m/s "
                                           "(breaking off: only the start's geometry comes out of it)")
     fill_friction: float = Field(0.0, ge=0.0, description="BCM: Coulomb friction of the cell contacts while the bed "
-                                                             "is filled and rests (0: frictionless, which packs it "
-                                                             "dense); model.contact.mu from the loading on (the BPM's "
+                                                             "is filled (0: frictionless, which packs it dense but "
+                                                             "must bring it to its frictionless jamming); "
+                                                             "model.contact.mu from the rest on (the BPM's "
                                                              "particles have no friction: 0 only)")
     rest_speed: float | None = Field(None, gt=0.0, le=10.0,
                                      description="fastest the platen's servo moves it while the bed rests, m/s "
