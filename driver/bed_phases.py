@@ -8,7 +8,7 @@ BCM, LJ units for the BPM)."""
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, Sequence
 
 #: the values a check decides on
 SNAPSHOT = [
@@ -90,7 +90,8 @@ def filled(start: float) -> list[str]:
     energy too kept the 30-grain BCM bed, which the platen's blows at 5 m/s keep stirring, in its
     fill for ever): the rest calms it, and a bed that then lets go of the platen is filled again,
     more slowly (FILL_HALVINGS)."""
-    reached = f"(v_svbm_now >= {(1 - FILL_TOLERANCE) * start!r})*(v_svm_now >= {(1 - FILL_TOLERANCE) * start!r})"
+    reach = (1 - FILL_TOLERANCE) * start
+    reached = f"(v_svbm_now >= {reach!r})*(v_svm_now >= {reach!r})"
     return [f"variable        fill_hits equal $((v_p0 == 0)*{reached}*(v_fill_hits+1))",
             f'variable        to_rest equal "v_fill_hits >= {FILL_CHECKS}"']
 
@@ -109,8 +110,8 @@ def transitions(start: float, target: float, hold_time: float) -> list[str]:
     the window's mean) or back to the fill (a bed that let go of the platen while it rested was
     not jammed yet),
     to the hold at the target, to the unloading after hold_time, done back at start. (Asking the
-    bottom to carry it too kept the damped BCM bed, whose rest still rattles, out of its loading:
-    30 grains went fill, rest, fill for 45,000 steps.)"""
+    bottom to carry it too kept the BCM bed of 2026-12-03, whose rest pushed the platen down and
+    rattled, out of its loading: 30 grains went fill, rest, fill for 45,000 steps.)"""
     hold = REST_HOLDS * start
     return [
         f'variable        to_load equal "v_rested && (v_svm_now >= {hold!r})"',
@@ -121,7 +122,7 @@ def transitions(start: float, target: float, hold_time: float) -> list[str]:
     ]
 
 
-def rest_and_fill(rest_begins: list[str] = (), fill_begins: list[str] = ()) -> list[str]:
+def rest_and_fill(rest_begins: Sequence[str] = (), fill_begins: Sequence[str] = ()) -> list[str]:
     """The rest and the fill begun, each with the model's own commands (the BCM's contact
     friction: the model's in the rest, fill_friction in the fill)."""
     return [

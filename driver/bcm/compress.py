@@ -162,7 +162,7 @@ def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str,
     setup = render(
         "bcm_compress.in", role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).",
         system=SYSTEM_FRESH,
-        pair_setup=styles.pair_setup(m, r_m, mu=sc.fill_friction) + "  # the fill's friction until the loading",
+        pair_setup=styles.pair_setup(m, r_m, mu=sc.fill_friction) + "  # the fill's friction until the rest",
         bond_setup=styles.bond_setup(m, G_c=BREAKING_OFF) + "  # breaking off while the bed is filled",
         phase_setup=phase_setup, record_target="file thermo.dat",
         start="run             0\n" + _dump_commands("start") + "\n" + bed_phases.CHECK_LOG_TITLE, **common)
