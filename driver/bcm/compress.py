@@ -12,8 +12,8 @@ of phases that the driver's checks advance (every scenario.check_every steps):
   have carried 1 - FILL_TOLERANCE of start_stress on the mean over a check window at
   FILL_CHECKS checks in a row (driver/bed_phases.py);
 1 rest: a stronger drag (rest_damping_time, REST_DAMPING_PERIODS shortest contact periods); the
-  platen still, or backing up while the mean of its own and the bottom's stresses is above
-  REST_ABOVE x start_stress (at rest_speed, fill_speed unless set, times that mean's excess in
+  platen still, or backing up while its stress is above REST_ABOVE x start_stress, which the
+  rest's end waits for (at rest_speed, fill_speed unless set, times the excess in
   units of start_stress, at most SERVO_BACK of it: a rest that pushes the bed down agitates it,
   one that backs up from start_stress on overshoots); once the kinetic energy is below rest_ke of
   the elastic energy the bed holds (interfaces, contacts, walls: the bed is in equilibrium) or

@@ -12,10 +12,10 @@ scenario.check_every steps), as the BCM bed's (driver/bcm/compress.py), in LJ un
   the bottom and the platen have carried 1 - FILL_TOLERANCE of start_stress on the mean over a
   check window at FILL_CHECKS checks in a row (driver/bed_phases.py);
 1 rest: every particle damped by a stronger drag, -m v / t_d with t_d = REST_DAMPING_PERIODS
-  wall contact periods (driver/bed_phases.py); the platen still, or backing up while the mean of
-  its own and the bottom's stresses over the last check window is above REST_ABOVE x
-  start_stress (at rest_speed, fill_speed unless set, times that mean's excess in units of
-  start_stress, at most SERVO_BACK of it); once the kinetic energy is below rest_ke of the
+  wall contact periods (driver/bed_phases.py); the platen still, or backing up while its stress
+  over the last check window is above REST_ABOVE x start_stress, which the rest's end waits
+  for (at rest_speed, fill_speed unless set, times the excess in units of start_stress, at most
+  SERVO_BACK of it); once the kinetic energy is below rest_ke of the
   elastic energy the bed holds (pairs, bonds, angles, walls) or after rest_time, and the platen
   carries at most REST_ABOVE x start_stress: if the platen carries at least REST_HOLDS of
   start_stress, the particles are stopped, the model's bond and angle coefficients set
@@ -122,12 +122,12 @@ def phase_checks(cfg, system: dict) -> tuple[list[str], list[str]]:
         # the platen's speed for the next window, of the phase now: the fill servo-controlled by
         # the bottom's stress (full speed until the stress goes through the bed, then slowing,
         # never up; slower at each return to the fill), the rest still, or backing up while the
-        # mean of the platen's and the bottom's stresses over the window is above REST_ABOVE x
-        # start (at rest_speed times the excess in units of start, at most SERVO_BACK of it: a
+        # platen's stress over the window is above REST_ABOVE x start, which the rest's end
+        # waits for (at rest_speed times the excess in units of start, at most SERVO_BACK of it: a
         # rest that pushes the bed agitates it, one that backs up from start_stress on
         # overshoots: both measured on the BCM bed), the loading and unloading at platen_speed,
         # else still
-        f'variable        rest_err equal "{bed_phases.REST_ABOVE!r} - 0.5*(v_svm_now + v_svbm_now)/{start!r}"',
+        f'variable        rest_err equal "{bed_phases.REST_ABOVE!r} - v_svm_now/{start!r}"',
         bed_phases.FILL_SCALE,
         f'variable        v_next equal "(v_phase == 0)*{v_fill!r}*v_fill_scale*ternary(v_svb_now < {start!r}, '
         f'1 - v_svb_now/{start!r}, 0) + (v_phase == 1)*{v_rest!r}*ternary(v_rest_err < {-back!r}, '
