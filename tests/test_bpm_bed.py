@@ -154,7 +154,7 @@ def test_bed_energy_account_closes(small_bpm_bed):
 def test_the_loading_starts_from_a_calm_balanced_bed(small_bpm_bed):
     """The check log (phases.dat): the loading begins after a rest with the platen's mean between
     REST_HOLDS and REST_ABOVE x start_stress, the bottom carrying what the platen does and the bed
-    calm (measured: the two within 5 %, the kinetic energy 2.8e-2 of the elastic one after the
+    calm (measured: the two within 10 %, the kinetic energy 4.7e-4 of the elastic one after the
     test's short rest, where the fills ended at 0.5-0.7; the quenched rest began the loading with
     the bottom at 15 x start_stress and the platen at 1.2 x)."""
     from driver import bed_phases
@@ -163,7 +163,7 @@ def test_the_loading_starts_from_a_calm_balanced_bed(small_bpm_bed):
     log = read_record(small_bpm_bed / bed_phases.CHECK_LOG_FILE, bed_phases.CHECK_LOG_COLUMNS)
     assert (log.phase_before.to_numpy()[1:] == log.phase.to_numpy()[:-1]).all()
     system = json.loads((small_bpm_bed / "system.json").read_text())
-    import yaml
+    import yaml  # noqa: PLC0415
 
     config = yaml.safe_load((small_bpm_bed / "config.resolved.yaml").read_text())
     start = config["scenario"]["start_stress"] * system["units"]["a"] ** 3 / system["units"]["u"]  # LJ
