@@ -59,6 +59,29 @@ FILL_HALVINGS = 4
 FILL_SCALE = ('variable        fill_scale equal '
               f'"0.5^(v_refills*(v_refills < {FILL_HALVINGS}) + {FILL_HALVINGS}*(v_refills >= {FILL_HALVINGS}))"')
 
+
+
+def drag(fill_time: str, rest_time: str) -> str:
+    """The drag -m v / t_d on every element, t_d = fill_time in the fill (phase 0), rest_time
+    in the rest (phase 1), none from the loading on (the times as the input writes them, in the
+    model's units): the lines both models' inputs share."""
+    return "\n".join([
+        f'variable        drag_rate equal "(v_phase == 0)/{fill_time} + (v_phase == 1)/{rest_time}"',
+        'variable        drag_x atom "-v_drag_rate*mass*vx"',
+        'variable        drag_y atom "-v_drag_rate*mass*vy"',
+        'variable        drag_z atom "-v_drag_rate*mass*vz"',
+        "fix             fill_drag all addforce v_drag_x v_drag_y v_drag_z"])
+
+
+def check_means(window: int) -> str:
+    """The means over each check window of the platen's and the bottom's stresses (the input's
+    sv and sv_bottom), which SNAPSHOT reads as ${sv_mean} and ${svb_mean}: `fix ave/time` over
+    the window's steps, given at its last step (the checks come every window from step 0)."""
+    return "\n".join([f"fix             check_mean all ave/time 1 {window} {window} v_sv v_sv_bottom",
+                      "variable        sv_mean equal f_check_mean[1]",
+                      "variable        svb_mean equal f_check_mean[2]"])
+
+
 #: the check log, phases.dat: a line per check with the values its rules decided on and the phase it
 #: left (the record of why a fill or a rest ended; runfiles.records.read_record reads it)
 CHECK_LOG_FILE = "phases.dat"

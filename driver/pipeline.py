@@ -20,6 +20,7 @@ import yaml
 from rich.console import Console
 
 from analysis.completeness import RunCompleteness
+from driver.bed_phases import CHECK_LOG_FILE
 from driver.config import RunConfig, resolved_yaml
 from driver.plugin_build import plugin_library
 from driver.registry import unit_of
@@ -184,7 +185,7 @@ def trim_after(run_dir: Path, step: int) -> None:
     (the resumed run writes them again), so no file mixes two attempts."""
     # the record and the break log: a step's lines are kept up to the checkpoint's step (the
     # breaks of that step are in the checkpoint already), a line cut by the interruption dropped
-    for name in ("thermo.dat", "breaks.dat", "phases.dat"):
+    for name in ("thermo.dat", "breaks.dat", CHECK_LOG_FILE):
         _trim_lines(run_dir / name, step)
     for dump in (run_dir / "dumps").glob("*.lammpstrj*"):
         m = _DUMP_NAME.match(dump.name)  # only the tool's own dump names, never a user's file

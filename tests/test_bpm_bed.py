@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+import yaml
 
 from analysis.bed_run import read_bpm_compress_record
 from analysis.breaks import read_break_log
@@ -163,8 +164,6 @@ def test_the_loading_starts_from_a_calm_balanced_bed(small_bpm_bed):
     log = read_record(small_bpm_bed / bed_phases.CHECK_LOG_FILE, bed_phases.CHECK_LOG_COLUMNS)
     assert (log.phase_before.to_numpy()[1:] == log.phase.to_numpy()[:-1]).all()
     system = json.loads((small_bpm_bed / "system.json").read_text())
-    import yaml  # noqa: PLC0415
-
     config = yaml.safe_load((small_bpm_bed / "config.resolved.yaml").read_text())
     start = config["scenario"]["start_stress"] * system["units"]["a"] ** 3 / system["units"]["u"]  # LJ
     loads = log[(log.phase_before == 1) & (log.phase == 2)]

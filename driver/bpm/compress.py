@@ -163,6 +163,7 @@ def render_inputs(cfg, plugin_path: Path, system: dict) -> tuple[str, str, dict,
     max_windows = max(1, math.ceil(sc.max_time / un["tau"] / (window * dt)))
     box_a = system["box_a"]
     checks, names = phase_checks(cfg, system)
+    rest_t = bed_phases.REST_DAMPING_PERIODS * law["period"]
     v_fill = sc.fill_speed * un["tau"] / un["a"]
     state = {"top_zs": repr(box_a[2]), "top_ns": "0", "top_v": repr(v_fill), "top_vb": "0.0", "platen_corr": "0.0"}
     phase_setup = "\n".join([*(f"variable        {n} equal 0" for n in names),
@@ -186,8 +187,9 @@ def render_inputs(cfg, plugin_path: Path, system: dict) -> tuple[str, str, dict,
         a_m=f"{un['a']:.6g}", m_kg=f"{un['m']:.6g}", u_J=f"{un['u']:.6g}", tau_s=f"{un['tau']:.17g}",
         timestep=f"{dt:.12g}", steps_per_period=f"{sc.steps_per_period:g}", kn=f"{law['kn']:.12g}",
         kt=f"{law['kt']:.12g}", eta_n=f"{law['eta_n']:.12g}", mu=f"{law['mu']:.12g}", wall_law=plane_law_args(law),
-        walls=wall_lines(law, box_a), fill_damping_time=repr(FILL_DAMPING_TIME),
-        rest_damping_time=repr(bed_phases.REST_DAMPING_PERIODS * law["period"]), box_x=repr(box_a[0]),
+        walls=wall_lines(law, box_a), fill_damping_time=repr(FILL_DAMPING_TIME), rest_damping_time=repr(rest_t),
+        drag=bed_phases.drag(repr(FILL_DAMPING_TIME), repr(rest_t)), check_means=bed_phases.check_means(window),
+        box_x=repr(box_a[0]),
         box_y=repr(box_a[1]), top_h0=repr(box_a[2]),
         solid_volume=repr(system["solid_volume_a3"]), phase_setup=phase_setup, periodic_dumps=periodic,
         window_steps=window)
