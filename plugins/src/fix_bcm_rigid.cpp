@@ -30,25 +30,50 @@ using namespace FixConst;
 
 namespace {
 
-// exact flow of the rotor piece Lb[k]^2 / (2 I_k) over time h (one NO_SQUISH substep)
-void rotate_about_body_axis(int k, double h, const double *inertia, double *q, double *lb)
+// cells whose free rotors are integrated side by side: each cell's arithmetic is the same
+// operations in the same order as one at a time, but the cells' chains of dependent
+// divisions, sincos and square roots interleave (one cell's step is a single chain)
+constexpr int BATCH = 4;
+
+// exact flow of the rotor piece Lb[k]^2 / (2 I_k) over time h (one NO_SQUISH substep), for
+// n cells at once; hh = h / 2
+template <int k>
+inline void rotate_about_body_axis(int n, double hh, const double (*in)[3], double (*q)[4],
+                                   double (*lb)[3])
 {
-  const int a = (k + 1) % 3, b = (k + 2) % 3;
-  const double half = 0.5 * h * lb[k] / inertia[k];
-  const double c2 = std::cos(half), s2 = std::sin(half);
-  const double c = c2 * c2 - s2 * s2, s = 2.0 * s2 * c2;    // cos, sin of the full angle
+  constexpr int a = (k + 1) % 3, b = (k + 2) % 3;
+  double half[BATCH], c2[BATCH], s2[BATCH];
+  for (int c = 0; c < n; c++) half[c] = hh * lb[c][k] / in[c][k];
+  for (int c = 0; c < n; c++) {
+    c2[c] = std::cos(half[c]);
+    s2[c] = std::sin(half[c]);
+  }
+  for (int c = 0; c < n; c++) {
+    const double cc = c2[c] * c2[c] - s2[c] * s2[c], s = 2.0 * s2[c] * c2[c];    // cos, sin of the full angle
 
-  // body components of L turn by -phi about axis k (L is fixed in space)
-  const double la = lb[a], lbb = lb[b];
-  lb[a] = c * la + s * lbb;
-  lb[b] = -s * la + c * lbb;
+    // body components of L turn by -phi about axis k (L is fixed in space)
+    const double la = lb[c][a], lbb = lb[c][b];
+    lb[c][a] = cc * la + s * lbb;
+    lb[c][b] = -s * la + cc * lbb;
 
-  // q <- q * (cos(phi/2), sin(phi/2) e_k); vector part of q is q[1..3]
-  const double w = q[0], vk = q[1 + k], va = q[1 + a], vb = q[1 + b];
-  q[0] = c2 * w - s2 * vk;
-  q[1 + k] = c2 * vk + s2 * w;
-  q[1 + a] = c2 * va + s2 * vb;
-  q[1 + b] = c2 * vb - s2 * va;
+    // q <- q * (cos(phi/2), sin(phi/2) e_k); vector part of q is q[1..3]
+    double *qc = q[c];
+    const double w = qc[0], vk = qc[1 + k], va = qc[1 + a], vb = qc[1 + b];
+    qc[0] = c2[c] * w - s2[c] * vk;
+    qc[1 + k] = c2[c] * vk + s2[c] * w;
+    qc[1 + a] = c2[c] * va + s2[c] * vb;
+    qc[1 + b] = c2[c] * vb - s2[c] * va;
+  }
+}
+
+// omega = R I^-1 R^T L of one cell (the cell's q, moments, L and omega rows)
+inline void omega_of(const double *q, const double *in, const double *angmom, double *omega)
+{
+  double R[3][3], lb[3];
+  BcmRigid::quat_to_mat(q, R);
+  BcmRigid::rotate_back(R, angmom, lb);
+  for (int k = 0; k < 3; k++) lb[k] /= in[k];
+  BcmRigid::rotate(R, lb, omega);
 }
 
 }    // namespace
@@ -159,12 +184,8 @@ void FixBcmRigid::reset_dt()
 
 void FixBcmRigid::set_omega(int i)
 {
-  double R[3][3], lb[3];
-  BcmRigid::quat_to_mat(atom->darray[iquat][i], R);
-  BcmRigid::rotate_back(R, atom->darray[iangmom][i], lb);
-  const double *in = atom->darray[iinertia][i];
-  for (int k = 0; k < 3; k++) lb[k] /= in[k];
-  BcmRigid::rotate(R, lb, atom->omega[i]);
+  omega_of(atom->darray[iquat][i], atom->darray[iinertia][i], atom->darray[iangmom][i],
+           atom->omega[i]);
 }
 
 /* ----------------------------------------------------------------------
@@ -185,16 +206,13 @@ void FixBcmRigid::initial_integrate(int /*vflag*/)
   double **x = atom->x;
   double **v = atom->v;
   double **f = atom->f;
-  double **omega = atom->omega;
   double **torque = atom->torque;
   const double *rmass = atom->rmass;
   const int *mask = atom->mask;
-  double **quat = atom->darray[iquat];
-  double **inertia = atom->darray[iinertia];
   double **angmom = atom->darray[iangmom];
   const int nlocal = atom->nlocal;
-  const double half = 0.5 * dtv;
 
+  int batch[BATCH], n = 0;
   for (int i = 0; i < nlocal; i++) {
     if (!(mask[i] & groupbit)) continue;
     const double dtfm = dtf / rmass[i];
@@ -203,24 +221,52 @@ void FixBcmRigid::initial_integrate(int /*vflag*/)
       x[i][k] += dtv * v[i][k];
       angmom[i][k] += dtf * torque[i][k];
     }
+    batch[n++] = i;
+    if (n == BATCH) {
+      free_rotors(batch, n);
+      n = 0;
+    }
+  }
+  if (n) free_rotors(batch, n);
+}
 
-    double R[3][3], lb[3];
-    double *q = quat[i];
-    const double *in = inertia[i];
-    BcmRigid::quat_to_mat(q, R);
-    BcmRigid::rotate_back(R, angmom[i], lb);
-    rotate_about_body_axis(2, half, in, q, lb);
-    rotate_about_body_axis(1, half, in, q, lb);
-    rotate_about_body_axis(0, dtv, in, q, lb);
-    rotate_about_body_axis(1, half, in, q, lb);
-    rotate_about_body_axis(2, half, in, q, lb);
-    BcmRigid::normalize_quat(q);
+/* ----------------------------------------------------------------------
+   the free rotor over the step of the n owned cells batch[] (n <= BATCH), side by side
+------------------------------------------------------------------------- */
 
+void FixBcmRigid::free_rotors(const int *batch, int n)
+{
+  double **omega = atom->omega;
+  double **quat = atom->darray[iquat];
+  double **inertia = atom->darray[iinertia];
+  double **angmom = atom->darray[iangmom];
+  double q[BATCH][4], in[BATCH][3], lb[BATCH][3];
+
+  for (int c = 0; c < n; c++) {
+    const int i = batch[c];
+    for (int k = 0; k < 4; k++) q[c][k] = quat[i][k];
+    for (int k = 0; k < 3; k++) in[c][k] = inertia[i][k];
+    double R[3][3];
+    BcmRigid::quat_to_mat(q[c], R);
+    BcmRigid::rotate_back(R, angmom[i], lb[c]);
+  }
+  const double quarter = 0.5 * (0.5 * dtv), whole = 0.5 * dtv;    // half of each substep
+  rotate_about_body_axis<2>(n, quarter, in, q, lb);
+  rotate_about_body_axis<1>(n, quarter, in, q, lb);
+  rotate_about_body_axis<0>(n, whole, in, q, lb);
+  rotate_about_body_axis<1>(n, quarter, in, q, lb);
+  rotate_about_body_axis<2>(n, quarter, in, q, lb);
+
+  for (int c = 0; c < n; c++) {
+    const int i = batch[c];
+    BcmRigid::normalize_quat(q[c]);
+    for (int k = 0; k < 4; k++) quat[i][k] = q[c][k];
     // the space-frame L is unchanged by the free rotor: it is kept as is (exactly conserved
     // without torques); omega from the body components the rotor carried along
-    BcmRigid::quat_to_mat(q, R);
-    for (int k = 0; k < 3; k++) lb[k] /= in[k];
-    BcmRigid::rotate(R, lb, omega[i]);
+    double R[3][3];
+    BcmRigid::quat_to_mat(q[c], R);
+    for (int k = 0; k < 3; k++) lb[c][k] /= in[c][k];
+    BcmRigid::rotate(R, lb[c], omega[i]);
   }
 }
 
@@ -244,6 +290,9 @@ void FixBcmRigid::final_integrate()
   const double *rmass = atom->rmass;
   const int *mask = atom->mask;
   double **angmom = atom->darray[iangmom];
+  double **quat = atom->darray[iquat];
+  double **inertia = atom->darray[iinertia];
+  double **omega = atom->omega;
   const int nlocal = atom->nlocal;
 
   for (int i = 0; i < nlocal; i++) {
@@ -253,7 +302,7 @@ void FixBcmRigid::final_integrate()
       v[i][k] += dtfm * f[i][k];
       angmom[i][k] += dtf * torque[i][k];
     }
-    set_omega(i);
+    omega_of(quat[i], inertia[i], angmom[i], omega[i]);
   }
 }
 

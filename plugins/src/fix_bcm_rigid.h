@@ -34,6 +34,7 @@ class FixBcmRigid : public Fix {
 
   int find_array(const char *name, int ncols);
   void set_omega(int i);
+  void free_rotors(const int *batch, int n);
 };
 
 }    // namespace LAMMPS_NS
