@@ -16,6 +16,7 @@
 
 #include "atom.h"
 #include "bcm_rigid.h"
+#include "breakable_util.h"
 #include "comm.h"
 #include "error.h"
 #include "force.h"
@@ -78,11 +79,98 @@ inline void omega_of(const double *q, const double *in, const double *angmom, do
 
 }    // namespace
 
+/* The free rotors of four cells in the four lanes of AVX registers (taken when the processor
+   has AVX: BreakableUtil::avx_loops()): each lane is one cell's arithmetic, the same
+   operations in the same order as free_rotors() (no FMA: AVX alone), so bit for bit its
+   results; sincos one lane at a time. */
+#if defined(BRITTLE_AVX_LOOPS)
+#pragma GCC push_options
+#pragma GCC target("avx")
+namespace {
+namespace avx {
+#include "lanes4_avx.h"
+using V = Lanes4;
+
+// R(q), as BcmRigid::quat_to_mat
+inline void quat_to_mat(const V *q, V R[3][3])
+{
+  const V w = q[0], x = q[1], y = q[2], z = q[3];
+  R[0][0] = w * w + x * x - y * y - z * z;
+  R[0][1] = 2.0 * (x * y - w * z);
+  R[0][2] = 2.0 * (x * z + w * y);
+  R[1][0] = 2.0 * (x * y + w * z);
+  R[1][1] = w * w - x * x + y * y - z * z;
+  R[1][2] = 2.0 * (y * z - w * x);
+  R[2][0] = 2.0 * (x * z - w * y);
+  R[2][1] = 2.0 * (y * z + w * x);
+  R[2][2] = w * w - x * x - y * y + z * z;
+}
+
+template <int k>
+inline void rotate_about_body_axis(V hh, const V *in, V *q, V *lb)
+{
+  constexpr int a = (k + 1) % 3, b = (k + 2) % 3;
+  const V half = hh * lb[k] / in[k];
+  V c2, s2;
+  for (int c = 0; c < 4; c++) {
+    c2[c] = std::cos(half[c]);
+    s2[c] = std::sin(half[c]);
+  }
+  const V cc = c2 * c2 - s2 * s2, s = 2.0 * s2 * c2;
+  const V la = lb[a], lbb = lb[b];
+  lb[a] = cc * la + s * lbb;
+  lb[b] = -s * la + cc * lbb;
+  const V w = q[0], vk = q[1 + k], va = q[1 + a], vb = q[1 + b];
+  q[0] = c2 * w - s2 * vk;
+  q[1 + k] = c2 * vk + s2 * w;
+  q[1 + a] = c2 * va + s2 * vb;
+  q[1 + b] = c2 * vb - s2 * va;
+}
+
+void free_rotors4(const int *batch, double **quat, double **inertia, double **angmom,
+                  double **omega, double quarter, double whole)
+{
+  V q[4], in[3], L[3], lb[3], R[3][3];
+  for (int c = 0; c < 4; c++) {
+    const int i = batch[c];
+    for (int k = 0; k < 4; k++) q[k][c] = quat[i][k];
+    for (int k = 0; k < 3; k++) {
+      in[k][c] = inertia[i][k];
+      L[k][c] = angmom[i][k];
+    }
+  }
+  quat_to_mat(q, R);
+  for (int k = 0; k < 3; k++) lb[k] = R[0][k] * L[0] + R[1][k] * L[1] + R[2][k] * L[2];
+  const V hq = {quarter, quarter, quarter, quarter}, hw = {whole, whole, whole, whole};
+  rotate_about_body_axis<2>(hq, in, q, lb);
+  rotate_about_body_axis<1>(hq, in, q, lb);
+  rotate_about_body_axis<0>(hw, in, q, lb);
+  rotate_about_body_axis<1>(hq, in, q, lb);
+  rotate_about_body_axis<2>(hq, in, q, lb);
+
+  const V n = 1.0 / vsqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  for (int k = 0; k < 4; k++) q[k] *= n;
+  quat_to_mat(q, R);
+  for (int k = 0; k < 3; k++) lb[k] /= in[k];
+  V om[3];
+  for (int k = 0; k < 3; k++) om[k] = R[k][0] * lb[0] + R[k][1] * lb[1] + R[k][2] * lb[2];
+  for (int c = 0; c < 4; c++) {
+    const int i = batch[c];
+    for (int k = 0; k < 4; k++) quat[i][k] = q[k][c];
+    for (int k = 0; k < 3; k++) omega[i][k] = om[k][c];
+  }
+}
+
+}    // namespace avx
+}    // namespace
+#pragma GCC pop_options
+#endif
+
 /* ---------------------------------------------------------------------- */
 
 FixBcmRigid::FixBcmRigid(LAMMPS *_lmp, int narg, char **arg) :
     Fix(_lmp, narg, arg), dtv(0.0), dtf(0.0), iquat(-1), iinertia(-1), iangmom(-1),
-    comm_with_omega(0)
+    comm_with_omega(0), avx_loop(false)
 {
   if (narg != 3)
     error->all(FLERR, "Illegal fix bcm/rigid command: takes no arguments (fix ID group bcm/rigid)");
@@ -91,6 +179,7 @@ FixBcmRigid::FixBcmRigid(LAMMPS *_lmp, int narg, char **arg) :
   global_freq = 1;
   extscalar = 1;
   comm_forward = 7;    // quaternion, plus omega in the setup communication
+  avx_loop = BreakableUtil::avx_loops();
 }
 
 /* ---------------------------------------------------------------------- */
@@ -223,7 +312,13 @@ void FixBcmRigid::initial_integrate(int /*vflag*/)
     }
     batch[n++] = i;
     if (n == BATCH) {
-      free_rotors(batch, n);
+#if defined(BRITTLE_AVX_LOOPS)
+      if (avx_loop)
+        avx::free_rotors4(batch, atom->darray[iquat], atom->darray[iinertia], angmom, atom->omega,
+                          0.5 * (0.5 * dtv), 0.5 * dtv);
+      else
+#endif
+        free_rotors(batch, n);
       n = 0;
     }
   }
