@@ -161,6 +161,27 @@ void free_rotors4(const int *batch, double **quat, double **inertia, double **an
   }
 }
 
+// omega = R I^-1 R^T L of four cells, as omega_of()
+void omegas4(const int *batch, double **quat, double **inertia, double **angmom, double **omega)
+{
+  V q[4], in[3], L[3], lb[3], R[3][3];
+  for (int c = 0; c < 4; c++) {
+    const int i = batch[c];
+    for (int k = 0; k < 4; k++) q[k][c] = quat[i][k];
+    for (int k = 0; k < 3; k++) {
+      in[k][c] = inertia[i][k];
+      L[k][c] = angmom[i][k];
+    }
+  }
+  quat_to_mat(q, R);
+  for (int k = 0; k < 3; k++) lb[k] = R[0][k] * L[0] + R[1][k] * L[1] + R[2][k] * L[2];
+  for (int k = 0; k < 3; k++) lb[k] /= in[k];
+  V om[3];
+  for (int k = 0; k < 3; k++) om[k] = R[k][0] * lb[0] + R[k][1] * lb[1] + R[k][2] * lb[2];
+  for (int c = 0; c < 4; c++)
+    for (int k = 0; k < 3; k++) omega[batch[c]][k] = om[k][c];
+}
+
 }    // namespace avx
 }    // namespace
 #pragma GCC pop_options
@@ -390,6 +411,7 @@ void FixBcmRigid::final_integrate()
   double **omega = atom->omega;
   const int nlocal = atom->nlocal;
 
+  int batch[BATCH], n = 0;    // cells whose omega is still to be set (AVX: 4 at a time)
   for (int i = 0; i < nlocal; i++) {
     if (!(mask[i] & groupbit)) continue;
     const double dtfm = dtf / rmass[i];
@@ -397,6 +419,20 @@ void FixBcmRigid::final_integrate()
       v[i][k] += dtfm * f[i][k];
       angmom[i][k] += dtf * torque[i][k];
     }
+#if defined(BRITTLE_AVX_LOOPS)
+    if (avx_loop) {
+      batch[n++] = i;
+      if (n == BATCH) {
+        avx::omegas4(batch, quat, inertia, angmom, omega);
+        n = 0;
+      }
+      continue;
+    }
+#endif
+    omega_of(quat[i], inertia[i], angmom[i], omega[i]);
+  }
+  for (int c = 0; c < n; c++) {
+    const int i = batch[c];
     omega_of(quat[i], inertia[i], angmom[i], omega[i]);
   }
 }
