@@ -50,7 +50,8 @@ inline void rotate_about_body_axis(int n, double hh, const double (*in)[3], doub
     s2[c] = std::sin(half[c]);
   }
   for (int c = 0; c < n; c++) {
-    const double cc = c2[c] * c2[c] - s2[c] * s2[c], s = 2.0 * s2[c] * c2[c];    // cos, sin of the full angle
+    // cos, sin of the full angle
+    const double cc = c2[c] * c2[c] - s2[c] * s2[c], s = 2.0 * s2[c] * c2[c];
 
     // body components of L turn by -phi about axis k (L is fixed in space)
     const double la = lb[c][a], lbb = lb[c][b];
