@@ -108,7 +108,36 @@ def runs(tmp_path_factory, plugin_path):
     return run_records(tmp_path_factory.mktemp("step")), load_reference()
 
 
+@pytest.fixture(scope="module")
+def runs_without_avx(tmp_path_factory, plugin_path):
+    """The same run with the styles' baseline loops (BRITTLE_NO_AVX=1, read when a style is
+    created: the run is in this process)."""
+    if not (REFERENCE / "records.dat.gz").exists():
+        pytest.skip("no reference data (python tests/test_bcm_step_regression.py --write)")
+    import os  # noqa: PLC0415
+
+    before = os.environ.get("BRITTLE_NO_AVX")
+    os.environ["BRITTLE_NO_AVX"] = "1"
+    try:
+        return run_records(tmp_path_factory.mktemp("step_no_avx")), load_reference()
+    finally:
+        if before is None:
+            del os.environ["BRITTLE_NO_AVX"]
+        else:
+            os.environ["BRITTLE_NO_AVX"] = before
+
+
 def test_step_records_bit_identical(runs):
+    assert_bit_identical(runs)
+
+
+def test_step_records_bit_identical_without_avx(runs_without_avx):
+    """The baseline loops (bond kernel one point at a time, fix bcm/rigid's scalar batch) give
+    the AVX loops' results to the last bit."""
+    assert_bit_identical(runs_without_avx)
+
+
+def assert_bit_identical(runs):
     (records, breaks), (ref, ref_breaks) = runs
     assert list(records.step) == list(ref.step)
     for name in RECORD:

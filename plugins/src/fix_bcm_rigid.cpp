@@ -16,6 +16,7 @@
 
 #include "atom.h"
 #include "bcm_rigid.h"
+#include "breakable_util.h"
 #include "comm.h"
 #include "error.h"
 #include "force.h"
@@ -30,34 +31,168 @@ using namespace FixConst;
 
 namespace {
 
-// exact flow of the rotor piece Lb[k]^2 / (2 I_k) over time h (one NO_SQUISH substep)
-void rotate_about_body_axis(int k, double h, const double *inertia, double *q, double *lb)
+// cells whose free rotors are integrated side by side: each cell's arithmetic is the same
+// operations in the same order as one at a time, but the cells' chains of dependent
+// divisions, sincos and square roots interleave (one cell's step is a single chain)
+constexpr int BATCH = 4;
+
+// exact flow of the rotor piece Lb[k]^2 / (2 I_k) over time h (one NO_SQUISH substep), for
+// n cells at once; hh = h / 2
+template <int k>
+inline void rotate_about_body_axis(int n, double hh, const double (*in)[3], double (*q)[4],
+                                   double (*lb)[3])
 {
-  const int a = (k + 1) % 3, b = (k + 2) % 3;
-  const double half = 0.5 * h * lb[k] / inertia[k];
-  const double c2 = std::cos(half), s2 = std::sin(half);
-  const double c = c2 * c2 - s2 * s2, s = 2.0 * s2 * c2;    // cos, sin of the full angle
+  constexpr int a = (k + 1) % 3, b = (k + 2) % 3;
+  double half[BATCH], c2[BATCH], s2[BATCH];
+  for (int c = 0; c < n; c++) half[c] = hh * lb[c][k] / in[c][k];
+  for (int c = 0; c < n; c++) {
+    c2[c] = std::cos(half[c]);
+    s2[c] = std::sin(half[c]);
+  }
+  for (int c = 0; c < n; c++) {
+    // cos, sin of the full angle
+    const double cc = c2[c] * c2[c] - s2[c] * s2[c], s = 2.0 * s2[c] * c2[c];
 
-  // body components of L turn by -phi about axis k (L is fixed in space)
-  const double la = lb[a], lbb = lb[b];
-  lb[a] = c * la + s * lbb;
-  lb[b] = -s * la + c * lbb;
+    // body components of L turn by -phi about axis k (L is fixed in space)
+    const double la = lb[c][a], lbb = lb[c][b];
+    lb[c][a] = cc * la + s * lbb;
+    lb[c][b] = -s * la + cc * lbb;
 
-  // q <- q * (cos(phi/2), sin(phi/2) e_k); vector part of q is q[1..3]
-  const double w = q[0], vk = q[1 + k], va = q[1 + a], vb = q[1 + b];
+    // q <- q * (cos(phi/2), sin(phi/2) e_k); vector part of q is q[1..3]
+    double *qc = q[c];
+    const double w = qc[0], vk = qc[1 + k], va = qc[1 + a], vb = qc[1 + b];
+    qc[0] = c2[c] * w - s2[c] * vk;
+    qc[1 + k] = c2[c] * vk + s2[c] * w;
+    qc[1 + a] = c2[c] * va + s2[c] * vb;
+    qc[1 + b] = c2[c] * vb - s2[c] * va;
+  }
+}
+
+// omega = R I^-1 R^T L of one cell (the cell's q, moments, L and omega rows)
+inline void omega_of(const double *q, const double *in, const double *angmom, double *omega)
+{
+  double R[3][3], lb[3];
+  BcmRigid::quat_to_mat(q, R);
+  BcmRigid::rotate_back(R, angmom, lb);
+  for (int k = 0; k < 3; k++) lb[k] /= in[k];
+  BcmRigid::rotate(R, lb, omega);
+}
+
+}    // namespace
+
+/* The free rotors of four cells in the four lanes of AVX registers (taken when the processor
+   has AVX: BreakableUtil::avx_loops()): each lane is one cell's arithmetic, the same
+   operations in the same order as free_rotors() (no FMA: AVX alone), so bit for bit its
+   results; sincos one lane at a time. */
+#if defined(BRITTLE_AVX_LOOPS)
+#pragma GCC push_options
+#pragma GCC target("avx")
+namespace {
+namespace avx {
+#include "lanes4_avx.h"
+using V = Lanes4;
+
+// R(q), as BcmRigid::quat_to_mat
+inline void quat_to_mat(const V *q, V R[3][3])
+{
+  const V w = q[0], x = q[1], y = q[2], z = q[3];
+  R[0][0] = w * w + x * x - y * y - z * z;
+  R[0][1] = 2.0 * (x * y - w * z);
+  R[0][2] = 2.0 * (x * z + w * y);
+  R[1][0] = 2.0 * (x * y + w * z);
+  R[1][1] = w * w - x * x + y * y - z * z;
+  R[1][2] = 2.0 * (y * z - w * x);
+  R[2][0] = 2.0 * (x * z - w * y);
+  R[2][1] = 2.0 * (y * z + w * x);
+  R[2][2] = w * w - x * x - y * y + z * z;
+}
+
+template <int k>
+inline void rotate_about_body_axis(V hh, const V *in, V *q, V *lb)
+{
+  constexpr int a = (k + 1) % 3, b = (k + 2) % 3;
+  const V half = hh * lb[k] / in[k];
+  V c2, s2;
+  for (int c = 0; c < 4; c++) {
+    c2[c] = std::cos(half[c]);
+    s2[c] = std::sin(half[c]);
+  }
+  const V cc = c2 * c2 - s2 * s2, s = 2.0 * s2 * c2;
+  const V la = lb[a], lbb = lb[b];
+  lb[a] = cc * la + s * lbb;
+  lb[b] = -s * la + cc * lbb;
+  const V w = q[0], vk = q[1 + k], va = q[1 + a], vb = q[1 + b];
   q[0] = c2 * w - s2 * vk;
   q[1 + k] = c2 * vk + s2 * w;
   q[1 + a] = c2 * va + s2 * vb;
   q[1 + b] = c2 * vb - s2 * va;
 }
 
+void free_rotors4(const int *batch, double **quat, double **inertia, double **angmom,
+                  double **omega, double quarter, double whole)
+{
+  V q[4], in[3], L[3], lb[3], R[3][3];
+  for (int c = 0; c < 4; c++) {
+    const int i = batch[c];
+    for (int k = 0; k < 4; k++) q[k][c] = quat[i][k];
+    for (int k = 0; k < 3; k++) {
+      in[k][c] = inertia[i][k];
+      L[k][c] = angmom[i][k];
+    }
+  }
+  quat_to_mat(q, R);
+  for (int k = 0; k < 3; k++) lb[k] = R[0][k] * L[0] + R[1][k] * L[1] + R[2][k] * L[2];
+  const V hq = {quarter, quarter, quarter, quarter}, hw = {whole, whole, whole, whole};
+  rotate_about_body_axis<2>(hq, in, q, lb);
+  rotate_about_body_axis<1>(hq, in, q, lb);
+  rotate_about_body_axis<0>(hw, in, q, lb);
+  rotate_about_body_axis<1>(hq, in, q, lb);
+  rotate_about_body_axis<2>(hq, in, q, lb);
+
+  const V n = 1.0 / vsqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  for (int k = 0; k < 4; k++) q[k] *= n;
+  quat_to_mat(q, R);
+  for (int k = 0; k < 3; k++) lb[k] /= in[k];
+  V om[3];
+  for (int k = 0; k < 3; k++) om[k] = R[k][0] * lb[0] + R[k][1] * lb[1] + R[k][2] * lb[2];
+  for (int c = 0; c < 4; c++) {
+    const int i = batch[c];
+    for (int k = 0; k < 4; k++) quat[i][k] = q[k][c];
+    for (int k = 0; k < 3; k++) omega[i][k] = om[k][c];
+  }
+}
+
+// omega = R I^-1 R^T L of four cells, as omega_of()
+void omegas4(const int *batch, double **quat, double **inertia, double **angmom, double **omega)
+{
+  V q[4], in[3], L[3], lb[3], R[3][3];
+  for (int c = 0; c < 4; c++) {
+    const int i = batch[c];
+    for (int k = 0; k < 4; k++) q[k][c] = quat[i][k];
+    for (int k = 0; k < 3; k++) {
+      in[k][c] = inertia[i][k];
+      L[k][c] = angmom[i][k];
+    }
+  }
+  quat_to_mat(q, R);
+  for (int k = 0; k < 3; k++) lb[k] = R[0][k] * L[0] + R[1][k] * L[1] + R[2][k] * L[2];
+  for (int k = 0; k < 3; k++) lb[k] /= in[k];
+  V om[3];
+  for (int k = 0; k < 3; k++) om[k] = R[k][0] * lb[0] + R[k][1] * lb[1] + R[k][2] * lb[2];
+  for (int c = 0; c < 4; c++)
+    for (int k = 0; k < 3; k++) omega[batch[c]][k] = om[k][c];
+}
+
+}    // namespace avx
 }    // namespace
+#pragma GCC pop_options
+#endif
 
 /* ---------------------------------------------------------------------- */
 
 FixBcmRigid::FixBcmRigid(LAMMPS *_lmp, int narg, char **arg) :
     Fix(_lmp, narg, arg), dtv(0.0), dtf(0.0), iquat(-1), iinertia(-1), iangmom(-1),
-    comm_with_omega(0)
+    comm_with_omega(0), avx_loop(false)
 {
   if (narg != 3)
     error->all(FLERR, "Illegal fix bcm/rigid command: takes no arguments (fix ID group bcm/rigid)");
@@ -66,6 +201,7 @@ FixBcmRigid::FixBcmRigid(LAMMPS *_lmp, int narg, char **arg) :
   global_freq = 1;
   extscalar = 1;
   comm_forward = 7;    // quaternion, plus omega in the setup communication
+  avx_loop = BreakableUtil::avx_loops();
 }
 
 /* ---------------------------------------------------------------------- */
@@ -159,12 +295,8 @@ void FixBcmRigid::reset_dt()
 
 void FixBcmRigid::set_omega(int i)
 {
-  double R[3][3], lb[3];
-  BcmRigid::quat_to_mat(atom->darray[iquat][i], R);
-  BcmRigid::rotate_back(R, atom->darray[iangmom][i], lb);
-  const double *in = atom->darray[iinertia][i];
-  for (int k = 0; k < 3; k++) lb[k] /= in[k];
-  BcmRigid::rotate(R, lb, atom->omega[i]);
+  omega_of(atom->darray[iquat][i], atom->darray[iinertia][i], atom->darray[iangmom][i],
+           atom->omega[i]);
 }
 
 /* ----------------------------------------------------------------------
@@ -185,16 +317,13 @@ void FixBcmRigid::initial_integrate(int /*vflag*/)
   double **x = atom->x;
   double **v = atom->v;
   double **f = atom->f;
-  double **omega = atom->omega;
   double **torque = atom->torque;
   const double *rmass = atom->rmass;
   const int *mask = atom->mask;
-  double **quat = atom->darray[iquat];
-  double **inertia = atom->darray[iinertia];
   double **angmom = atom->darray[iangmom];
   const int nlocal = atom->nlocal;
-  const double half = 0.5 * dtv;
 
+  int batch[BATCH], n = 0;
   for (int i = 0; i < nlocal; i++) {
     if (!(mask[i] & groupbit)) continue;
     const double dtfm = dtf / rmass[i];
@@ -203,24 +332,58 @@ void FixBcmRigid::initial_integrate(int /*vflag*/)
       x[i][k] += dtv * v[i][k];
       angmom[i][k] += dtf * torque[i][k];
     }
+    batch[n++] = i;
+    if (n == BATCH) {
+#if defined(BRITTLE_AVX_LOOPS)
+      if (avx_loop)
+        avx::free_rotors4(batch, atom->darray[iquat], atom->darray[iinertia], angmom, atom->omega,
+                          0.5 * (0.5 * dtv), 0.5 * dtv);
+      else
+#endif
+        free_rotors(batch, n);
+      n = 0;
+    }
+  }
+  if (n) free_rotors(batch, n);
+}
 
-    double R[3][3], lb[3];
-    double *q = quat[i];
-    const double *in = inertia[i];
-    BcmRigid::quat_to_mat(q, R);
-    BcmRigid::rotate_back(R, angmom[i], lb);
-    rotate_about_body_axis(2, half, in, q, lb);
-    rotate_about_body_axis(1, half, in, q, lb);
-    rotate_about_body_axis(0, dtv, in, q, lb);
-    rotate_about_body_axis(1, half, in, q, lb);
-    rotate_about_body_axis(2, half, in, q, lb);
-    BcmRigid::normalize_quat(q);
+/* ----------------------------------------------------------------------
+   the free rotor over the step of the n owned cells batch[] (n <= BATCH), side by side
+------------------------------------------------------------------------- */
 
+void FixBcmRigid::free_rotors(const int *batch, int n)
+{
+  double **omega = atom->omega;
+  double **quat = atom->darray[iquat];
+  double **inertia = atom->darray[iinertia];
+  double **angmom = atom->darray[iangmom];
+  double q[BATCH][4], in[BATCH][3], lb[BATCH][3];
+
+  for (int c = 0; c < n; c++) {
+    const int i = batch[c];
+    for (int k = 0; k < 4; k++) q[c][k] = quat[i][k];
+    for (int k = 0; k < 3; k++) in[c][k] = inertia[i][k];
+    double R[3][3];
+    BcmRigid::quat_to_mat(q[c], R);
+    BcmRigid::rotate_back(R, angmom[i], lb[c]);
+  }
+  const double quarter = 0.5 * (0.5 * dtv), whole = 0.5 * dtv;    // half of each substep
+  rotate_about_body_axis<2>(n, quarter, in, q, lb);
+  rotate_about_body_axis<1>(n, quarter, in, q, lb);
+  rotate_about_body_axis<0>(n, whole, in, q, lb);
+  rotate_about_body_axis<1>(n, quarter, in, q, lb);
+  rotate_about_body_axis<2>(n, quarter, in, q, lb);
+
+  for (int c = 0; c < n; c++) {
+    const int i = batch[c];
+    BcmRigid::normalize_quat(q[c]);
+    for (int k = 0; k < 4; k++) quat[i][k] = q[c][k];
     // the space-frame L is unchanged by the free rotor: it is kept as is (exactly conserved
     // without torques); omega from the body components the rotor carried along
-    BcmRigid::quat_to_mat(q, R);
-    for (int k = 0; k < 3; k++) lb[k] /= in[k];
-    BcmRigid::rotate(R, lb, omega[i]);
+    double R[3][3];
+    BcmRigid::quat_to_mat(q[c], R);
+    for (int k = 0; k < 3; k++) lb[c][k] /= in[c][k];
+    BcmRigid::rotate(R, lb[c], omega[i]);
   }
 }
 
@@ -244,8 +407,12 @@ void FixBcmRigid::final_integrate()
   const double *rmass = atom->rmass;
   const int *mask = atom->mask;
   double **angmom = atom->darray[iangmom];
+  double **quat = atom->darray[iquat];
+  double **inertia = atom->darray[iinertia];
+  double **omega = atom->omega;
   const int nlocal = atom->nlocal;
 
+  int batch[BATCH], n = 0;    // cells whose omega is still to be set (AVX: 4 at a time)
   for (int i = 0; i < nlocal; i++) {
     if (!(mask[i] & groupbit)) continue;
     const double dtfm = dtf / rmass[i];
@@ -253,7 +420,21 @@ void FixBcmRigid::final_integrate()
       v[i][k] += dtfm * f[i][k];
       angmom[i][k] += dtf * torque[i][k];
     }
-    set_omega(i);
+#if defined(BRITTLE_AVX_LOOPS)
+    if (avx_loop) {
+      batch[n++] = i;
+      if (n == BATCH) {
+        avx::omegas4(batch, quat, inertia, angmom, omega);
+        n = 0;
+      }
+      continue;
+    }
+#endif
+    omega_of(quat[i], inertia[i], angmom[i], omega[i]);
+  }
+  for (int c = 0; c < n; c++) {
+    const int i = batch[c];
+    omega_of(quat[i], inertia[i], angmom[i], omega[i]);
   }
 }
 

@@ -31,9 +31,11 @@ class FixBcmRigid : public Fix {
   double dtv, dtf;
   int iquat, iinertia, iangmom;    // atom->darray indices of the bcm_rigid.h arrays
   int comm_with_omega;             // the current forward communication carries omega too
+  bool avx_loop;                   // full batches of 4 cells in AVX lanes (free_rotors4)
 
   int find_array(const char *name, int ncols);
   void set_omega(int i);
+  void free_rotors(const int *batch, int n);
 };
 
 }    // namespace LAMMPS_NS

@@ -266,6 +266,7 @@ void FixBcmWall::wall_forces(bool advance)
   // where lists are rebuilt)
   cell_of.resize(nlocal, nullptr);
   cell_tag.resize(nlocal, 0);
+  cell_rbound.resize(nlocal, 0.0);
   // the plane's velocity at this evaluation, and its position at the end of the step
   if (!vel_var.empty()) {
     modify->clearstep_compute();
@@ -292,11 +293,13 @@ void FixBcmWall::wall_forces(bool advance)
     if (cell_tag[i] != tag[i] || !cell_of[i]) {
       cell_tag[i] = tag[i];
       cell_of[i] = table->find(tag[i]);
+      if (!cell_of[i])
+        error->one(FLERR, "fix bcm/wall: cell {} has no geometry in {}", tag[i], cells_file);
+      cell_rbound[i] = cell_of[i]->rbound;
     }
-    const BcmCells::Cell *c = cell_of[i];
-    if (!c) error->one(FLERR, "fix bcm/wall: cell {} has no geometry in {}", tag[i], cells_file);
     const double hc = side * (x[i][axis] - coord);
-    if (hc - c->rbound >= rm) continue;
+    if (hc - cell_rbound[i] >= rm) continue;
+    const BcmCells::Cell *c = cell_of[i];
 
     double R[3][3];
     BcmRigid::rotation(quat[i], R);

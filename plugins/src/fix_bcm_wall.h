@@ -98,6 +98,7 @@ class FixBcmWall : public Fix {
   // its geometry; and the cells that did not touch at the last evaluation (their tag; 0 for
   // one that touched): only the others can hold a slot written at the previous step
   std::vector<const BcmCells::Cell *> cell_of;
+  std::vector<double> cell_rbound;    // cell_of[i]->rbound, read in order each step
   std::vector<tagint> cell_tag, touched_last;
 
   void set_velocity(const char *arg);

@@ -511,39 +511,55 @@ void PairBcmContact::compute(int eflag, int vflag)
     cert_ncalls = neighbor->ncalls;
   }
   std::size_t nentry = 0;
+  // the special bits of a bonded pair (an interface, not a contact: weight 0)
+  bool keep[4];
+  for (int s = 0; s < 4; s++) keep[s] = weight[s] != 0.0;
 
   for (int ii = 0; ii < inum; ii++) {
     const int i = ilist[ii];
     const int *jlist = firstneigh[i];
     const int jnum = numneigh[i];
+    // the entries that are not bonded pairs, in the list's order (without a branch each)
+    if (static_cast<int>(unbonded.size()) < jnum) unbonded.resize(jnum);
+    int *jpair = unbonded.data();
+    int npair = 0;
     for (int jj = 0; jj < jnum; jj++) {
-      int j = jlist[jj];
-      if (weight[sbmask(j)] == 0.0) continue;    // bonded: an interface, not a contact
-      j &= NEIGHMASK;
+      const int j = jlist[jj];
+      jpair[npair] = j;
+      npair += keep[sbmask(j)];
+    }
+    for (int jp = 0; jp < npair; jp++) {
+      const int j = jpair[jp] & NEIGHMASK;
       if (nentry == certs.size()) certs.emplace_back();
       ApartCert &cert = certs[nentry++];
 
       // A = the smaller tag: both cells' history copies and every rank agree on the order
-      const int a = tag[i] < tag[j] ? i : j;
+      const tagint ti = tag[i], tj = tag[j];
+      const int a = ti < tj ? i : j;
       const int b = a == i ? j : i;
       double dx[3] = {x[a][0] - x[b][0], x[a][1] - x[b][1], x[a][2] - x[b][2]};
-      const BcmCells::Cell *ca = cell(a), *cb = cell(b);
-      const double reach = ca->rbound + cb->rbound + dcut;
+      if (cert.ri != ti || cert.rj != tj) {
+        const double reach = cell(a)->rbound + cell(b)->rbound + dcut;
+        cert.reach2 = reach * reach;
+        cert.ri = ti;
+        cert.rj = tj;
+      }
       // with newton_pair off a pair across ranks is computed on both: its energy
       // accounting is kept by the rank owning A
       const bool counted = newton_pair || a < nlocal;
       const int itype = type[i], jtype = type[j];
-      const double kn_ = kn[itype][jtype], kt_ = kt[itype][jtype], mu_ = mu[itype][jtype];
       // outside the bounding spheres, or still apart by the face plane of its certificate:
       // no point, the cells not placed
-      if (dot(dx, dx) >= reach * reach || still_apart(cert, a, b)) {
+      if (dot(dx, dx) >= cert.reach2 || still_apart(cert, a, b)) {
         if (!last_range.empty()) {
-          const double lost = dropped_springs(a, b, kt_, dt, 0, advance);
+          const double lost = dropped_springs(a, b, kt[itype][jtype], dt, 0, advance);
           if (counted) w_drop += lost;
         }
         continue;
       }
 
+      const BcmCells::Cell *ca = cell(a), *cb = cell(b);
+      const double kn_ = kn[itype][jtype], kt_ = kt[itype][jtype], mu_ = mu[itype][jtype];
       const int oa = place(a), ob = place(b);
       const BcmSpaceCell sa{table.get(), ca, x[a], &geom[oa], &geom[oa + 3 * ca->nv]};
       const BcmSpaceCell sb{table.get(), cb, x[b], &geom[ob], &geom[ob + 3 * cb->nv]};

@@ -116,10 +116,16 @@ class PairBcmContact : public Pair {
   // radius of A for a plane of B), so while that bound stays below the margin the cores are
   // still apart by that plane: the pair is skipped without placing its cells, exactly as the
   // test would have skipped it. Cleared when the list is rebuilt and at a setup evaluation.
+  // Each entry also keeps the square of its pair's reach (the two bounding radii and twice
+  // r_m), for the entry's atoms of tags ri, rj (0: not yet), so that a pair outside reach is
+  // passed over without looking up its cells.
   struct ApartCert {
     tagint ta = 0, tb = 0;    // the pair (0: no certificate)
     BcmMotion::Cert motion;   // P1, M1, margin, lever arm (bcm_motion.h)
+    tagint ri = 0, rj = 0;    // the entry's (i, j) tags of reach2
+    double reach2 = 0.0;
   };
+  std::vector<int> unbonded;    // one atom's neighbour entries that are not bonded pairs
   std::vector<ApartCert> certs;
   NeighList *cert_list = nullptr;
   bigint cert_ncalls = -1;
