@@ -520,7 +520,7 @@ void BondBcmGriffith::rebuild_cache()
       if (broken) ncontact += NCONTACT * e.npts;
     }
 
-    records.assign(nrec, 0.0);    // padding lanes zero
+    records.assign(nrec + RECORD_TAIL, 0.0);    // padding lanes and the tail zero
     contact.assign(ncontact, 0.0);
     for (int n = 0; n < nbondlist; n++) {
       const Entry &e = cache[n];
@@ -561,8 +561,8 @@ void BondBcmGriffith::rebuild_cache()
       for (int c = 0; c < 3; c++) out[c] = g[c];
       for (int k = 0; k < np; k++)
         for (int c = 0; c < 3; c++) {
-          out[3 + c * P + k] = g[3 + 3 * k + c];
-          out[3 + 3 * P + c * P + k] = g[3 + 3 * (np + k) + c];
+          out[3 + c * np + k] = g[3 + 3 * k + c];
+          out[3 + 3 * np + c * np + k] = g[3 + 3 * (np + k) + c];
         }
     }
 
@@ -776,7 +776,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     }
     const int np = e.npts, P = padded(np);
     double *fd = rec + R_FD;    // damping forces of the last evaluation, rows of P
-    const double *g = rec + record_geometry(np);    // normal in cell 1's frame, b1 rows, b2 rows
+    const double *g = rec + record_geometry(np);    // normal in cell 1's frame, b1 rows, b2 rows (np)
 
     const Pair p(&cells[CELL_STRIDE * (size_t) e.c1], &cells[CELL_STRIDE * (size_t) e.c2], g);
     // fd_dv: the damping forces of the last evaluation times the relative velocities now,
@@ -792,10 +792,10 @@ void BondBcmGriffith::compute(int eflag, int vflag)
       BcmInterfaceKinematics::IntactSums s;
 #if defined(BRITTLE_AVX_LOOPS)
       if (avx_loop)
-        avx::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, g + 3, g + 3 + 3 * P, s);
+        avx::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, np, g + 3, g + 3 + 3 * np, s);
       else
 #endif
-        base::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, g + 3, g + 3 + 3 * P, s);
+        base::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, np, g + 3, g + 3 + 3 * np, s);
       fd_dv = s.fd_dv;
       r.stored = s.stored;
       r.pd = s.pd;
@@ -874,10 +874,10 @@ bool BondBcmGriffith::quiet(const Entry &e, const double *rec, const Pair &p, co
   double dn[BcmInterfaceTable::MAX_POINTS];
 #if defined(BRITTLE_AVX_LOOPS)
   if (avx_loop)
-    avx::interface_gaps(p, np, P, g + 3, g + 3 + 3 * P, dn);
+    avx::interface_gaps(p, np, np, g + 3, g + 3 + 3 * np, dn);
   else
 #endif
-    base::interface_gaps(p, np, P, g + 3, g + 3 + 3 * P, dn);
+    base::interface_gaps(p, np, np, g + 3, g + 3 + 3 * np, dn);
   for (int k = 0; k < np; k++)
     if (dn[k] - cb[NCONTACT * k + C_SHIFT] < 0.0) return false;    // closed (contact law)
   if (least) {
@@ -970,11 +970,11 @@ bool BondBcmGriffith::quiet_now(const Entry &e, int nb, const double *rec, const
   qc.left = -1.0f;
   if (!q || !step) return q;
   // the lever arm: the farthest anchor of cell 2 from its centre
-  const int np = e.npts, P = padded(np);
-  const double *b2 = g + 3 + 3 * P;
+  const int np = e.npts;
+  const double *b2 = g + 3 + 3 * np;
   double arm2 = 0.0;
   for (int k = 0; k < np; k++)
-    arm2 = std::max(arm2, b2[k] * b2[k] + b2[P + k] * b2[P + k] + b2[2 * P + k] * b2[2 * P + k]);
+    arm2 = std::max(arm2, b2[k] * b2[k] + b2[np + k] * b2[np + k] + b2[2 * np + k] * b2[2 * np + k]);
   arm2 = std::sqrt(arm2);
   const double *x1 = atom->x[e.c1], *x2 = atom->x[e.c2];
   const double left = least - 1.0e-9 * (arm2 + std::sqrt(d2)) -
@@ -988,15 +988,14 @@ bool BondBcmGriffith::quiet_now(const Entry &e, int nb, const double *rec, const
 }
 
 /* ----------------------------------------------------------------------
-   the points of an interface from its record's geometry (rows of P anchors)
+   the points of an interface from its record's geometry (rows of np anchors)
 ------------------------------------------------------------------------- */
 
 void BondBcmGriffith::interface_points(const Pair &p, const double *g, int np, Point *pts)
 {
-  const int P = padded(np);
   for (int k = 0; k < np; k++) {
-    const double b1[3] = {g[3 + k], g[3 + P + k], g[3 + 2 * P + k]};
-    const double b2[3] = {g[3 + 3 * P + k], g[3 + 4 * P + k], g[3 + 5 * P + k]};
+    const double b1[3] = {g[3 + k], g[3 + np + k], g[3 + 2 * np + k]};
+    const double b2[3] = {g[3 + 3 * np + k], g[3 + 4 * np + k], g[3 + 5 * np + k]};
     BcmInterfaceKinematics::point(p, b1, b2, pts[k]);
   }
 }
