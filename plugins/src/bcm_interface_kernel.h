@@ -11,17 +11,17 @@
    in the same order, and the sums over the points are taken lane by lane in point order,
    so that both copies give the scalar code's results bit for bit.
 
-   Layout (the style's working copy, bcm_interface_state.h): the damping forces fd are rows
-   of P values (x row, y row, z row), the points padded to P, a multiple of 4; the anchors
-   b1, b2 are rows of S = np values, read W at a time past a row's end into what follows it
-   (values the working copy holds: finite). Lanes past np are computed and never summed. */
+   Layout: the points are padded to P, a multiple of 4; the damping forces fd (the style's
+   working copy, bcm_interface_state.h) and the anchors b1, b2 (the interface table,
+   BcmInterfaceTable::body_of()) are rows of P values (x row, y row, z row). Padding lanes are
+   computed and never summed. */
 
 using BcmInterfaceKinematics::IntactSums;
 using BcmInterfaceKinematics::Pair;
 
 // the points of one intact interface; fd is read (previous damping forces) and written
 inline void intact_interface(const Pair &p, double kp, double ktp, double cp, int np,
-                             int P, double *fd, int S, const double *b1, const double *b2,
+                             int P, double *fd, const double *b1, const double *b2,
                              IntactSums &s)
 {
   const V R1[3][3] = {{splat(p.R1[0][0]), splat(p.R1[0][1]), splat(p.R1[0][2])},
@@ -44,9 +44,9 @@ inline void intact_interface(const Pair &p, double kp, double ktp, double cp, in
 
   for (int g = 0; g < np; g += W) {
     V b[3], r1[3], r2[3], arm1[3], delta[3], dt[3], dv[3], fdo[3], fdn[3], F[3];
-    for (int c = 0; c < 3; c++) b[c] = load(b1 + c * S + g);
+    for (int c = 0; c < 3; c++) b[c] = load(b1 + c * P + g);
     for (int c = 0; c < 3; c++) r1[c] = R1[c][0] * b[0] + R1[c][1] * b[1] + R1[c][2] * b[2];
-    for (int c = 0; c < 3; c++) b[c] = load(b2 + c * S + g);
+    for (int c = 0; c < 3; c++) b[c] = load(b2 + c * P + g);
     for (int c = 0; c < 3; c++) r2[c] = R2[c][0] * b[0] + R2[c][1] * b[1] + R2[c][2] * b[2];
     for (int c = 0; c < 3; c++) {
       arm1[c] = d12[c] + r2[c];    // p2 - x1
@@ -115,9 +115,8 @@ inline void intact_interface(const Pair &p, double kp, double ktp, double cp, in
 }
 
 // the normal gap dn of every point of an interface (as BcmInterfaceKinematics::point() computes
-// it), into dn[0 .. np rounded up to W): the screening of a broken interface's points (all
-// open?); b1, b2 rows of S values
-inline void interface_gaps(const Pair &p, int np, int S, const double *b1, const double *b2,
+// it), into dn[0 .. P): the screening of a broken interface's points (all open?)
+inline void interface_gaps(const Pair &p, int np, int P, const double *b1, const double *b2,
                            double *dn)
 {
   const V R1[3][3] = {{splat(p.R1[0][0]), splat(p.R1[0][1]), splat(p.R1[0][2])},
@@ -130,9 +129,9 @@ inline void interface_gaps(const Pair &p, int np, int S, const double *b1, const
   const V d12[3] = {splat(p.d12[0]), splat(p.d12[1]), splat(p.d12[2])};
   for (int g = 0; g < np; g += W) {
     V b[3], r1[3], r2[3], delta[3];
-    for (int c = 0; c < 3; c++) b[c] = load(b1 + c * S + g);
+    for (int c = 0; c < 3; c++) b[c] = load(b1 + c * P + g);
     for (int c = 0; c < 3; c++) r1[c] = R1[c][0] * b[0] + R1[c][1] * b[1] + R1[c][2] * b[2];
-    for (int c = 0; c < 3; c++) b[c] = load(b2 + c * S + g);
+    for (int c = 0; c < 3; c++) b[c] = load(b2 + c * P + g);
     for (int c = 0; c < 3; c++) r2[c] = R2[c][0] * b[0] + R2[c][1] * b[1] + R2[c][2] * b[2];
     for (int c = 0; c < 3; c++) delta[c] = (d12[c] + r2[c]) - r1[c];
     store(dn + g, delta[0] * n[0] + delta[1] * n[1] + delta[2] * n[2]);

@@ -514,10 +514,10 @@ void BondBcmGriffith::rebuild_cache()
     for (int c = 0; c <= BcmInterfaceTable::MAX_POINTS; c++) {
       const long rs = record_size(c);
       std::vector<double> &R = records[c];
-      const long n_old = R.size() > (size_t) RECORD_TAIL ? ((long) R.size() - RECORD_TAIL) / rs : 0;
+      const long n_old = (long) R.size() / rs;
       long n_new = 0;
       for (int n = 0; n < nbondlist; n++)
-        if (cache[n].npts == c) cache[n].roff = rs * n_new++;
+        if (cache[n].npts == c) cache[n].roff = (int) (rs * n_new++);
       if (n_old == 0 && n_new == 0) {
         R.clear();
         continue;
@@ -537,7 +537,7 @@ void BondBcmGriffith::rebuild_cache()
         perm[j] = f;
         taken[f] = 1;
       }
-      R.resize(M * rs + RECORD_TAIL, 0.0);
+      R.resize(M * rs, 0.0);
       std::vector<char> done(M, 0);
       std::vector<double> tmp(rs);
       for (long j = 0; j < M; j++) {
@@ -553,7 +553,7 @@ void BondBcmGriffith::rebuild_cache()
         }
         std::copy(tmp.begin(), tmp.end(), &R[k * rs]);
       }
-      R.resize(n_new * rs + RECORD_TAIL);    // the tail: values of the working copy, or zeros
+      R.resize(n_new * rs);
     }
 
     // the contact blocks stay where they are (read only by broken interfaces that are not
@@ -577,7 +577,7 @@ void BondBcmGriffith::rebuild_cache()
         const Entry &first = cache[dup[n]];
         std::copy(record(first), record(first) + record_size(np), rec);
         if (first.coff >= 0) {
-          e.coff = (long) contact.size();
+          e.coff = (int) contact.size();
           contact.resize(contact.size() + NCONTACT * np);
           std::copy(&contact[first.coff], &contact[first.coff] + NCONTACT * np, &contact[e.coff]);
           live += NCONTACT * np;
@@ -614,35 +614,35 @@ void BondBcmGriffith::rebuild_cache()
         // contact state only for an interface that is broken already (one that breaks during
         // the run gets its block then: break_interface())
         if (st[H_BROKEN] != INTACT) {
-          e.coff = (long) contact.size();
+          e.coff = (int) contact.size();
           contact.insert(contact.end(), st + NHEAD + 3 * np, st + NHEAD + NPOINT * np);
           live += NCONTACT * np;
         }
       }
-      // geometry: normal in cell 1's frame, then the rows of b1 and of b2
-      const double *g = table.body_of(itf);
-      double *out = rec + record_geometry(np);
-      for (int c = 0; c < 3; c++) out[c] = g[c];
-      for (int k = 0; k < np; k++)
-        for (int c = 0; c < 3; c++) {
-          out[3 + c * np + k] = g[3 + 3 * k + c];
-          out[3 + 3 * np + c * np + k] = g[3 + 3 * (np + k) + c];
-        }
     }
     for (int n = 0; n < nbondlist; n++) set_constants(cache[n], cache[n].type, record(cache[n]));
+
+    // the table's geometry in the order of the records
+    std::vector<int> first;
+    first.reserve(nbondlist);
+    for (int n = 0; n < nbondlist; n++)
+      if (dup[n] < 0) first.push_back(cache[n].iface);
+    table.order_geometry(first);
 
     if ((long) contact.size() > 2 * live + 4096) {
       std::vector<double> packed;
       packed.reserve(live);
       for (Entry &e : cache)
         if (e.coff >= 0) {
-          const long at = (long) packed.size();
+          const int at = (int) packed.size();
           packed.insert(packed.end(), &contact[e.coff], &contact[e.coff] + NCONTACT * e.npts);
           e.coff = at;
         }
       contact.swap(packed);
     }
   }
+
+  for (Entry &e : cache) e.g = table.body_of(table[e.iface]);
 
   // rows that arrived: the slots of interfaces now in the working copy are emptied (the
   // working copy is current for them), the others kept
@@ -825,7 +825,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     }
     const int np = e.npts, P = padded(np);
     double *fd = rec + R_FD;    // damping forces of the last evaluation, rows of P
-    const double *g = rec + record_geometry(np);    // normal in cell 1's frame, b1 rows, b2 rows (np)
+    const double *g = e.g;    // normal in cell 1's frame, b1 rows, b2 rows (np)
 
     const Pair p(&cells[CELL_STRIDE * (size_t) e.c1], &cells[CELL_STRIDE * (size_t) e.c2], g);
     // fd_dv: the damping forces of the last evaluation times the relative velocities now,
@@ -841,10 +841,10 @@ void BondBcmGriffith::compute(int eflag, int vflag)
       BcmInterfaceKinematics::IntactSums s;
 #if defined(BRITTLE_AVX_LOOPS)
       if (avx_loop)
-        avx::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, np, g + 3, g + 3 + 3 * np, s);
+        avx::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, g + 3, g + 3 + 3 * P, s);
       else
 #endif
-        base::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, np, g + 3, g + 3 + 3 * np, s);
+        base::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, g + 3, g + 3 + 3 * P, s);
       fd_dv = s.fd_dv;
       r.stored = s.stored;
       r.pd = s.pd;
@@ -923,10 +923,10 @@ bool BondBcmGriffith::quiet(const Entry &e, const double *rec, const Pair &p, co
   double dn[BcmInterfaceTable::MAX_POINTS];
 #if defined(BRITTLE_AVX_LOOPS)
   if (avx_loop)
-    avx::interface_gaps(p, np, np, g + 3, g + 3 + 3 * np, dn);
+    avx::interface_gaps(p, np, P, g + 3, g + 3 + 3 * P, dn);
   else
 #endif
-    base::interface_gaps(p, np, np, g + 3, g + 3 + 3 * np, dn);
+    base::interface_gaps(p, np, P, g + 3, g + 3 + 3 * P, dn);
   for (int k = 0; k < np; k++)
     if (dn[k] - cb[NCONTACT * k + C_SHIFT] < 0.0) return false;    // closed (contact law)
   if (least) {
@@ -1019,11 +1019,11 @@ bool BondBcmGriffith::quiet_now(const Entry &e, int nb, const double *rec, const
   qc.left = -1.0f;
   if (!q || !step) return q;
   // the lever arm: the farthest anchor of cell 2 from its centre
-  const int np = e.npts;
-  const double *b2 = g + 3 + 3 * np;
+  const int np = e.npts, P = padded(np);
+  const double *b2 = g + 3 + 3 * P;
   double arm2 = 0.0;
   for (int k = 0; k < np; k++)
-    arm2 = std::max(arm2, b2[k] * b2[k] + b2[np + k] * b2[np + k] + b2[2 * np + k] * b2[2 * np + k]);
+    arm2 = std::max(arm2, b2[k] * b2[k] + b2[P + k] * b2[P + k] + b2[2 * P + k] * b2[2 * P + k]);
   arm2 = std::sqrt(arm2);
   const double *x1 = atom->x[e.c1], *x2 = atom->x[e.c2];
   const double left = least - 1.0e-9 * (arm2 + std::sqrt(d2)) -
@@ -1037,14 +1037,15 @@ bool BondBcmGriffith::quiet_now(const Entry &e, int nb, const double *rec, const
 }
 
 /* ----------------------------------------------------------------------
-   the points of an interface from its record's geometry (rows of np anchors)
+   the points of an interface from its geometry (rows of P anchors)
 ------------------------------------------------------------------------- */
 
 void BondBcmGriffith::interface_points(const Pair &p, const double *g, int np, Point *pts)
 {
+  const int P = padded(np);
   for (int k = 0; k < np; k++) {
-    const double b1[3] = {g[3 + k], g[3 + np + k], g[3 + 2 * np + k]};
-    const double b2[3] = {g[3 + 3 * np + k], g[3 + 4 * np + k], g[3 + 5 * np + k]};
+    const double b1[3] = {g[3 + k], g[3 + P + k], g[3 + 2 * P + k]};
+    const double b2[3] = {g[3 + 3 * P + k], g[3 + 4 * P + k], g[3 + 5 * P + k]};
     BcmInterfaceKinematics::point(p, b1, b2, pts[k]);
   }
 }
@@ -1073,7 +1074,7 @@ void BondBcmGriffith::break_interface(Entry &e, double *rec, const Pair &p,
 
   const double kp = rec[K_KP], ktp = rec[K_KTP];
   if (e.coff < 0) {    // its contact state from now on, zeros as in the store
-    e.coff = (long) contact.size();
+    e.coff = (int) contact.size();
     contact.resize(contact.size() + NCONTACT * (size_t) e.npts, 0.0);
   }
   double *cb = &contact[e.coff];

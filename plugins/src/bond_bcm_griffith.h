@@ -61,8 +61,9 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds, public FixLazy
     int type;          // bond type the constants of the record were taken for
     int npts;
     int iface;         // in the interface table
-    long roff;         // into records[npts]
-    long coff;         // into contact: NCONTACT doubles per point; -1 while intact
+    int roff;          // into records[npts]
+    int coff;          // into contact: NCONTACT doubles per point; -1 while intact
+    const double *g;   // the geometry (the table's): normal, b1 rows, b2 rows
   };
   // the working copy of a style that is replaced (bond_style given again), kept by fix
   // bcm/griffith for the next one: it holds the only live copy of the state
@@ -115,8 +116,8 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds, public FixLazy
   // and the interfaces of owned cells that the bond list lacks (a partner lost), and a row
   // that leaves is composed from the working copy (compose()).
   std::vector<Entry> cache;
-  // per class (N_p): the records of the entries of N_p points, in bondlist order, then
-  // RECORD_TAIL spare values; a rebuild moves them in place (no second copy)
+  // per class (N_p): the records of the entries of N_p points, in bondlist order; a rebuild
+  // moves them in place (no second copy), and the table's geometry likewise
   std::vector<double> records[BcmInterfaceTable::MAX_POINTS + 1];
   double *record(const Entry &e) { return records[e.npts].data() + e.roff; }
   const double *record(const Entry &e) const { return records[e.npts].data() + e.roff; }
