@@ -556,9 +556,8 @@ void BondBcmGriffith::rebuild_cache()
       R.resize(n_new * rs);
     }
 
-    // the contact blocks stay where they are (read only by broken interfaces that are not
-    // quiet); a new entry gets its block appended, one dropped leaves a hole, and the blocks
-    // are compacted when the holes outgrow the rest
+    // the contact blocks: kept by the entries that continue, appended for new ones, laid out
+    // in the entries' order below
     long live = 0;
     for (int n = 0; n < nbondlist; n++) {
       Entry &e = cache[n];
@@ -629,9 +628,22 @@ void BondBcmGriffith::rebuild_cache()
       if (dup[n] < 0) first.push_back(cache[n].iface);
     table.order_geometry(first);
 
-    if ((long) contact.size() > 2 * live + 4096) {
+  }
+
+  // the contact blocks in the order of the entries, without holes, as the broken interfaces'
+  // loop reads them (blocks given at breaks since the last rebuild, or kept by a rebuild, are
+  // out of it): laid out again when they are not
+  {
+    long expect = 0;
+    bool ordered = true;
+    for (const Entry &e : cache)
+      if (e.coff >= 0) {
+        if (e.coff != expect) ordered = false;
+        expect += NCONTACT * e.npts;
+      }
+    if (!ordered || (long) contact.size() != expect) {
       std::vector<double> packed;
-      packed.reserve(live);
+      packed.reserve(expect);
       for (Entry &e : cache)
         if (e.coff >= 0) {
           const int at = (int) packed.size();
