@@ -11,10 +11,9 @@
    in the same order, and the sums over the points are taken lane by lane in point order,
    so that both copies give the scalar code's results bit for bit.
 
-   Layout: the points are padded to P, a multiple of 4; the damping forces fd (the style's
-   working copy, bcm_interface_state.h) and the anchors b1, b2 (the interface table,
-   BcmInterfaceTable::body_of()) are rows of P values (x row, y row, z row). Padding lanes are
-   computed and never summed. */
+   Layout (the style's working copy, bcm_interface_state.h): the points are padded to P, a
+   multiple of 4; the damping forces fd and the anchors b1, b2 are rows of P values (x row,
+   y row, z row). Padding lanes are computed and never summed. */
 
 using BcmInterfaceKinematics::IntactSums;
 using BcmInterfaceKinematics::Pair;

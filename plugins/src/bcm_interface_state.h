@@ -49,11 +49,11 @@ constexpr int NPOINT = 3 + NCONTACT;    // doubles per point in a slot
 // pair is the pair style's)
 constexpr double INTACT = 0.0, BROKEN = 1.0, RETIRED = 2.0;
 
-// record of a bondlist entry in the working copy: these constants, the slot's header and the
-// damping forces as rows over the points padded to a multiple of LANES (x row, y row, z row:
-// the layout of the 4-lane force kernel, bcm_interface_kernel.h; padding is never summed); the
-// geometry is the interface table's (BcmInterfaceTable::body_of(), ordered as the records):
-//   NCONST | NHEAD | fd: 3 P
+// record of a bondlist entry in the working copy: these constants, the slot's header, the
+// damping forces and the geometry (normal in cell 1's frame, then the anchors b1, b2), the
+// per-point values as rows over the points padded to a multiple of LANES (x row, y row, z row:
+// the layout of the 4-lane force kernel, bcm_interface_kernel.h; padding is never summed):
+//   NCONST | NHEAD | fd: 3 P | normal: 3 | b1: 3 P | b2: 3 P
 enum {
   K_AREA,    // S
   K_KP,      // k_n / N_p
@@ -68,7 +68,8 @@ constexpr int LANES = 4;
 inline int padded(int npts) { return (npts + LANES - 1) / LANES * LANES; }
 constexpr int R_SLOT = NCONST;            // the slot header
 constexpr int R_FD = NCONST + NHEAD;      // damping forces, 3 rows of P
-inline long record_size(int npts) { return R_FD + 3L * padded(npts); }
+inline long record_geometry(int npts) { return R_FD + 3L * padded(npts); }    // normal, b1, b2
+inline long record_size(int npts) { return record_geometry(npts) + 3 + 6L * padded(npts); }
 
 // what the last force evaluation was: it decides which half kicks used its damping force
 enum EvalKind { EVAL_NONE = 0, EVAL_SETUP = 1, EVAL_STEP = 2 };

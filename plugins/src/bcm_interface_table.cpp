@@ -39,7 +39,7 @@ void BcmInterfaceTable::read(const std::string &file)
 {
   interfaces.clear();
   space.clear();
-  for (auto &b : body) b.clear();
+  body.clear();
   order.clear();
   geometry_file = file;
   reference_taken = 0;
@@ -101,7 +101,7 @@ void BcmInterfaceTable::read(const std::string &file)
         break;
       }
       for (int k = 0; k < 3; k++) val[k] /= nn;
-      itf.gidx = 0;
+      itf.boff = 0;
       space.insert(space.end(), val, val + 3 + 3 * itf.npts);
       interfaces.push_back(itf);
     }
@@ -174,40 +174,28 @@ void BcmInterfaceTable::broadcast()
 
 void BcmInterfaceTable::index()
 {
-  long soff = 0;
-  int count[MAX_POINTS + 1] = {};
+  long soff = 0, boff = 0;
   maxpts = 0;
   area_mean = 0.0;
   for (const Interface &itf : interfaces) area_mean += itf.area;
   if (!interfaces.empty()) area_mean /= (double) interfaces.size();
   for (int i = 0; i < (int) interfaces.size(); i++) {
     Interface &itf = interfaces[i];
-    itf.gidx = count[itf.npts]++;
+    itf.boff = boff;
     soff += 3 + 3 * itf.npts;
+    boff += 3 + 6 * itf.npts;
     maxpts = std::max(maxpts, itf.npts);
   }
   // the space frame is gone once the reference is taken (restart files written since hold none)
   if (soff != (long) space.size() && !(reference_taken && space.empty()))
     error->all(FLERR, "bond_style bcm/griffith: inconsistent interface table");
-  for (int c = 0; c <= MAX_POINTS; c++) {
-    body[c].assign(count[c] * geometry_size(c), 0.0);
-    body[c].shrink_to_fit();
-  }
+  body.resize(boff, 0.0);
   order.resize(interfaces.size());
   for (int i = 0; i < (int) order.size(); i++) order[i] = i;
   std::sort(order.begin(), order.end(), [&](int a, int b) {
     return key(interfaces[a].tag1, interfaces[a].tag2) < key(interfaces[b].tag1, interfaces[b].tag2);
   });
   order.shrink_to_fit();
-  first.clear();
-  tagint maxtag = 0;
-  for (const Interface &itf : interfaces) maxtag = std::max(maxtag, itf.tag1);
-  if (!interfaces.empty() && maxtag <= 4 * (tagint) interfaces.size() + 1024) {
-    first.assign(maxtag + 2, 0);
-    for (const Interface &itf : interfaces) first[itf.tag1 + 1]++;
-    for (tagint t = 0; t <= maxtag; t++) first[t + 1] += first[t];
-  }
-  first.shrink_to_fit();
 }
 
 /* ---------------------------------------------------------------------- */
@@ -220,12 +208,6 @@ BcmInterfaceTable::Key BcmInterfaceTable::key(tagint t1, tagint t2)
 int BcmInterfaceTable::find(tagint t1, tagint t2) const
 {
   if (t1 > t2) std::swap(t1, t2);
-  if (!first.empty()) {
-    if (t1 < 0 || t1 + 1 >= (tagint) first.size()) return -1;
-    for (int j = first[t1]; j < first[t1 + 1]; j++)
-      if (interfaces[order[j]].tag2 == t2) return order[j];
-    return -1;
-  }
   const Key k{t1, t2};
   const auto it = std::lower_bound(order.begin(), order.end(), k, [&](int a, const Key &b) {
     return key(interfaces[a].tag1, interfaces[a].tag2) < b;
@@ -256,7 +238,7 @@ void BcmInterfaceTable::take_reference(int iquat)
   for (int i = 0; i < nlocal; i++) owned[tag[i]] = i;
 
   // this rank's part into body, zeros elsewhere, then summed over ranks in place
-  for (auto &b : body) std::fill(b.begin(), b.end(), 0.0);
+  std::fill(body.begin(), body.end(), 0.0);
   const int nif = (int) interfaces.size();
   std::vector<int> found(2 * nif, 0);
   enum { BAD_QUAT, BAD_RADIUS, BAD_SIDE, NBAD };
@@ -269,8 +251,7 @@ void BcmInterfaceTable::take_reference(int iquat)
     const double *n = &space[soff];
     soff += 3 + 3 * itf.npts;
     const double *pts = n + 3;
-    double *out = body[itf.npts].data() + itf.gidx * geometry_size(itf.npts);
-    const int np = itf.npts, P = padded(np);
+    double *out = &body[itf.boff];
     for (int side = 0; side < 2; side++) {
       const auto it = owned.find(side ? itf.tag2 : itf.tag1);
       if (it == owned.end()) continue;
@@ -284,7 +265,7 @@ void BcmInterfaceTable::take_reference(int iquat)
       double R[3][3];
       BcmRigid::rotation(quat[i], R);
       if (side == 0) BcmRigid::rotate_back(R, n, out);
-      double *b = out + 3 + 3 * P * side;    // rows of P values
+      double *b = out + 3 + 3 * itf.npts * side;
       for (int k = 0; k < itf.npts; k++) {
         double d[3];
         for (int c = 0; c < 3; c++) d[c] = pts[3 * k + c] - x[i][c];
@@ -297,9 +278,7 @@ void BcmInterfaceTable::take_reference(int iquat)
         const double side_sign = dot(d, n);
         if (side == 0 ? side_sign <= 0.0 : side_sign >= 0.0)
           bad[BAD_SIDE] = std::min(bad[BAD_SIDE], ii);
-        double bk[3];
-        BcmRigid::rotate_back(R, d, bk);
-        for (int c = 0; c < 3; c++) b[c * P + k] = bk[c];
+        BcmRigid::rotate_back(R, d, b + 3 * k);
       }
     }
   }
@@ -329,8 +308,7 @@ void BcmInterfaceTable::take_reference(int iquat)
                "tag1 to cell tag2, with the face between the two cells' centres",
                name(first[BAD_SIDE]));
 
-  for (auto &b : body)
-    if (!b.empty()) MPI_Allreduce(MPI_IN_PLACE, b.data(), (int) b.size(), MPI_DOUBLE, MPI_SUM, world);
+  MPI_Allreduce(MPI_IN_PLACE, body.data(), (int) body.size(), MPI_DOUBLE, MPI_SUM, world);
   std::vector<double> both(centres.size());
   MPI_Allreduce(centres.data(), both.data(), (int) both.size(), MPI_DOUBLE, MPI_SUM, world);
   span = 0.0;
@@ -355,9 +333,7 @@ void BcmInterfaceTable::take_reference(int iquat)
 void BcmInterfaceTable::write_restart(FILE *fp) const
 {
   const int nif = (int) interfaces.size();
-  long nbody = 0;
-  for (const Interface &itf : interfaces) nbody += 3 + 6 * itf.npts;
-  const long nspace = (long) space.size();
+  const long nspace = (long) space.size(), nbody = (long) body.size();
   fwrite(&reference_taken, sizeof(int), 1, fp);
   fwrite(&span, sizeof(double), 1, fp);
   fwrite(&nif, sizeof(int), 1, fp);
@@ -370,18 +346,7 @@ void BcmInterfaceTable::write_restart(FILE *fp) const
     fwrite(&itf.area, sizeof(double), 1, fp);
   }
   fwrite(space.data(), sizeof(double), nspace, fp);
-  // the body frames in the file's layout, interface by interface: normal, then each point's
-  // x y z in cell 1's frame, then in cell 2's
-  double pts[3 + 6 * MAX_POINTS];
-  for (const Interface &itf : interfaces) {
-    const int np = itf.npts, P = padded(np);
-    const double *g = body_of(itf);
-    for (int c = 0; c < 3; c++) pts[c] = g[c];
-    for (int side = 0; side < 2; side++)
-      for (int k = 0; k < np; k++)
-        for (int c = 0; c < 3; c++) pts[3 + 3 * (np * side + k) + c] = g[3 + 3 * P * side + c * P + k];
-    fwrite(pts, sizeof(double), 3 + 6 * np, fp);
-  }
+  fwrite(body.data(), sizeof(double), nbody, fp);
   const int nname = (int) geometry_file.size();
   fwrite(&nname, sizeof(int), 1, fp);
   fwrite(geometry_file.data(), sizeof(char), nname, fp);
@@ -393,7 +358,6 @@ void BcmInterfaceTable::read_restart(FILE *fp)
 {
   int nif = 0, nname = 0;
   long nspace = 0, nbody = 0;
-  std::vector<double> file_body;    // rank 0: the file's layout
   if (comm->me == 0) {
     utils::sfread(FLERR, &reference_taken, sizeof(int), 1, fp, nullptr, error);
     utils::sfread(FLERR, &span, sizeof(double), 1, fp, nullptr, error);
@@ -408,92 +372,31 @@ void BcmInterfaceTable::read_restart(FILE *fp)
       utils::sfread(FLERR, &itf.area, sizeof(double), 1, fp, nullptr, error);
     }
     space.resize(nspace);
-    file_body.resize(nbody);
+    body.resize(nbody);
     utils::sfread(FLERR, space.data(), sizeof(double), nspace, fp, nullptr, error);
-    utils::sfread(FLERR, file_body.data(), sizeof(double), nbody, fp, nullptr, error);
+    utils::sfread(FLERR, body.data(), sizeof(double), nbody, fp, nullptr, error);
     utils::sfread(FLERR, &nname, sizeof(int), 1, fp, nullptr, error);
     geometry_file.resize(nname);
     if (nname) utils::sfread(FLERR, &geometry_file[0], sizeof(char), nname, fp, nullptr, error);
   }
   MPI_Bcast(&reference_taken, 1, MPI_INT, 0, world);
   MPI_Bcast(&span, 1, MPI_DOUBLE, 0, world);
+  MPI_Bcast(&nbody, 1, MPI_LONG, 0, world);
   MPI_Bcast(&nname, 1, MPI_INT, 0, world);
   geometry_file.resize(nname);
   if (nname) MPI_Bcast(&geometry_file[0], nname, MPI_CHAR, 0, world);
-  broadcast();    // interfaces and space; resets the offsets, the look-up and the classes
-  if (comm->me == 0) {
-    long off = 0;
-    for (const Interface &itf : interfaces) {
-      const int np = itf.npts, P = padded(np);
-      const double *pts = &file_body[off];
-      double *g = body[np].data() + itf.gidx * geometry_size(np);
-      for (int c = 0; c < 3; c++) g[c] = pts[c];
-      for (int side = 0; side < 2; side++)
-        for (int k = 0; k < np; k++)
-          for (int c = 0; c < 3; c++) g[3 + 3 * P * side + c * P + k] = pts[3 + 3 * (np * side + k) + c];
-      off += 3 + 6 * np;
-    }
-    std::vector<double>().swap(file_body);
-  }
-  for (auto &b : body)
-    if (!b.empty()) MPI_Bcast(b.data(), (int) b.size(), MPI_DOUBLE, 0, world);
+  std::vector<double> saved_body = body;
+  saved_body.resize(nbody);
+  MPI_Bcast(saved_body.data(), (int) nbody, MPI_DOUBLE, 0, world);
+  broadcast();    // interfaces and space; resets the offsets and the look-up
+  body = saved_body;
   if (reference_taken) std::vector<double>().swap(space);    // older files kept it
-}
-
-/* ----------------------------------------------------------------------
-   each class's geometry in place: position j gets the interface that the
-   new order puts there, each moved once through a one-interface buffer
-------------------------------------------------------------------------- */
-
-void BcmInterfaceTable::order_geometry(const std::vector<int> &first)
-{
-  const int nif = (int) interfaces.size();
-  std::vector<char> listed(nif, 0);
-  for (int k : first) listed[k] = 1;
-  for (int c = 0; c <= MAX_POINTS; c++) {
-    if (body[c].empty()) continue;
-    const long gs = geometry_size(c);
-    const long M = (long) body[c].size() / gs;
-    // the interfaces of this class by their new place: `first`'s, then the others by gidx
-    std::vector<int> at(M, -1), rest(M, -1);
-    long j = 0;
-    for (int k : first)
-      if (interfaces[k].npts == c) at[j++] = k;
-    for (int k = 0; k < nif; k++)
-      if (interfaces[k].npts == c && !listed[k]) rest[interfaces[k].gidx] = k;
-    for (long g = 0; g < M; g++)
-      if (rest[g] >= 0) at[j++] = rest[g];
-    std::vector<int>().swap(rest);
-    // position p receives the geometry now at interfaces[at[p]].gidx
-    std::vector<char> done(M, 0);
-    std::vector<double> tmp(gs);
-    double *B = body[c].data();
-    for (long p = 0; p < M; p++) {
-      if (done[p]) continue;
-      done[p] = 1;
-      long from = interfaces[at[p]].gidx;
-      if (from == p) continue;
-      std::copy(B + p * gs, B + (p + 1) * gs, tmp.begin());
-      long q = p;
-      while (from != p) {
-        std::copy(B + from * gs, B + (from + 1) * gs, B + q * gs);
-        q = from;
-        done[q] = 1;
-        from = interfaces[at[q]].gidx;
-      }
-      std::copy(tmp.begin(), tmp.end(), B + q * gs);
-    }
-    for (long p = 0; p < M; p++) interfaces[at[p]].gidx = (int) p;
-  }
 }
 
 /* ---------------------------------------------------------------------- */
 
 double BcmInterfaceTable::memory_usage() const
 {
-  double geometry = 0.0;
-  for (const auto &b : body) geometry += (double) b.capacity();
-  return (double) (space.capacity() + geometry) * sizeof(double) +
-      (double) interfaces.capacity() * sizeof(Interface) +
-      (double) (order.capacity() + first.capacity()) * sizeof(int);
+  return (double) (space.capacity() + body.capacity()) * sizeof(double) +
+      (double) interfaces.capacity() * sizeof(Interface) + (double) order.capacity() * sizeof(int);
 }

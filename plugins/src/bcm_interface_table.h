@@ -23,15 +23,9 @@ class BcmInterfaceTable : protected Pointers {
   struct Interface {
     tagint tag1, tag2;
     int npts;
-    int gidx;     // its body-frame geometry's place among those of npts points
     double area;
+    long boff;    // into body: normal (3), points in cell 1's frame, then in cell 2's
   };
-  // the body-frame geometry of an interface of np points: the normal in cell 1's frame (3),
-  // then the anchors b1 (cell 1's frame) as rows (x row, y row, z row) over the points padded
-  // to a multiple of 4 (the layout of the 4-lane force kernel of bond_style bcm/griffith;
-  // padding zero), then b2
-  static int padded(int np) { return (np + 3) / 4 * 4; }
-  static long geometry_size(int np) { return 3 + 6L * padded(np); }
 
   explicit BcmInterfaceTable(LAMMPS *lmp) : Pointers(lmp) {}
 
@@ -45,15 +39,8 @@ class BcmInterfaceTable : protected Pointers {
   int find(tagint t1, tagint t2) const;    // index of the interface of two cells, or -1
   int size() const { return (int) interfaces.size(); }
   const Interface &operator[](int i) const { return interfaces[i]; }
-  // its geometry (geometry_size(npts) values: normal, b1 rows, b2 rows)
-  const double *body_of(const Interface &itf) const
-  {
-    return body[itf.npts].data() + itf.gidx * geometry_size(itf.npts);
-  }
-  // the geometry of each class (npts) reordered in place: the interfaces of `first` (each
-  // once) in that order, then the others in the order they had (the working copy's order,
-  // so that the force loop reads the geometry as it reads its records)
-  void order_geometry(const std::vector<int> &first);
+  // normal in cell 1's frame (3), then the points in cell 1's frame, then in cell 2's
+  const double *body_of(const Interface &itf) const { return &body[itf.boff]; }
   const std::string &file() const { return geometry_file; }
   double mean_area() const { return area_mean; }    // <S> of the table
   int max_points() const { return maxpts; }
@@ -69,13 +56,8 @@ class BcmInterfaceTable : protected Pointers {
   // reference state, space frame, from the geometry file (normal, then the points, per
   // interface in order): dropped once the body frames are taken
   std::vector<double> space;
-  // per number of points: the body-frame geometry of the interfaces of that many points
-  // (geometry_size() each, at gidx)
-  std::vector<double> body[MAX_POINTS + 1];
+  std::vector<double> body;     // normal in cell 1's frame, points in cell 1's, then cell 2's
   std::vector<int> order;       // the interfaces by (tag1, tag2): find()
-  // where the interfaces of each tag1 start in order (tag1 up to first.size() - 2; a binary
-  // search over order when the tags are too sparse for it)
-  std::vector<int> first;
   std::string geometry_file;
   double area_mean = 0.0;
   int maxpts = 0;              // largest npts of the table: sets the per-slot store size

@@ -115,8 +115,7 @@ BondBcmGriffith::~BondBcmGriffith()
       if (fix) {
         fix->parked = std::make_unique<Parked>();
         fix->parked->cache.swap(cache);
-        for (int c = 0; c <= BcmInterfaceTable::MAX_POINTS; c++)
-          fix->parked->records[c].swap(records[c]);
+        fix->parked->records.swap(records);
         fix->parked->contact.swap(contact);
         // the interfaces by their cells: the next style's table may order them otherwise
         auto &tags = fix->parked->tags;
@@ -364,7 +363,7 @@ void BondBcmGriffith::adopt()
   std::unique_ptr<Parked> p = std::move(fix->parked);
   if (have_state) return;    // this style has its own (the parked one is older)
   cache.swap(p->cache);
-  for (int c = 0; c <= BcmInterfaceTable::MAX_POINTS; c++) records[c].swap(p->records[c]);
+  records.swap(p->records);
   contact.swap(p->contact);
   const std::vector<tagint> &tags = p->tags;
   entry_of_iface.assign(table.size(), -1);
@@ -448,49 +447,132 @@ void BondBcmGriffith::rebuild_cache()
       e.c1 = fresh[n].c1;
       e.c2 = fresh[n].c2;
       e.type = fresh[n].type;
-      set_constants(e, e.type, record(e));
+      set_constants(e, e.type, &records[e.roff]);
     }
   } else {
-    // the entries before, by interface
-    std::vector<Entry> old;
-    if (have_state) old.swap(cache);
-    else
-      for (auto &r : records) r.clear();
+    // the state of the entries before, header and damping forces by point, and their contact
+    // blocks: all that is read back below (the records are then written over)
     std::vector<int> old_of(ntable, -1);
-    for (size_t o = 0; o < old.size(); o++)
-      if (old_of[old[o].iface] < 0) old_of[old[o].iface] = (int) o;
-    cache.swap(fresh);
-    std::vector<Entry>().swap(fresh);
-
-    // what each new entry continues: an entry before (src), else (a second entry of an
-    // interface, a periodic image) the first one's copy (dup), else nothing
-    std::vector<int> src(nbondlist, -1), dup(nbondlist, -1);
+    std::vector<long> soff;
+    std::vector<double> saved;
+    std::vector<double> old_contact;
+    std::vector<Entry> old;
+    if (have_state) {
+      old.swap(cache);
+      old_contact.swap(contact);
+      soff.resize(old.size());
+      long ns = 0;
+      for (size_t o = 0; o < old.size(); o++) {
+        soff[o] = ns;
+        ns += NHEAD + 3L * old[o].npts;
+      }
+      saved.resize(ns);
+      for (size_t o = 0; o < old.size(); o++) {
+        const Entry &e = old[o];
+        const int np = e.npts, P = padded(np);
+        const double *rec = &records[e.roff];
+        double *out = &saved[soff[o]];
+        std::copy(rec + R_SLOT, rec + R_SLOT + NHEAD, out);
+        for (int k = 0; k < np; k++)
+          for (int c = 0; c < 3; c++) out[NHEAD + 3 * k + c] = rec[R_FD + c * P + k];
+        if (old_of[e.iface] < 0) old_of[e.iface] = (int) o;
+      }
+    }
     std::vector<char> used(old.size(), 0);
-    {
-      std::vector<int> new_of(ntable, -1);
-      for (int n = 0; n < nbondlist; n++) {
-        const int k = cache[n].iface;
-        if (new_of[k] >= 0) {
-          dup[n] = new_of[k];
-          continue;
+
+    // where each new entry's state is: an entry before (>= 0), a row (-2), none (-1)
+    cache.swap(fresh);
+    std::vector<int> source(nbondlist, -1);
+    std::vector<double> slotbuf(NHEAD + NPOINT * BcmInterfaceTable::MAX_POINTS);
+    long nrec = 0, ncontact = 0;
+    for (int n = 0; n < nbondlist; n++) {
+      Entry &e = cache[n];
+      e.roff = nrec;
+      nrec += record_size(e.npts);
+      const int o = old_of[e.iface];
+      bool broken = false;
+      if (o >= 0) {
+        source[n] = o;
+        used[o] = 1;
+        broken = saved[soff[o] + H_BROKEN] != INTACT;
+      } else if (rows_held) {
+        // the listed atom's row, else the partner's when owned
+        const int i1 = (bondlist[n][0] < nlocal) ? bondlist[n][0] : bondlist[n][1];
+        const int i2 = i1 == e.c1 ? e.c2 : e.c1;
+        long off = slot_offset(i1, slot1[n]);
+        int from = i1;
+        if ((size_t) off >= store_fix->length(i1) && i2 < nlocal) {
+          const int m2 = BreakableUtil::bond_slot(atom, i2, tag[i1]);
+          if (m2 >= 0 && (size_t) slot_offset(i2, m2) < store_fix->length(i2)) {
+            from = i2;
+            off = slot_offset(i2, m2);
+          }
         }
-        new_of[k] = n;
-        if (old_of[k] >= 0) {
-          src[n] = old_of[k];
-          used[old_of[k]] = 1;
+        if ((size_t) off < store_fix->length(from)) {
+          source[n] = -2;
+          row_slot(from, off, NHEAD, slotbuf.data());
+          broken = slotbuf[H_BROKEN] != INTACT;
         }
       }
+      // contact state only for an interface that is broken already (one that breaks during
+      // the run gets its block then: break_interface())
+      e.coff = broken ? ncontact : -1;
+      if (broken) ncontact += NCONTACT * e.npts;
+    }
+
+    records.assign(nrec, 0.0);    // padding lanes zero
+    contact.assign(ncontact, 0.0);
+    for (int n = 0; n < nbondlist; n++) {
+      const Entry &e = cache[n];
+      const int np = e.npts, P = padded(np);
+      const BcmInterfaceTable::Interface &itf = table[e.iface];
+      double *rec = &records[e.roff];
+      rec[K_AREA] = itf.area;
+      set_constants(e, e.type, rec);
+      // state: slot header, damping forces (per point in a slot, rows here), then the
+      // contact state apart
+      const double *st = nullptr, *cst = nullptr;
+      if (source[n] >= 0) {
+        st = &saved[soff[source[n]]];
+        const long oc = old[source[n]].coff;
+        if (oc >= 0) cst = &old_contact[oc];
+      } else if (source[n] == -2) {
+        const int i1 = (bondlist[n][0] < nlocal) ? bondlist[n][0] : bondlist[n][1];
+        const int i2 = i1 == e.c1 ? e.c2 : e.c1;
+        long off = slot_offset(i1, slot1[n]);
+        int from = i1;
+        if ((size_t) off >= store_fix->length(i1)) {
+          from = i2;
+          off = slot_offset(i2, BreakableUtil::bond_slot(atom, i2, tag[i1]));
+        }
+        row_slot(from, off, NHEAD + NPOINT * np, slotbuf.data());
+        st = slotbuf.data();
+        if (e.coff >= 0) cst = st + NHEAD + 3 * np;
+      }
+      if (st) {
+        std::copy(st, st + NHEAD, rec + R_SLOT);
+        for (int k = 0; k < np; k++)
+          for (int c = 0; c < 3; c++) rec[R_FD + c * P + k] = st[NHEAD + 3 * k + c];
+      }
+      if (e.coff >= 0 && cst) std::copy(cst, cst + NCONTACT * np, &contact[e.coff]);
+      // geometry: normal in cell 1's frame, then the rows of b1 and of b2
+      const double *g = table.body_of(itf);
+      double *out = rec + record_geometry(np);
+      for (int c = 0; c < 3; c++) out[c] = g[c];
+      for (int k = 0; k < np; k++)
+        for (int c = 0; c < 3; c++) {
+          out[3 + c * P + k] = g[3 + 3 * k + c];
+          out[3 + 3 * P + c * P + k] = g[3 + 3 * (np + k) + c];
+        }
     }
 
     // interfaces before that the bond list lacks now, a cell of them owned here: back to
-    // that cell's row (their contact blocks become holes)
-    std::vector<double> slotbuf(NHEAD + NPOINT * BcmInterfaceTable::MAX_POINTS);
+    // that cell's row
     for (size_t o = 0; o < old.size(); o++) {
       if (used[o] || old_of[old[o].iface] != (int) o) continue;
+      const tagint t1 = table[old[o].iface].tag1, t2 = table[old[o].iface].tag2;
       const Entry &e = old[o];
-      const tagint t1 = table[e.iface].tag1, t2 = table[e.iface].tag2;
-      const long size = NHEAD + NPOINT * e.npts;
-      slot_from_entry(e, slotbuf.data());
+      const int np = e.npts;
       for (int side = 0; side < 2; side++) {
         const tagint self = side ? t2 : t1, other = side ? t1 : t2;
         const int j = atom->map(self);
@@ -498,163 +580,20 @@ void BondBcmGriffith::rebuild_cache()
         const int m = BreakableUtil::bond_slot(atom, j, other);
         if (m < 0) continue;
         const long off = slot_offset(j, m);
+        const long size = NHEAD + NPOINT * np;
         std::vector<double> row(std::max<long>(off + size, (long) store_fix->length(j)), 0.0);
         std::copy(store_fix->row(j), store_fix->row(j) + store_fix->length(j), row.begin());
-        std::copy(slotbuf.begin(), slotbuf.begin() + size, row.begin() + off);
+        const double *st = &saved[soff[o]];
+        std::copy(st, st + NHEAD + 3 * np, row.begin() + off);
+        if (e.coff >= 0)
+          std::copy(&old_contact[e.coff], &old_contact[e.coff] + NCONTACT * np,
+                    row.begin() + off + NHEAD + 3 * np);
         size_t len = row.size();
         while (len > 0 && row[len - 1] == 0.0 && !std::signbit(row[len - 1])) len--;
         store_fix->set(j, row.data(), len);
       }
     }
-
-    // per class (N_p): the records moved in place into the new order, each record once
-    // through a one-record buffer (no second copy of the working copy at any time);
-    // positions of entries dropped and of new ones are paired in order, the latter
-    // written below
-    for (int c = 0; c <= BcmInterfaceTable::MAX_POINTS; c++) {
-      const long rs = record_size(c);
-      std::vector<double> &R = records[c];
-      const long n_old = (long) R.size() / rs;
-      long n_new = 0;
-      for (int n = 0; n < nbondlist; n++)
-        if (cache[n].npts == c) cache[n].roff = (int) (rs * n_new++);
-      if (n_old == 0 && n_new == 0) {
-        R.clear();
-        continue;
-      }
-      const long M = std::max(n_old, n_new);
-      std::vector<long> perm(M, -1);    // position j receives the record at perm[j]
-      std::vector<char> taken(M, 0);
-      for (int n = 0; n < nbondlist; n++)
-        if (cache[n].npts == c && src[n] >= 0) {
-          const long from = old[src[n]].roff / rs;
-          perm[cache[n].roff / rs] = from;
-          taken[from] = 1;
-        }
-      for (long j = 0, f = 0; j < M; j++) {
-        if (perm[j] >= 0) continue;
-        while (taken[f]) f++;
-        perm[j] = f;
-        taken[f] = 1;
-      }
-      R.resize(M * rs, 0.0);
-      std::vector<char> done(M, 0);
-      std::vector<double> tmp(rs);
-      for (long j = 0; j < M; j++) {
-        if (done[j]) continue;
-        done[j] = 1;
-        if (perm[j] == j) continue;
-        std::copy(&R[j * rs], &R[j * rs] + rs, tmp.begin());
-        long k = j;
-        while (perm[k] != j) {
-          std::copy(&R[perm[k] * rs], &R[perm[k] * rs] + rs, &R[k * rs]);
-          k = perm[k];
-          done[k] = 1;
-        }
-        std::copy(tmp.begin(), tmp.end(), &R[k * rs]);
-      }
-      R.resize(n_new * rs);
-    }
-
-    // the contact blocks: kept by the entries that continue, appended for new ones, laid out
-    // in the entries' order below
-    long live = 0;
-    for (int n = 0; n < nbondlist; n++) {
-      Entry &e = cache[n];
-      e.coff = src[n] >= 0 ? old[src[n]].coff : -1;
-      if (e.coff >= 0) live += NCONTACT * e.npts;
-    }
-
-    // new entries: geometry from the table, state from an arrived row or zeros (or the first
-    // entry's copy)
-    for (int n = 0; n < nbondlist; n++) {
-      if (src[n] >= 0) continue;
-      Entry &e = cache[n];
-      const int np = e.npts, P = padded(np);
-      double *rec = record(e);
-      if (dup[n] >= 0) {
-        const Entry &first = cache[dup[n]];
-        std::copy(record(first), record(first) + record_size(np), rec);
-        if (first.coff >= 0) {
-          e.coff = (int) contact.size();
-          contact.resize(contact.size() + NCONTACT * np);
-          std::copy(&contact[first.coff], &contact[first.coff] + NCONTACT * np, &contact[e.coff]);
-          live += NCONTACT * np;
-        }
-        continue;
-      }
-      std::fill(rec, rec + record_size(np), 0.0);    // padding lanes zero
-      const BcmInterfaceTable::Interface &itf = table[e.iface];
-      rec[K_AREA] = itf.area;
-      // state: an owned cell's arrived row (the listed atom's, else the partner's)
-      bool found = false;
-      if (rows_held) {
-        const int i1 = (bondlist[n][0] < nlocal) ? bondlist[n][0] : bondlist[n][1];
-        const int i2 = i1 == e.c1 ? e.c2 : e.c1;
-        long off = slot_offset(i1, slot1[n]);
-        int from = i1;
-        if ((size_t) off >= store_fix->length(i1) && i2 < nlocal) {
-          const int m2 = BreakableUtil::bond_slot(atom, i2, tag[i1]);
-          if (m2 >= 0) {
-            from = i2;
-            off = slot_offset(i2, m2);
-          }
-        }
-        if ((size_t) off < store_fix->length(from)) {
-          found = true;
-          row_slot(from, off, NHEAD + NPOINT * np, slotbuf.data());
-        }
-      }
-      if (found) {
-        const double *st = slotbuf.data();
-        std::copy(st, st + NHEAD, rec + R_SLOT);
-        for (int k = 0; k < np; k++)
-          for (int c = 0; c < 3; c++) rec[R_FD + c * P + k] = st[NHEAD + 3 * k + c];
-        // contact state only for an interface that is broken already (one that breaks during
-        // the run gets its block then: break_interface())
-        if (st[H_BROKEN] != INTACT) {
-          e.coff = (int) contact.size();
-          contact.insert(contact.end(), st + NHEAD + 3 * np, st + NHEAD + NPOINT * np);
-          live += NCONTACT * np;
-        }
-      }
-    }
-    for (int n = 0; n < nbondlist; n++) set_constants(cache[n], cache[n].type, record(cache[n]));
-
-    // the table's geometry in the order of the records
-    std::vector<int> first;
-    first.reserve(nbondlist);
-    for (int n = 0; n < nbondlist; n++)
-      if (dup[n] < 0) first.push_back(cache[n].iface);
-    table.order_geometry(first);
-
   }
-
-  // the contact blocks in the order of the entries, without holes, as the broken interfaces'
-  // loop reads them (blocks given at breaks since the last rebuild, or kept by a rebuild, are
-  // out of it): laid out again when they are not
-  {
-    long expect = 0;
-    bool ordered = true;
-    for (const Entry &e : cache)
-      if (e.coff >= 0) {
-        if (e.coff != expect) ordered = false;
-        expect += NCONTACT * e.npts;
-      }
-    if (!ordered || (long) contact.size() != expect) {
-      std::vector<double> packed;
-      packed.reserve(expect);
-      for (Entry &e : cache)
-        if (e.coff >= 0) {
-          const int at = (int) packed.size();
-          packed.insert(packed.end(), &contact[e.coff], &contact[e.coff] + NCONTACT * e.npts);
-          e.coff = at;
-        }
-      contact.swap(packed);
-    }
-  }
-
-  for (Entry &e : cache) e.g = table.body_of(table[e.iface]);
 
   // rows that arrived: the slots of interfaces now in the working copy are emptied (the
   // working copy is current for them), the others kept
@@ -716,7 +655,7 @@ void BondBcmGriffith::row_slot(int i, long off, long size, double *out) const
 void BondBcmGriffith::slot_from_entry(const Entry &e, double *dest) const
 {
   const int np = e.npts, P = padded(np);
-  const double *rec = record(e);
+  const double *rec = &records[e.roff];
   std::copy(rec + R_SLOT, rec + R_SLOT + NHEAD, dest);
   for (int k = 0; k < np; k++)
     for (int c = 0; c < 3; c++) dest[NHEAD + 3 * k + c] = rec[R_FD + c * P + k];
@@ -825,7 +764,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
       continue;
     }
     Entry &e = cache[nb];
-    double *rec = record(e);
+    double *rec = &records[e.roff];
     if (type != e.type) {
       set_constants(e, type, rec);
       e.type = type;
@@ -837,7 +776,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     }
     const int np = e.npts, P = padded(np);
     double *fd = rec + R_FD;    // damping forces of the last evaluation, rows of P
-    const double *g = e.g;    // normal in cell 1's frame, b1 rows, b2 rows (np)
+    const double *g = rec + record_geometry(np);    // normal in cell 1's frame, b1 rows, b2 rows
 
     const Pair p(&cells[CELL_STRIDE * (size_t) e.c1], &cells[CELL_STRIDE * (size_t) e.c2], g);
     // fd_dv: the damping forces of the last evaluation times the relative velocities now,
@@ -1049,7 +988,7 @@ bool BondBcmGriffith::quiet_now(const Entry &e, int nb, const double *rec, const
 }
 
 /* ----------------------------------------------------------------------
-   the points of an interface from its geometry (rows of P anchors)
+   the points of an interface from its record's geometry (rows of P anchors)
 ------------------------------------------------------------------------- */
 
 void BondBcmGriffith::interface_points(const Pair &p, const double *g, int np, Point *pts)
@@ -1086,7 +1025,7 @@ void BondBcmGriffith::break_interface(Entry &e, double *rec, const Pair &p,
 
   const double kp = rec[K_KP], ktp = rec[K_KTP];
   if (e.coff < 0) {    // its contact state from now on, zeros as in the store
-    e.coff = (int) contact.size();
+    e.coff = (long) contact.size();
     contact.resize(contact.size() + NCONTACT * (size_t) e.npts, 0.0);
   }
   double *cb = &contact[e.coff];
@@ -1276,7 +1215,7 @@ const double *BondBcmGriffith::header_of(int i, int m, double *scratch) const
 {
   const int k = table.find(atom->tag[i], atom->bond_atom[i][m]);
   const int n = (have_state && k >= 0) ? entry_of_iface[k] : -1;
-  if (n >= 0) return record(cache[n]) + R_SLOT;
+  if (n >= 0) return &records[cache[n].roff] + R_SLOT;
   if (store_fix)
     row_slot(i, slot_offset(i, m), NHEAD, scratch);
   else
@@ -1379,7 +1318,7 @@ void BondBcmGriffith::tally(double *sums)
       const double *slot;
       double area;
       if (n >= 0) {
-        const double *rec = record(cache[n]);
+        const double *rec = &records[cache[n].roff];
         slot = rec + R_SLOT;
         area = rec[K_AREA];
       } else {
@@ -1493,8 +1432,7 @@ double BondBcmGriffith::memory_usage()
 {
   double bytes = Bond::memory_usage();
   bytes += (double) cache.capacity() * sizeof(Entry);
-  for (const auto &r : records) bytes += (double) r.capacity() * sizeof(double);
-  bytes += (double) (cells.capacity() + contact.capacity()) * sizeof(double);
+  bytes += (double) (cells.capacity() + records.capacity() + contact.capacity()) * sizeof(double);
   bytes += (double) (entry_of_iface.capacity() + entry_of_slot.capacity()) * sizeof(int);
   bytes += table.memory_usage();
   return bytes;

@@ -61,15 +61,14 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds, public FixLazy
     int type;          // bond type the constants of the record were taken for
     int npts;
     int iface;         // in the interface table
-    int roff;          // into records[npts]
-    int coff;          // into contact: NCONTACT doubles per point; -1 while intact
-    const double *g;   // the geometry (the table's): normal, b1 rows, b2 rows
+    long roff;         // into records
+    long coff;         // into contact: NCONTACT doubles per point; -1 while intact
   };
   // the working copy of a style that is replaced (bond_style given again), kept by fix
   // bcm/griffith for the next one: it holds the only live copy of the state
   struct Parked {
     std::vector<Entry> cache;
-    std::vector<double> records[BcmInterfaceTable::MAX_POINTS + 1], contact;
+    std::vector<double> records, contact;
     std::vector<tagint> tags;
   };
 
@@ -116,11 +115,7 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds, public FixLazy
   // and the interfaces of owned cells that the bond list lacks (a partner lost), and a row
   // that leaves is composed from the working copy (compose()).
   std::vector<Entry> cache;
-  // per class (N_p): the records of the entries of N_p points, in bondlist order; a rebuild
-  // moves them in place (no second copy), and the table's geometry likewise
-  std::vector<double> records[BcmInterfaceTable::MAX_POINTS + 1];
-  double *record(const Entry &e) { return records[e.npts].data() + e.roff; }
-  const double *record(const Entry &e) const { return records[e.npts].data() + e.roff; }
+  std::vector<double> records;
   std::vector<double> contact;
   bool cache_valid;                  // entries match the bond list (else rebuilt)
   bool have_state;                   // the records hold the state of their interfaces
