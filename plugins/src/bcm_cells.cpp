@@ -253,11 +253,11 @@ void BcmCells::parse(LAMMPS *lmp, const char *text, std::size_t size)
     const long long tag = next_int("a cell header 'TAG NV NF'");
     const long long nv = next_int("the number of vertices");
     const long long nf = next_int("the number of faces");
-    if (tag < 1 || nv < 4 || nf < 4 || nv >= MAX_FEATURES || nf >= MAX_FEATURES)
+    if (tag < 1 || nv < 4 || nf < 4 || nv >= MAX_INDEX || nf >= MAX_INDEX)
       error->all(FLERR,
                  "BCM cells file {} line {}: bad cell header '{} {} {}' (tag >= 1, "
                  "4 <= NV, NF < {})",
-                 source, line, tag, nv, nf, MAX_FEATURES);
+                 source, line, tag, nv, nf, MAX_INDEX);
     if (!index_of_tag.emplace(static_cast<tagint>(tag), static_cast<int>(cells.size())).second)
       error->all(FLERR, "BCM cells file {} line {}: cell {} appears twice", source, line, tag);
 
@@ -281,7 +281,7 @@ void BcmCells::parse(LAMMPS *lmp, const char *text, std::size_t size)
           error->all(FLERR,
                      "BCM cells file {} line {}: cell {} face {}: vertex index {} out of 0..{}",
                      source, fline, tag, f, iv, nv - 1);
-        face_vert.push_back(static_cast<int>(iv));
+        face_vert.push_back(static_cast<Index>(iv));
       }
       plane.insert(plane.end(), 4, 0.0);
     }
@@ -295,7 +295,8 @@ void BcmCells::parse(LAMMPS *lmp, const char *text, std::size_t size)
   adj_first.push_back(static_cast<int>(adj.size()));
   // the table is kept for the run: no room left from the vectors' growth
   for (auto *v : {&vert, &plane}) v->shrink_to_fit();
-  for (auto *v : {&face_first, &face_vert, &edge, &adj_first, &adj}) v->shrink_to_fit();
+  for (auto *v : {&face_first, &adj_first}) v->shrink_to_fit();
+  for (auto *v : {&face_vert, &edge, &adj}) v->shrink_to_fit();
   cells.shrink_to_fit();
 }
 
@@ -374,7 +375,8 @@ void BcmCells::finish_cell(LAMMPS *lmp, tagint tag, Cell &c)
                  "must be closed)",
                  source, tag, va, vb);
     if (va < vb) {
-      edge.insert(edge.end(), {va, vb, d.second, rev->second});
+      edge.insert(edge.end(), {static_cast<Index>(va), static_cast<Index>(vb),
+                               static_cast<Index>(d.second), static_cast<Index>(rev->second)});
       nbr[va].push_back(vb);
       nbr[vb].push_back(va);
     }
@@ -410,9 +412,8 @@ void BcmCells::finish_cell(LAMMPS *lmp, tagint tag, Cell &c)
 double BcmCells::memory_usage() const
 {
   return sizeof(double) * (vert.capacity() + plane.capacity()) +
-      sizeof(int) *
-      (face_first.capacity() + face_vert.capacity() + edge.capacity() + adj_first.capacity() +
-       adj.capacity()) +
+      sizeof(int) * (face_first.capacity() + adj_first.capacity()) +
+      sizeof(Index) * (face_vert.capacity() + edge.capacity() + adj.capacity()) +
       sizeof(Cell) * cells.capacity() + 48.0 * index_of_tag.size();
 }
 
@@ -471,7 +472,7 @@ struct Side {
   }
   const double *v(int k) const { return vert + 3 * k; }
   const double *n(int f) const { return plane + 4 * f; }
-  const int *e(int ie) const { return &t.edge[4 * (c.e0 + ie)]; }
+  const BcmCells::Index *e(int ie) const { return &t.edge[4 * (c.e0 + ie)]; }
   int face_begin(int f) const { return t.face_first[c.f0 + f]; }
   int face_end(int f) const { return t.face_first[c.f0 + f + 1]; }
   int adj_begin(int k) const { return t.adj_first[c.v0 + k]; }
@@ -546,7 +547,7 @@ void live_edges(const Side &S, const Side &O, const std::vector<double> &h, doub
   live.clear();
   const int nfo = O.c.nf;
   for (int ie = 0; ie < S.c.ne; ie++) {
-    const int *ed = S.e(ie);
+    const BcmCells::Index *ed = S.e(ie);
     const double *ha = &h[static_cast<std::size_t>(ed[0]) * nfo];
     const double *hb = &h[static_cast<std::size_t>(ed[1]) * nfo];
     bool cut = false;
@@ -571,7 +572,7 @@ bool vertex_cone(const Side &S, int k, const double *n, double sign)
 // n lies in the normal cone of edge ie of S (between the normals of its two faces)
 bool edge_cone(const Side &S, int ie, const double *n)
 {
-  const int *ed = S.e(ie);
+  const BcmCells::Index *ed = S.e(ie);
   double w[3];
   sub3(S.v(ed[1]), S.v(ed[0]), w);
   const double wl = len3(w);
@@ -653,7 +654,7 @@ void dead_margins(const Side &S, const Side &O, const std::vector<double> &h,
   const int nfo = O.c.nf;
   edges = HUGE_VAL;
   for (int ie = 0; ie < S.c.ne; ie++) {
-    const int *ed = S.e(ie);
+    const BcmCells::Index *ed = S.e(ie);
     const double *ha = &h[static_cast<std::size_t>(ed[0]) * nfo];
     const double *hb = &h[static_cast<std::size_t>(ed[1]) * nfo];
     double best = -HUGE_VAL;
@@ -733,7 +734,7 @@ int LAMMPS_NS::bcm_find_contacts(const BcmSpaceCell &sa, const BcmSpaceCell &sb,
 
   // edge of A across edge of B
   for (const int ea : work.livea) {
-    const int *eda = A.e(ea);
+    const BcmCells::Index *eda = A.e(ea);
     const double *a0 = A.v(eda[0]);
     double u[3];
     sub3(A.v(eda[1]), a0, u);
@@ -741,7 +742,7 @@ int LAMMPS_NS::bcm_find_contacts(const BcmSpaceCell &sa, const BcmSpaceCell &sb,
     double suma[3];
     for (int d = 0; d < 3; d++) suma[d] = A.n(eda[2])[d] + A.n(eda[3])[d];
     for (const int eb : work.liveb) {
-      const int *edb = B.e(eb);
+      const BcmCells::Index *edb = B.e(eb);
       const double *b0 = B.v(edb[0]);
       double w[3], r[3], cr[3];
       sub3(B.v(edb[1]), b0, w);
@@ -787,7 +788,7 @@ int LAMMPS_NS::bcm_find_contacts(const BcmSpaceCell &sa, const BcmSpaceCell &sb,
     if (hm >= dcut || hm <= 0.0) continue;
     const double *v = A.v(k);
     for (const int eb : work.liveb) {
-      const int *edb = B.e(eb);
+      const BcmCells::Index *edb = B.e(eb);
       const double *b0 = B.v(edb[0]);
       double w[3], r[3];
       sub3(B.v(edb[1]), b0, w);
@@ -810,7 +811,7 @@ int LAMMPS_NS::bcm_find_contacts(const BcmSpaceCell &sa, const BcmSpaceCell &sb,
     if (hm >= dcut || hm <= 0.0) continue;
     const double *v = B.v(l);
     for (const int ea : work.livea) {
-      const int *eda = A.e(ea);
+      const BcmCells::Index *eda = A.e(ea);
       const double *a0 = A.v(eda[0]);
       double u[3], r[3];
       sub3(A.v(eda[1]), a0, u);

@@ -5,7 +5,7 @@
 
    A cell's material is its core polyhedron P swept by a sphere of radius r_m (Minkowski
    sum); two cells touch where their cores are closer than 2 r_m. The table is read on rank 0,
-   broadcast, and replicated on every rank, indexed by atom tag (about 2.5 kB per cell of 26
+   broadcast, and replicated on every rank, indexed by atom tag (about 1.6 kB per cell of 26
    vertices and 15 faces). Styles of one LAMMPS instance that read identical files share one
    table. */
 
@@ -34,14 +34,19 @@ class BcmCells {
     double rbound;     // largest |vertex| (origin = body-frame origin = the atom position)
   };
 
+  // a vertex or face index inside a cell (local): two bytes, as the table is replicated on
+  // every rank
+  using Index = uint16_t;
+  static constexpr long long MAX_INDEX = 1 << 16;
+
   // body-frame data, flat over all cells; vertex and face indices inside a cell are local
   std::vector<double> vert;        // 3 per vertex
   std::vector<double> plane;       // 4 per face: outward unit normal, offset d (n.x = d)
   std::vector<int> face_first;     // per face + 1 sentinel: range in face_vert
-  std::vector<int> face_vert;      // face loops, counter-clockwise seen from outside
-  std::vector<int> edge;           // 4 per edge: a, b, face traversing a->b, face traversing b->a
+  std::vector<Index> face_vert;    // face loops, counter-clockwise seen from outside
+  std::vector<Index> edge;         // 4 per edge: a, b, face traversing a->b, face traversing b->a
   std::vector<int> adj_first;      // per vertex + 1 sentinel: range in adj
-  std::vector<int> adj;            // neighbour vertices of each vertex (along edges)
+  std::vector<Index> adj;          // neighbour vertices of each vertex (along edges)
   std::vector<Cell> cells;
   std::unordered_map<tagint, int> index_of_tag;
   std::string source;              // file name, for messages

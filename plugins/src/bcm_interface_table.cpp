@@ -12,6 +12,7 @@
 #include <cmath>
 #include <fstream>
 #include <mpi.h>
+#include <unordered_map>
 
 using namespace LAMMPS_NS;
 using BcmRigid::dot;
@@ -39,7 +40,7 @@ void BcmInterfaceTable::read(const std::string &file)
   interfaces.clear();
   space.clear();
   body.clear();
-  lookup.clear();
+  order.clear();
   geometry_file = file;
   reference_taken = 0;
 
@@ -99,16 +100,25 @@ void BcmInterfaceTable::read(const std::string &file)
         problem = where + fmt::format(": the normal has length {}, not 1", nn);
         break;
       }
-      if (lookup.count(key(itf.tag1, itf.tag2))) {
-        problem = where + fmt::format(": interface {}-{} listed twice", itf.tag1, itf.tag2);
-        break;
-      }
       for (int k = 0; k < 3; k++) val[k] /= nn;
-      itf.soff = (long) space.size();
       itf.boff = 0;
       space.insert(space.end(), val, val + 3 + 3 * itf.npts);
-      lookup[key(itf.tag1, itf.tag2)] = (int) interfaces.size();
       interfaces.push_back(itf);
+    }
+    if (problem.empty()) {
+      std::vector<int> sorted(interfaces.size());
+      for (int i = 0; i < (int) sorted.size(); i++) sorted[i] = i;
+      std::sort(sorted.begin(), sorted.end(), [&](int a, int b) {
+        return key(interfaces[a].tag1, interfaces[a].tag2) < key(interfaces[b].tag1, interfaces[b].tag2);
+      });
+      for (size_t k = 1; k < sorted.size(); k++) {
+        const Interface &a = interfaces[sorted[k - 1]], &b = interfaces[sorted[k]];
+        if (a.tag1 == b.tag1 && a.tag2 == b.tag2) {
+          problem = fmt::format("geometry file {}: interface {}-{} listed twice", file, a.tag1,
+                                a.tag2);
+          break;
+        }
+      }
     }
   }
 
@@ -164,7 +174,6 @@ void BcmInterfaceTable::broadcast()
 
 void BcmInterfaceTable::index()
 {
-  lookup.clear();
   long soff = 0, boff = 0;
   maxpts = 0;
   area_mean = 0.0;
@@ -172,30 +181,39 @@ void BcmInterfaceTable::index()
   if (!interfaces.empty()) area_mean /= (double) interfaces.size();
   for (int i = 0; i < (int) interfaces.size(); i++) {
     Interface &itf = interfaces[i];
-    itf.soff = soff;
     itf.boff = boff;
     soff += 3 + 3 * itf.npts;
     boff += 3 + 6 * itf.npts;
     maxpts = std::max(maxpts, itf.npts);
-    lookup[key(itf.tag1, itf.tag2)] = i;
   }
-  if (soff != (long) space.size())
+  // the space frame is gone once the reference is taken (restart files written since hold none)
+  if (soff != (long) space.size() && !(reference_taken && space.empty()))
     error->all(FLERR, "bond_style bcm/griffith: inconsistent interface table");
   body.resize(boff, 0.0);
+  order.resize(interfaces.size());
+  for (int i = 0; i < (int) order.size(); i++) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    return key(interfaces[a].tag1, interfaces[a].tag2) < key(interfaces[b].tag1, interfaces[b].tag2);
+  });
+  order.shrink_to_fit();
 }
 
 /* ---------------------------------------------------------------------- */
 
-long long BcmInterfaceTable::key(tagint t1, tagint t2)
+BcmInterfaceTable::Key BcmInterfaceTable::key(tagint t1, tagint t2)
 {
-  return (static_cast<long long>(t1) << 32) ^ static_cast<long long>(t2);
+  return {t1, t2};
 }
 
 int BcmInterfaceTable::find(tagint t1, tagint t2) const
 {
   if (t1 > t2) std::swap(t1, t2);
-  const auto it = lookup.find(key(t1, t2));
-  return it == lookup.end() ? -1 : it->second;
+  const Key k{t1, t2};
+  const auto it = std::lower_bound(order.begin(), order.end(), k, [&](int a, const Key &b) {
+    return key(interfaces[a].tag1, interfaces[a].tag2) < b;
+  });
+  if (it == order.end() || interfaces[*it].tag1 != t1 || interfaces[*it].tag2 != t2) return -1;
+  return *it;
 }
 
 /* ----------------------------------------------------------------------
@@ -219,18 +237,21 @@ void BcmInterfaceTable::take_reference(int iquat)
   owned.reserve(nlocal);
   for (int i = 0; i < nlocal; i++) owned[tag[i]] = i;
 
-  std::vector<double> mine(body.size(), 0.0);
+  // this rank's part into body, zeros elsewhere, then summed over ranks in place
+  std::fill(body.begin(), body.end(), 0.0);
   const int nif = (int) interfaces.size();
   std::vector<int> found(2 * nif, 0);
   enum { BAD_QUAT, BAD_RADIUS, BAD_SIDE, NBAD };
   int bad[NBAD] = {nif, nif, nif};    // first offending interface per kind
   std::vector<double> centres(6 * (size_t) nif, 0.0);
 
+  long soff = 0;
   for (int ii = 0; ii < nif; ii++) {
     const Interface &itf = interfaces[ii];
-    const double *n = &space[itf.soff];
+    const double *n = &space[soff];
+    soff += 3 + 3 * itf.npts;
     const double *pts = n + 3;
-    double *out = &mine[itf.boff];
+    double *out = &body[itf.boff];
     for (int side = 0; side < 2; side++) {
       const auto it = owned.find(side ? itf.tag2 : itf.tag1);
       if (it == owned.end()) continue;
@@ -287,7 +308,7 @@ void BcmInterfaceTable::take_reference(int iquat)
                "tag1 to cell tag2, with the face between the two cells' centres",
                name(first[BAD_SIDE]));
 
-  MPI_Allreduce(mine.data(), body.data(), (int) body.size(), MPI_DOUBLE, MPI_SUM, world);
+  MPI_Allreduce(MPI_IN_PLACE, body.data(), (int) body.size(), MPI_DOUBLE, MPI_SUM, world);
   std::vector<double> both(centres.size());
   MPI_Allreduce(centres.data(), both.data(), (int) both.size(), MPI_DOUBLE, MPI_SUM, world);
   span = 0.0;
@@ -298,6 +319,9 @@ void BcmInterfaceTable::take_reference(int iquat)
     span = std::max(span, std::sqrt(dot(d, d)));
   }
   reference_taken = 1;
+  // the space frame has served: the body frames are the geometry from now on (restart files
+  // keep them)
+  std::vector<double>().swap(space);
 }
 
 /* ----------------------------------------------------------------------
@@ -366,6 +390,7 @@ void BcmInterfaceTable::read_restart(FILE *fp)
   MPI_Bcast(saved_body.data(), (int) nbody, MPI_DOUBLE, 0, world);
   broadcast();    // interfaces and space; resets the offsets and the look-up
   body = saved_body;
+  if (reference_taken) std::vector<double>().swap(space);    // older files kept it
 }
 
 /* ---------------------------------------------------------------------- */
@@ -373,5 +398,5 @@ void BcmInterfaceTable::read_restart(FILE *fp)
 double BcmInterfaceTable::memory_usage() const
 {
   return (double) (space.capacity() + body.capacity()) * sizeof(double) +
-      (double) interfaces.capacity() * sizeof(Interface);
+      (double) interfaces.capacity() * sizeof(Interface) + (double) order.capacity() * sizeof(int);
 }

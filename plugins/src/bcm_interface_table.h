@@ -11,7 +11,7 @@
 
 #include <cstdio>
 #include <string>
-#include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace LAMMPS_NS {
@@ -24,7 +24,6 @@ class BcmInterfaceTable : protected Pointers {
     tagint tag1, tag2;
     int npts;
     double area;
-    long soff;    // into space: normal (3), then the points (3 npts)
     long boff;    // into body: normal (3), points in cell 1's frame, then in cell 2's
   };
 
@@ -54,9 +53,11 @@ class BcmInterfaceTable : protected Pointers {
 
  private:
   std::vector<Interface> interfaces;
-  std::vector<double> space;    // reference state, space frame, from the geometry file
+  // reference state, space frame, from the geometry file (normal, then the points, per
+  // interface in order): dropped once the body frames are taken
+  std::vector<double> space;
   std::vector<double> body;     // normal in cell 1's frame, points in cell 1's, then cell 2's
-  std::unordered_map<long long, int> lookup;    // (tag1, tag2) -> interface
+  std::vector<int> order;       // the interfaces by (tag1, tag2): find()
   std::string geometry_file;
   double area_mean = 0.0;
   int maxpts = 0;              // largest npts of the table: sets the per-slot store size
@@ -65,7 +66,8 @@ class BcmInterfaceTable : protected Pointers {
 
   void broadcast();
   void index();
-  static long long key(tagint t1, tagint t2);
+  using Key = std::pair<tagint, tagint>;
+  static Key key(tagint t1, tagint t2);
 };
 
 }    // namespace LAMMPS_NS

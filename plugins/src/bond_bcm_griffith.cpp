@@ -27,12 +27,14 @@
 #include "fix_bcm_griffith.h"
 #include "force.h"
 #include "memory.h"
+#include "modify.h"
 #include "neighbor.h"
 #include "update.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <mpi.h>
 
 using namespace LAMMPS_NS;
@@ -89,10 +91,8 @@ BondBcmGriffith::BondBcmGriffith(LAMMPS *_lmp) :
     kt_c(nullptr), en2_c(nullptr), mu(nullptr), alpha(nullptr), alpha_c(nullptr),
     table(_lmp), convention(BcmGriffith::STORED), stiffness(PER_INTERFACE),
     broken_stiffness(CONTACT), broken_damping(CONTACT), break_shear(CARRIED), break_normal(SHIFTED),
-    broken_points(POLYGON),
-    cache_store(nullptr),
-    cache_valid(false), dirty(false), atoms_moved(true), store_index(-1), iquat(-1), nevaluations(0),
-    special(nullptr)
+    broken_points(POLYGON), cache_valid(false), have_state(false), atoms_moved(true),
+    store_fix(nullptr), store_index(-1), iquat(-1), nevaluations(0), special(nullptr)
 {
   avx_loop = BreakableUtil::avx_loops();
   writedata = 1;
@@ -107,6 +107,28 @@ BondBcmGriffith::BondBcmGriffith(LAMMPS *_lmp) :
 
 BondBcmGriffith::~BondBcmGriffith()
 {
+  // the working copy holds the only live state: a style that replaces this one takes it
+  // from fix bcm/griffith (nothing is copied; at exit the fix is deleted with it)
+  if (modify) {
+    if (have_state) {
+      auto fix = dynamic_cast<FixBcmGriffith *>(modify->get_fix_by_id(FixBcmGriffith::ID));
+      if (fix) {
+        fix->parked = std::make_unique<Parked>();
+        fix->parked->cache.swap(cache);
+        fix->parked->records.swap(records);
+        fix->parked->contact.swap(contact);
+        // the interfaces by their cells: the next style's table may order them otherwise
+        auto &tags = fix->parked->tags;
+        tags.resize(2 * fix->parked->cache.size());
+        for (size_t n = 0; n < fix->parked->cache.size(); n++) {
+          tags[2 * n] = table[fix->parked->cache[n].iface].tag1;
+          tags[2 * n + 1] = table[fix->parked->cache[n].iface].tag2;
+        }
+      }
+    }
+    auto store = dynamic_cast<FixLazyStore *>(modify->get_fix_by_id(STORE_FIX_ID));
+    if (store && store->get_owner() == this) store->set_owner(nullptr);
+  }
   delete[] svector;
   svector = nullptr;
   if (allocated) {
@@ -315,62 +337,88 @@ void BondBcmGriffith::init_style()
   long store_width = 0;
   MPI_Allreduce(&width, &store_width, 1, MPI_LONG, MPI_MAX, world);
   store_index = BreakableUtil::peratom_array(lmp, STORE_FIX_ID, STORE_NAME, (int) store_width);
+  store_fix = dynamic_cast<FixLazyStore *>(modify->get_fix_by_id(STORE_FIX_ID));
+  if (!store_fix)
+    error->all(FLERR, "bond_style bcm/griffith: fix {} is not a fix lazy/store", STORE_FIX_ID);
+  store_fix->set_owner(this);
   if (total != (bigint) table.size())
     error->all(FLERR, "bond_style bcm/griffith: {} interfaces in the geometry table but {} bonds "
                "in the topology", table.size(), total);
 
   if (!table.has_reference()) table.take_reference(iquat);
-  sync_store();
+  adopt();
   cache_valid = false;
 }
 
 /* ----------------------------------------------------------------------
-   the working copy of the bond list's interfaces, from the per-atom store:
-   per entry the cells in ID order, the state slots (with newton_bond off the
-   neighbor code lists a bond from an owned atom; the partner's copy is
-   written too when the partner is owned here, the bond then being listed
-   once), and a record with the constants, the state and the geometry
+   the working copy of the style this one replaced (bond_style given again),
+   kept by fix bcm/griffith: its entries' interfaces looked up again by their
+   cells in this style's table
+------------------------------------------------------------------------- */
+
+void BondBcmGriffith::adopt()
+{
+  auto fix = FixBcmGriffith::get_or_create(lmp);
+  if (!fix->parked) return;
+  std::unique_ptr<Parked> p = std::move(fix->parked);
+  if (have_state) return;    // this style has its own (the parked one is older)
+  cache.swap(p->cache);
+  records.swap(p->records);
+  contact.swap(p->contact);
+  const std::vector<tagint> &tags = p->tags;
+  entry_of_iface.assign(table.size(), -1);
+  for (int n = 0; n < (int) cache.size(); n++) {
+    Entry &e = cache[n];
+    e.iface = table.find(tags[2 * n], tags[2 * n + 1]);
+    if (e.iface < 0 || table[e.iface].npts != e.npts)
+      error->one(FLERR, "bond_style bcm/griffith: interface {}-{} of the former style is not in "
+                 "geometry file {} with {} points", tags[2 * n], tags[2 * n + 1],
+                 table.file(), e.npts);
+    if (entry_of_iface[e.iface] < 0) entry_of_iface[e.iface] = n;
+  }
+  have_state = true;
+  cache_valid = false;
+  atoms_moved = true;
+}
+
+/* ----------------------------------------------------------------------
+   the working copy of the bond list's interfaces: per entry the cells in ID
+   order (with newton_bond off the neighbor code lists a bond from an owned
+   atom, once when both are owned here) and a record with the constants, the
+   state and the geometry. Each interface's state comes from the working
+   copy before (the only live copy), else from the row of an owned cell that
+   arrived with it (exchange, restart file), else it is new (zeros: intact,
+   never evaluated). Rows taken are emptied; an interface of the working copy
+   before that the bond list lacks now (its partner lost) while a cell of it
+   is owned is handed back to that cell's row.
 ------------------------------------------------------------------------- */
 
 void BondBcmGriffith::rebuild_cache()
 {
-  // the previous working copy must be in the store before it is read back; when the atoms
-  // moved since, it was written at pre_exchange (fix bcm/griffith)
-  if (dirty) sync_store();
-
-  double **store = atom->darray[store_index];
   const tagint *tag = atom->tag;
   const int nlocal = atom->nlocal;
   int **bondlist = neighbor->bondlist;
   const int nbondlist = neighbor->nbondlist;
+  const int ntable = table.size();
 
-  cache.resize(nbondlist);
-  cache_tags.resize(2 * (size_t) nbondlist);
-  entry_of_slot.assign((size_t) nlocal * atom->bond_per_atom, -1);
-  std::vector<int> iface_of(nbondlist);
-  long nrec = 0, ncontact = 0;
+  // the entries of the new bond list: cells and interface; the slot of the listed atom
+  std::vector<Entry> fresh(nbondlist);
+  std::vector<int> slot1(nbondlist);
   for (int n = 0; n < nbondlist; n++) {
     int i1 = bondlist[n][0], i2 = bondlist[n][1];
     if (i1 >= nlocal) std::swap(i1, i2);
     if (i1 >= nlocal)
       error->one(FLERR, "bond_style bcm/griffith: bond {}-{} has no owned atom", tag[i1],
                  tag[i2]);
-    Entry &e = cache[n];
-    const int iface = table.find(tag[i1], tag[i2]);
-    if (iface < 0)
+    Entry &e = fresh[n];
+    e.iface = table.find(tag[i1], tag[i2]);
+    if (e.iface < 0)
       error->one(FLERR, "bond_style bcm/griffith: bond {}-{} has no interface (bonds created "
                  "during a run are not supported)", tag[i1], tag[i2]);
-    iface_of[n] = iface;
-    const int m = BreakableUtil::bond_slot(atom, i1, tag[i2]);
-    if (m < 0)
+    slot1[n] = BreakableUtil::bond_slot(atom, i1, tag[i2]);
+    if (slot1[n] < 0)
       error->one(FLERR, "bond_style bcm/griffith: bond {}-{} of the bond list is not in the "
                  "atom's bond arrays", tag[i1], tag[i2]);
-    e.slot = store[i1] + slot_offset(i1, m);
-    e.twin = nullptr;
-    if (i2 < nlocal) {
-      const int m2 = BreakableUtil::bond_slot(atom, i2, tag[i1]);
-      if (m2 >= 0) e.twin = store[i2] + slot_offset(i2, m2);
-    }
     if (tag[i1] < tag[i2]) {
       e.c1 = i1;
       e.c2 = i2;
@@ -378,55 +426,269 @@ void BondBcmGriffith::rebuild_cache()
       e.c1 = i2;
       e.c2 = i1;
     }
-    cache_tags[2 * n] = tag[e.c1];
-    cache_tags[2 * n + 1] = tag[e.c2];
-    // tally() counts the interface from the owned cell with the smaller ID
-    if (e.c1 < nlocal) {
-      const int m1 = e.c1 == i1 ? m : BreakableUtil::bond_slot(atom, e.c1, tag[e.c2]);
-      if (m1 >= 0) entry_of_slot[(size_t) e.c1 * atom->bond_per_atom + m1] = n;
-    }
-    e.npts = table[iface].npts;
-    e.roff = nrec;
-    // contact state only for an interface that is broken already (one that breaks during
-    // the run gets its block then: break_interface())
-    e.coff = e.slot[H_BROKEN] != INTACT ? ncontact : -1;
-    nrec += record_size(e.npts);
-    if (e.coff >= 0) ncontact += NCONTACT * e.npts;
+    e.npts = table[e.iface].npts;
+    e.type = bondlist[n][2];
   }
 
-  records.assign(nrec, 0.0);    // padding lanes zero
-  contact.resize(ncontact);
+  // the bond list as before (atoms neither sorted nor migrated since): the records stay
+  bool same = have_state && cache.size() == (size_t) nbondlist;
+  for (int n = 0; same && n < nbondlist; n++) same = fresh[n].iface == cache[n].iface;
+
+  // rows of owned atoms that hold something (arrived, or handed back before)
+  const bool rows_held = [&] {
+    for (int i = 0; i < nlocal; i++)
+      if (store_fix->length(i)) return true;
+    return false;
+  }();
+
+  if (same) {
+    for (int n = 0; n < nbondlist; n++) {
+      Entry &e = cache[n];
+      e.c1 = fresh[n].c1;
+      e.c2 = fresh[n].c2;
+      e.type = fresh[n].type;
+      set_constants(e, e.type, &records[e.roff]);
+    }
+  } else {
+    // the state of the entries before, header and damping forces by point, and their contact
+    // blocks: all that is read back below (the records are then written over)
+    std::vector<int> old_of(ntable, -1);
+    std::vector<long> soff;
+    std::vector<double> saved;
+    std::vector<double> old_contact;
+    std::vector<Entry> old;
+    if (have_state) {
+      old.swap(cache);
+      old_contact.swap(contact);
+      soff.resize(old.size());
+      long ns = 0;
+      for (size_t o = 0; o < old.size(); o++) {
+        soff[o] = ns;
+        ns += NHEAD + 3L * old[o].npts;
+      }
+      saved.resize(ns);
+      for (size_t o = 0; o < old.size(); o++) {
+        const Entry &e = old[o];
+        const int np = e.npts, P = padded(np);
+        const double *rec = &records[e.roff];
+        double *out = &saved[soff[o]];
+        std::copy(rec + R_SLOT, rec + R_SLOT + NHEAD, out);
+        for (int k = 0; k < np; k++)
+          for (int c = 0; c < 3; c++) out[NHEAD + 3 * k + c] = rec[R_FD + c * P + k];
+        if (old_of[e.iface] < 0) old_of[e.iface] = (int) o;
+      }
+    }
+    std::vector<char> used(old.size(), 0);
+
+    // where each new entry's state is: an entry before (>= 0), a row (-2), none (-1)
+    cache.swap(fresh);
+    std::vector<int> source(nbondlist, -1);
+    std::vector<double> slotbuf(NHEAD + NPOINT * BcmInterfaceTable::MAX_POINTS);
+    long nrec = 0, ncontact = 0;
+    for (int n = 0; n < nbondlist; n++) {
+      Entry &e = cache[n];
+      e.roff = nrec;
+      nrec += record_size(e.npts);
+      const int o = old_of[e.iface];
+      bool broken = false;
+      if (o >= 0) {
+        source[n] = o;
+        used[o] = 1;
+        broken = saved[soff[o] + H_BROKEN] != INTACT;
+      } else if (rows_held) {
+        // the listed atom's row, else the partner's when owned
+        const int i1 = (bondlist[n][0] < nlocal) ? bondlist[n][0] : bondlist[n][1];
+        const int i2 = i1 == e.c1 ? e.c2 : e.c1;
+        long off = slot_offset(i1, slot1[n]);
+        int from = i1;
+        if ((size_t) off >= store_fix->length(i1) && i2 < nlocal) {
+          const int m2 = BreakableUtil::bond_slot(atom, i2, tag[i1]);
+          if (m2 >= 0 && (size_t) slot_offset(i2, m2) < store_fix->length(i2)) {
+            from = i2;
+            off = slot_offset(i2, m2);
+          }
+        }
+        if ((size_t) off < store_fix->length(from)) {
+          source[n] = -2;
+          row_slot(from, off, NHEAD, slotbuf.data());
+          broken = slotbuf[H_BROKEN] != INTACT;
+        }
+      }
+      // contact state only for an interface that is broken already (one that breaks during
+      // the run gets its block then: break_interface())
+      e.coff = broken ? ncontact : -1;
+      if (broken) ncontact += NCONTACT * e.npts;
+    }
+
+    records.assign(nrec, 0.0);    // padding lanes zero
+    contact.assign(ncontact, 0.0);
+    for (int n = 0; n < nbondlist; n++) {
+      const Entry &e = cache[n];
+      const int np = e.npts, P = padded(np);
+      const BcmInterfaceTable::Interface &itf = table[e.iface];
+      double *rec = &records[e.roff];
+      rec[K_AREA] = itf.area;
+      set_constants(e, e.type, rec);
+      // state: slot header, damping forces (per point in a slot, rows here), then the
+      // contact state apart
+      const double *st = nullptr, *cst = nullptr;
+      if (source[n] >= 0) {
+        st = &saved[soff[source[n]]];
+        const long oc = old[source[n]].coff;
+        if (oc >= 0) cst = &old_contact[oc];
+      } else if (source[n] == -2) {
+        const int i1 = (bondlist[n][0] < nlocal) ? bondlist[n][0] : bondlist[n][1];
+        const int i2 = i1 == e.c1 ? e.c2 : e.c1;
+        long off = slot_offset(i1, slot1[n]);
+        int from = i1;
+        if ((size_t) off >= store_fix->length(i1)) {
+          from = i2;
+          off = slot_offset(i2, BreakableUtil::bond_slot(atom, i2, tag[i1]));
+        }
+        row_slot(from, off, NHEAD + NPOINT * np, slotbuf.data());
+        st = slotbuf.data();
+        if (e.coff >= 0) cst = st + NHEAD + 3 * np;
+      }
+      if (st) {
+        std::copy(st, st + NHEAD, rec + R_SLOT);
+        for (int k = 0; k < np; k++)
+          for (int c = 0; c < 3; c++) rec[R_FD + c * P + k] = st[NHEAD + 3 * k + c];
+      }
+      if (e.coff >= 0 && cst) std::copy(cst, cst + NCONTACT * np, &contact[e.coff]);
+      // geometry: normal in cell 1's frame, then the rows of b1 and of b2
+      const double *g = table.body_of(itf);
+      double *out = rec + record_geometry(np);
+      for (int c = 0; c < 3; c++) out[c] = g[c];
+      for (int k = 0; k < np; k++)
+        for (int c = 0; c < 3; c++) {
+          out[3 + c * P + k] = g[3 + 3 * k + c];
+          out[3 + 3 * P + c * P + k] = g[3 + 3 * (np + k) + c];
+        }
+    }
+
+    // interfaces before that the bond list lacks now, a cell of them owned here: back to
+    // that cell's row
+    for (size_t o = 0; o < old.size(); o++) {
+      if (used[o] || old_of[old[o].iface] != (int) o) continue;
+      const tagint t1 = table[old[o].iface].tag1, t2 = table[old[o].iface].tag2;
+      const Entry &e = old[o];
+      const int np = e.npts;
+      for (int side = 0; side < 2; side++) {
+        const tagint self = side ? t2 : t1, other = side ? t1 : t2;
+        const int j = atom->map(self);
+        if (j < 0 || j >= nlocal) continue;
+        const int m = BreakableUtil::bond_slot(atom, j, other);
+        if (m < 0) continue;
+        const long off = slot_offset(j, m);
+        const long size = NHEAD + NPOINT * np;
+        std::vector<double> row(std::max<long>(off + size, (long) store_fix->length(j)), 0.0);
+        std::copy(store_fix->row(j), store_fix->row(j) + store_fix->length(j), row.begin());
+        const double *st = &saved[soff[o]];
+        std::copy(st, st + NHEAD + 3 * np, row.begin() + off);
+        if (e.coff >= 0)
+          std::copy(&old_contact[e.coff], &old_contact[e.coff] + NCONTACT * np,
+                    row.begin() + off + NHEAD + 3 * np);
+        size_t len = row.size();
+        while (len > 0 && row[len - 1] == 0.0 && !std::signbit(row[len - 1])) len--;
+        store_fix->set(j, row.data(), len);
+      }
+    }
+  }
+
+  // rows that arrived: the slots of interfaces now in the working copy are emptied (the
+  // working copy is current for them), the others kept
+  entry_of_iface.assign(ntable, -1);
+  for (int n = 0; n < nbondlist; n++)
+    if (entry_of_iface[cache[n].iface] < 0) entry_of_iface[cache[n].iface] = n;
+  if (rows_held) {
+    std::vector<double> row;
+    for (int i = 0; i < nlocal; i++) {
+      const size_t len = store_fix->length(i);
+      if (!len) continue;
+      row.assign(store_fix->row(i), store_fix->row(i) + len);
+      long off = 0;
+      for (int m = 0; m < atom->num_bond[i] && (size_t) off < len; m++) {
+        const int k = table.find(tag[i], atom->bond_atom[i][m]);
+        const long size = NHEAD + NPOINT * (k >= 0 ? table[k].npts : 0);
+        if (k >= 0 && entry_of_iface[k] >= 0)
+          for (long v = off; v < std::min<long>(off + size, (long) len); v++) row[v] = 0.0;
+        off += size;
+      }
+      size_t n = len;
+      while (n > 0 && row[n - 1] == 0.0 && !std::signbit(row[n - 1])) n--;
+      store_fix->set(i, row.data(), n);
+    }
+  }
+
+  entry_of_slot.assign((size_t) nlocal * atom->bond_per_atom, -1);
   for (int n = 0; n < nbondlist; n++) {
     const Entry &e = cache[n];
-    const int np = e.npts, P = padded(np);
-    const BcmInterfaceTable::Interface &itf = table[iface_of[n]];
-    double *rec = &records[e.roff];
-    rec[K_AREA] = itf.area;
-    cache[n].type = bondlist[n][2];
-    set_constants(e, bondlist[n][2], rec);
-    // state: slot header, damping forces (per point in the store, rows here), then the
-    // contact state apart
-    std::copy(e.slot, e.slot + NHEAD, rec + R_SLOT);
-    for (int k = 0; k < np; k++)
-      for (int c = 0; c < 3; c++) rec[R_FD + c * P + k] = e.slot[NHEAD + 3 * k + c];
-    if (e.coff >= 0)
-      std::copy(e.slot + NHEAD + 3 * np, e.slot + NHEAD + NPOINT * np, &contact[e.coff]);
-    // geometry: normal in cell 1's frame, then the rows of b1 and of b2
-    const double *g = table.body_of(itf);
-    double *out = rec + record_geometry(np);
-    for (int c = 0; c < 3; c++) out[c] = g[c];
-    for (int k = 0; k < np; k++)
-      for (int c = 0; c < 3; c++) {
-        out[3 + c * P + k] = g[3 + 3 * k + c];
-        out[3 + 3 * P + c * P + k] = g[3 + 3 * (np + k) + c];
-      }
+    // tally() counts the interface from the owned cell with the smaller ID
+    if (e.c1 < nlocal) {
+      const int m1 = BreakableUtil::bond_slot(atom, e.c1, tag[e.c2]);
+      if (m1 >= 0) entry_of_slot[(size_t) e.c1 * atom->bond_per_atom + m1] = n;
+    }
   }
-  cache_store = atom->nmax > 0 ? store[0] : nullptr;
   quiet_cert.assign(nbondlist, QuietCert());
   moves_known = false;
   cache_valid = true;
+  have_state = true;
   atoms_moved = false;
-  dirty = false;
+}
+
+/* ----------------------------------------------------------------------
+   the stored row of owned atom i from off, size values, zeros past its length
+------------------------------------------------------------------------- */
+
+void BondBcmGriffith::row_slot(int i, long off, long size, double *out) const
+{
+  const long len = (long) store_fix->length(i);
+  const double *row = store_fix->row(i);
+  for (long v = 0; v < size; v++) out[v] = off + v < len ? row[off + v] : 0.0;
+}
+
+/* ----------------------------------------------------------------------
+   the state of an entry as a slot of the store: header, damping forces by
+   point, the contact state (zeros while intact)
+------------------------------------------------------------------------- */
+
+void BondBcmGriffith::slot_from_entry(const Entry &e, double *dest) const
+{
+  const int np = e.npts, P = padded(np);
+  const double *rec = &records[e.roff];
+  std::copy(rec + R_SLOT, rec + R_SLOT + NHEAD, dest);
+  for (int k = 0; k < np; k++)
+    for (int c = 0; c < 3; c++) dest[NHEAD + 3 * k + c] = rec[R_FD + c * P + k];
+  if (e.coff >= 0)
+    std::copy(&contact[e.coff], &contact[e.coff] + NCONTACT * np, dest + NHEAD + 3 * np);
+  else
+    std::fill(dest + NHEAD + 3 * np, dest + NHEAD + NPOINT * np, 0.0);
+}
+
+/* ----------------------------------------------------------------------
+   fix lazy/store: atom i's row leaves (exchange, restart file). Each slot
+   from the working copy where it holds the interface, else from the stored
+   row; its length up to its last value that is not +0.0
+------------------------------------------------------------------------- */
+
+size_t BondBcmGriffith::compose(int i, const double *stored, size_t n, double *out)
+{
+  const tagint self = atom->tag[i];
+  long off = 0;
+  for (int m = 0; m < atom->num_bond[i]; m++) {
+    const int k = table.find(self, atom->bond_atom[i][m]);
+    const int np = k >= 0 ? table[k].npts : 0;
+    const long size = NHEAD + NPOINT * np;
+    const int e = (have_state && k >= 0) ? entry_of_iface[k] : -1;
+    if (e >= 0)
+      slot_from_entry(cache[e], out + off);
+    else
+      for (long v = 0; v < size; v++) out[off + v] = (size_t) (off + v) < n ? stored[off + v] : 0.0;
+    off += size;
+  }
+  size_t len = (size_t) off;
+  while (len > 0 && out[len - 1] == 0.0 && !std::signbit(out[len - 1])) len--;
+  return len;
 }
 
 /* ----------------------------------------------------------------------
@@ -460,49 +722,6 @@ void BondBcmGriffith::set_constants(const Entry &e, int type, double *rec) const
 }
 
 /* ----------------------------------------------------------------------
-   the working copy back into the per-atom store, both copies of each
-   interface. Its slots are those of the atoms when the cache was built:
-   atoms must not have moved or been reordered since (fix bcm/griffith calls
-   this at pre_exchange, before they do).
-------------------------------------------------------------------------- */
-
-void BondBcmGriffith::sync_store()
-{
-  if (!dirty) return;
-  dirty = false;
-  if (!cache_valid || cache.empty()) return;
-  const tagint *tag = atom->tag;
-  const int nall = atom->nlocal + atom->nghost;
-  double **store = atom->darray[store_index];
-  bool moved = (atom->nmax > 0 ? store[0] : nullptr) != cache_store;
-  const int ncache = (int) cache.size();
-  for (int n = 0; n < ncache && !moved; n++) {
-    const Entry &e = cache[n];
-    moved = e.c1 >= nall || e.c2 >= nall || tag[e.c1] != cache_tags[2 * n] ||
-        tag[e.c2] != cache_tags[2 * n + 1];
-  }
-  if (moved)
-    error->one(FLERR, "bond_style bcm/griffith: the cells moved in memory before the interface "
-               "state was saved (a fix that exchanges atoms before fix {} does?)",
-               FixBcmGriffith::ID);
-  for (int n = 0; n < ncache; n++) {
-    const Entry &e = cache[n];
-    const int np = e.npts, P = padded(np);
-    const double *rec = &records[e.roff];
-    // an intact interface's contact state is zero in the store, and stays so
-    const double *cstate = e.coff >= 0 ? &contact[e.coff] : nullptr;
-    for (double *dest : {e.slot, e.twin}) {
-      if (!dest) continue;
-      std::copy(rec + R_SLOT, rec + R_SLOT + NHEAD, dest);
-      for (int k = 0; k < np; k++)
-        for (int c = 0; c < 3; c++) dest[NHEAD + 3 * k + c] = rec[R_FD + c * P + k];
-      if (cstate) std::copy(cstate, cstate + NCONTACT * np, dest + NHEAD + 3 * np);
-    }
-  }
-}
-
-
-/* ----------------------------------------------------------------------
    one force evaluation: per interface of the bond list, the kinematics of
    its points, then its intact springs (and the Griffith check) or its
    contacts, the damping work of the last evaluation settled in between
@@ -515,7 +734,6 @@ void BondBcmGriffith::compute(int eflag, int vflag)
   if (!cache_valid || neighbor->ago == 0 || (int) cache.size() != neighbor->nbondlist)
     rebuild_cache();
   nevaluations++;
-  dirty = true;
 
   // centre, velocity, angular velocity and orientation of every cell, once per evaluation
   const int nall = atom->nlocal + atom->nghost;
@@ -988,21 +1206,38 @@ long BondBcmGriffith::slot_offset(int i, int m) const
 }
 
 /* ----------------------------------------------------------------------
-   the state copy of the bond between atoms i and j in an owned atom's slot
+   the header of the interface in bond slot m of owned atom i: the working
+   copy's when it holds the interface, else the atom's stored row (zeros past
+   its length: an interface never evaluated), copied into scratch (NHEAD)
 ------------------------------------------------------------------------- */
 
-const double *BondBcmGriffith::slot_of(int i, int j) const
+const double *BondBcmGriffith::header_of(int i, int m, double *scratch) const
+{
+  const int k = table.find(atom->tag[i], atom->bond_atom[i][m]);
+  const int n = (have_state && k >= 0) ? entry_of_iface[k] : -1;
+  if (n >= 0) return &records[cache[n].roff] + R_SLOT;
+  if (store_fix)
+    row_slot(i, slot_offset(i, m), NHEAD, scratch);
+  else
+    std::fill(scratch, scratch + NHEAD, 0.0);
+  return scratch;
+}
+
+/* ----------------------------------------------------------------------
+   the header of the bond between atoms i and j, from an owned atom's side
+------------------------------------------------------------------------- */
+
+const double *BondBcmGriffith::slot_of(int i, int j, double *scratch) const
 {
   if (store_index < 0)
     error->one(FLERR, "bond_style bcm/griffith: the interface state exists from the first run");
-  double **store = atom->darray[store_index];
   const tagint *tag = atom->tag;
   const int nlocal = atom->nlocal;
   int m;
   if (i < nlocal && (m = BreakableUtil::bond_slot(atom, i, tag[j])) >= 0)
-    return store[i] + slot_offset(i, m);
+    return header_of(i, m, scratch);
   if (j < nlocal && (m = BreakableUtil::bond_slot(atom, j, tag[i])) >= 0)
-    return store[j] + slot_offset(j, m);
+    return header_of(j, m, scratch);
   error->one(FLERR, "bond_style bcm/griffith: atoms {} and {} share no bond on this rank",
              tag[i], tag[j]);
   return nullptr;
@@ -1015,8 +1250,8 @@ const double *BondBcmGriffith::slot_of(int i, int j) const
 bool BondBcmGriffith::released(int i, int m)
 {
   if (store_index < 0 || atom->bond_type[i][m] <= 0) return false;
-  sync_store();
-  return atom->darray[store_index][i][slot_offset(i, m) + H_BROKEN] == RETIRED;
+  double scratch[NHEAD];
+  return header_of(i, m, scratch)[H_BROKEN] == RETIRED;
 }
 
 /* ----------------------------------------------------------------------
@@ -1034,8 +1269,8 @@ double BondBcmGriffith::single(int type, double /*rsq*/, int i, int j, double &f
   fforce = 0.0;
   for (int k = 0; k < single_extra; k++) svector[k] = 0.0;
   if (type <= 0) return 0.0;
-  sync_store();
-  const double *slot = slot_of(i, j);
+  double scratch[NHEAD];
+  const double *slot = slot_of(i, j, scratch);
   const int ii = table.find(atom->tag[i], atom->tag[j]);
   const bool broken = slot[H_BROKEN] != INTACT;
   svector[0] = broken ? 0.0 : 1.0;
@@ -1064,14 +1299,13 @@ void BondBcmGriffith::tally(double *sums)
 {
   for (int k = 0; k < NVECTOR; k++) sums[k] = 0.0;
   if (store_index < 0) return;
-  // an interface of the bond list is read from the working copy (no write-back needed for
-  // a record), one that is not (its partner out of reach) from the store, which is current
-  // for it; either way in the order of the owned atoms and their bond slots, so that the sums
-  // do not depend on where an interface's state lives
+  // an interface of the bond list is read from the working copy, one that is not (its
+  // partner out of reach) from the store, which holds it then; either way in the order of the
+  // owned atoms and their bond slots, so that the sums do not depend on where an interface's
+  // state lives
   const bool cached = cache_valid && !atoms_moved &&
       entry_of_slot.size() == (size_t) atom->nlocal * atom->bond_per_atom;
-  if (!cached) sync_store();
-  double **store = atom->darray[store_index];
+  double scratch[NHEAD];
   const tagint *tag = atom->tag;
   const int nlocal = atom->nlocal;
   const int bpa = atom->bond_per_atom;
@@ -1090,7 +1324,7 @@ void BondBcmGriffith::tally(double *sums)
       } else {
         const int ii = table.find(tag[i], partner);
         if (ii < 0) continue;
-        slot = store[i] + slot_offset(i, m);
+        slot = header_of(i, m, scratch);
         area = table[ii].area;
       }
       if (slot[H_BROKEN] != INTACT) {    // broken or retired
@@ -1199,7 +1433,7 @@ double BondBcmGriffith::memory_usage()
   double bytes = Bond::memory_usage();
   bytes += (double) cache.capacity() * sizeof(Entry);
   bytes += (double) (cells.capacity() + records.capacity() + contact.capacity()) * sizeof(double);
-  bytes += (double) cache_tags.capacity() * sizeof(tagint);
+  bytes += (double) (entry_of_iface.capacity() + entry_of_slot.capacity()) * sizeof(int);
   bytes += table.memory_usage();
   return bytes;
 }

@@ -13,12 +13,13 @@
 #include "bcm_interface_table.h"
 #include "bond.h"
 #include "fix_breakable_special.h"
+#include "fix_lazy_store.h"
 
 #include <vector>
 
 namespace LAMMPS_NS {
 
-class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
+class BondBcmGriffith : public Bond, public SpecialReleasedBonds, public FixLazyStore::Owner {
  public:
   static constexpr int NVECTOR = 13;       // global vector of fix bcm/griffith
 
@@ -43,20 +44,33 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   void tally(double *sums);
   // force evaluations so far: changes whenever the per-interface state may have
   bigint evaluations() const { return nevaluations; }
-  // write the working copy of the interface state back to the per-atom store (both copies
-  // of each interface); called by fix bcm/griffith before atoms move (pre_exchange), before
-  // output and after a run, and before this style reads the store itself
-  void sync_store();
-  // atoms may migrate or be sorted now (fix bcm/griffith, pre_exchange, after sync_store()):
-  // until the working copy is rebuilt, its entries no longer match the atoms' slots
-  void atoms_may_move()
-  {
-    sync_store();
-    atoms_moved = true;
-  }
+  // atoms may migrate or be sorted now (fix bcm/griffith, pre_exchange): until the working
+  // copy is rebuilt, its entries' cells no longer match the atoms' indices (its state, kept
+  // by interface, stays the only live copy: rows that leave are composed from it)
+  void atoms_may_move() { atoms_moved = true; }
+  // fix lazy/store: atom i's row of the per-slot store, from the working copy where it holds
+  // the interface, else from the stored row
+  size_t compose(int i, const double *stored, size_t n, double *out) override;
   // bond slot m of owned atom i is a retired interface: its cells are no longer 1-2 special
   // neighbours (fix breakable/special, at every run setup)
   bool released(int i, int m) override;
+
+  // an entry of the working copy (below)
+  struct Entry {
+    int c1, c2;        // local indices of the cells with the smaller and the larger ID
+    int type;          // bond type the constants of the record were taken for
+    int npts;
+    int iface;         // in the interface table
+    long roff;         // into records
+    long coff;         // into contact: NCONTACT doubles per point; -1 while intact
+  };
+  // the working copy of a style that is replaced (bond_style given again), kept by fix
+  // bcm/griffith for the next one: it holds the only live copy of the state
+  struct Parked {
+    std::vector<Entry> cache;
+    std::vector<double> records, contact;
+    std::vector<tagint> tags;
+  };
 
  private:
   enum Stiffness { PER_INTERFACE, PER_AREA };
@@ -94,29 +108,31 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   // reneighbouring): per entry one contiguous record in bondlist order holding the per-point
   // constants, the state read and written at every evaluation (slot header and damping
   // forces) and the body-frame geometry, so that the force loop streams through memory and
-  // does no look-up; the contact state of broken interfaces apart. The per-atom store is
-  // written back from it (both copies of an interface) only when something may read the
-  // store or move atoms: sync_store().
-  struct Entry {
-    int c1, c2;        // local indices of the cells with the smaller and the larger ID
-    int type;          // bond type the constants of the record were taken for
-    int npts;
-    long roff;         // into records
-    long coff;         // into contact: NCONTACT doubles per point; -1 while intact
-    double *slot;      // state of the interface in the bondlist atom's bond slot
-    double *twin;      // the partner's copy when the partner is owned here too, or nullptr
-  };
+  // does no look-up; the contact state of broken interfaces apart. It is the only live copy
+  // of the state (issue 27): at a rebuild each interface's state comes from the previous
+  // working copy, or from the per-atom store's row of a cell that arrived with it (exchange,
+  // restart file), which is then emptied; the store holds between rebuilds only what arrived
+  // and the interfaces of owned cells that the bond list lacks (a partner lost), and a row
+  // that leaves is composed from the working copy (compose()).
   std::vector<Entry> cache;
   std::vector<double> records;
   std::vector<double> contact;
-  std::vector<tagint> cache_tags;    // (tag1, tag2) per entry: checks that the cells stayed
-  double *cache_store;               // store row 0 when the cache was built
-  bool cache_valid;
-  bool dirty;                        // the working copy is ahead of the store
+  bool cache_valid;                  // entries match the bond list (else rebuilt)
+  bool have_state;                   // the records hold the state of their interfaces
   bool atoms_moved;                  // atoms may have moved since the working copy was built
+  // per interface of the table: its entry, or -1 (valid while have_state)
+  std::vector<int> entry_of_iface;
   // per owned atom and bond slot: the entry of the interface when the atom is its cell with
   // the smaller ID, or -1 (tally() reads the working copy in the store's order)
   std::vector<int> entry_of_slot;
+  FixLazyStore *store_fix;           // the per-slot store (rows that arrived or were handed back)
+  // the state of an entry as a slot of the store (header, damping forces by point, contact)
+  void slot_from_entry(const Entry &e, double *dest) const;
+  // the header of the interface in bond slot m of owned atom i (working copy, else the
+  // atom's row, else zeros: scratch holds the copy)
+  const double *header_of(int i, int m, double *scratch) const;
+  // the stored row's slot at off, size values, zero-filled past the row's length
+  void row_slot(int i, long off, long size, double *out) const;
   // per owned and ghost cell, this evaluation: BcmInterfaceKinematics::pack_cell()
   std::vector<double> cells;
   // quiet certificates (issue 27): a broken interface found quiet at a step keeps what is
@@ -160,9 +176,10 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds {
   };
 
   void allocate();
+  void adopt();
   void rebuild_cache();
   void set_constants(const Entry &e, int type, double *rec) const;
-  const double *slot_of(int i, int j) const;
+  const double *slot_of(int i, int j, double *scratch) const;
   long slot_offset(int i, int m) const;
   void interface_points(const Pair &p, const double *g, int np, Point *pts);
   bool quiet(const Entry &e, const double *rec, const Pair &p, const double *g,

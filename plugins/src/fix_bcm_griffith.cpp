@@ -40,20 +40,13 @@ FixBcmGriffith *FixBcmGriffith::get_or_create(LAMMPS *lmp)
 
 int FixBcmGriffith::setmask()
 {
-  return FixConst::PRE_EXCHANGE | FixConst::MIN_PRE_EXCHANGE | FixConst::END_OF_STEP;
+  return FixConst::PRE_EXCHANGE | FixConst::MIN_PRE_EXCHANGE;
 }
 
 /* ----------------------------------------------------------------------
-   the bond style's working copy of the interface state back into the
-   per-atom store: before atoms migrate or are sorted, before output on this
-   step (restart files and dumps read the store), after a run
+   atoms may migrate or be sorted now: the bond style's entries no longer
+   match their indices until it rebuilds them
 ------------------------------------------------------------------------- */
-
-void FixBcmGriffith::sync()
-{
-  auto bond = dynamic_cast<BondBcmGriffith *>(force->bond_match("bcm/griffith"));
-  if (bond) bond->sync_store();
-}
 
 void FixBcmGriffith::before_exchange()
 {
@@ -74,24 +67,6 @@ void FixBcmGriffith::pre_exchange()
 void FixBcmGriffith::min_pre_exchange()
 {
   before_exchange();
-}
-
-/* ----------------------------------------------------------------------
-   a dump or a restart file of this step may read the store; thermo output and
-   fix print read the global vector, which reads the working copy (tally()),
-   and compute bond/local reads the store through single(), which writes it
-   back itself
-------------------------------------------------------------------------- */
-
-void FixBcmGriffith::end_of_step()
-{
-  const bigint step = update->ntimestep;
-  if (step == output->next_dump_any || step == output->next_restart) sync();
-}
-
-void FixBcmGriffith::post_run()
-{
-  sync();
 }
 
 /* ----------------------------------------------------------------------

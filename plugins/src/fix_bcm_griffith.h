@@ -11,18 +11,19 @@
      [9] broken interfaces with a closed point   [12] cumulative Coulomb slip of their points, m
      [10] their closed points                    [13] energy their damping dissipated after
      [11] normal force those points carry, N          the break (part of [6])
-   The per-interface values live in the bond style's per-atom store, so they migrate with
-   their cells and carry on through restart files. The bond style works on a copy of them
-   laid out in bondlist order; this fix has it written back to the store before atoms move
-   (pre_exchange), before a dump or a restart file of a step (they may read the store) and
-   after a run. The vector is summed from that copy (BondBcmGriffith::tally()): a record
-   needs no write-back. */
+   The per-interface values live in the bond style's working copy, laid out in bondlist
+   order; they travel with their cells and go to restart files through the style's per-atom
+   store, whose rows the style composes from the working copy when they leave. This fix
+   tells the style when atoms may move (pre_exchange) and keeps a replaced style's working
+   copy for the next. The vector is summed from that copy (BondBcmGriffith::tally()). */
 
 #ifndef BRITTLE_FIX_BCM_GRIFFITH_H
 #define BRITTLE_FIX_BCM_GRIFFITH_H
 
 #include "bond_bcm_griffith.h"
 #include "fix.h"
+
+#include <memory>
 
 namespace LAMMPS_NS {
 
@@ -36,16 +37,15 @@ class FixBcmGriffith : public Fix {
   void setup_pre_exchange() override;
   void pre_exchange() override;
   void min_pre_exchange() override;
-  void end_of_step() override;
-  void post_run() override;
   double compute_vector(int) override;
 
   // the fix with id BCM_GRIFFITH, created first if absent (needs a simulation box)
   static FixBcmGriffith *get_or_create(class LAMMPS *);
+  // the working copy of a bond style being replaced, until the next one takes it
+  std::unique_ptr<BondBcmGriffith::Parked> parked;
 
  private:
   double totals[BondBcmGriffith::NVECTOR];
-  void sync();
   void before_exchange();
   bigint cached_step, cached_evaluations;
   bool cached;

@@ -86,6 +86,7 @@ void FixLazyStore::grow_arrays(int nmax)
   block = p;
   block_bytes = bytes;
   rows.resize(nmax);
+  rowlen.resize(nmax, 0);
   auto *base = static_cast<double *>(block);
   for (int i = 0; i < nmax; i++) rows[i] = base + (size_t) i * ncols;
   atom->darray[index] = rows.data();
@@ -95,7 +96,7 @@ void FixLazyStore::grow_arrays(int nmax)
 
 void FixLazyStore::copy_arrays(int i, int j, int /*delflag*/)
 {
-  if (i != j) put_row(rows[j], rows[i], extent(rows[i]));
+  if (i != j) put_row(j, rows[i], length(i));
 }
 
 /* ----------------------------------------------------------------------
@@ -116,15 +117,35 @@ size_t FixLazyStore::extent(const double *row) const
 }
 
 /* ----------------------------------------------------------------------
-   dest becomes the n values of src followed by zeros, bit for bit, writing only where dest
+   zeros over n values from p: whole pages given back to the kernel (they read as zeros and
+   cost no memory until written again), the rest written
+------------------------------------------------------------------------- */
+
+static void zero_values(double *p, size_t n)
+{
+  const uintptr_t page = 4096;
+  const uintptr_t a = (uintptr_t) p, b = (uintptr_t) (p + n);
+  const uintptr_t lo = (a + page - 1) / page * page, hi = b / page * page;
+  if (hi > lo && madvise((void *) lo, hi - lo, MADV_DONTNEED) == 0) {
+    std::memset(p, 0, lo - a);
+    std::memset((void *) hi, 0, b - hi);
+  } else {
+    std::memset(p, 0, sizeof(double) * n);
+  }
+}
+
+/* ----------------------------------------------------------------------
+   row j becomes the n values of src followed by zeros, bit for bit, writing only where it
    has (or gets) a value: pages of a row beyond both extents stay untouched (no memory)
 ------------------------------------------------------------------------- */
 
-void FixLazyStore::put_row(double *dest, const double *src, size_t n)
+void FixLazyStore::put_row(int j, const double *src, size_t n)
 {
-  const size_t old = extent(dest);
+  double *dest = rows[j];
+  const size_t old = length(j);
   if (n) std::memmove(dest, src, sizeof(double) * n);
-  if (old > n) std::memset(dest + n, 0, sizeof(double) * (old - n));
+  if (old > n) zero_values(dest + n, old - n);
+  rowlen[j] = n;
 }
 
 /* ----------------------------------------------------------------------
@@ -137,7 +158,7 @@ int FixLazyStore::pack_border(int n, int *list, double *buf)
   int m = 0;
   for (int k = 0; k < n; k++) {
     const double *row = rows[list[k]];
-    const size_t len = extent(row);
+    const size_t len = length(list[k]);
     buf[m++] = (double) len;
     std::memcpy(buf + m, row, sizeof(double) * len);
     m += (int) len;
@@ -152,7 +173,7 @@ int FixLazyStore::unpack_border(int n, int first, double *buf)
   int m = 0;
   for (int k = 0; k < n; k++) {
     const size_t len = (size_t) buf[m++];
-    put_row(rows[first + k], buf + m, len);
+    put_row(first + k, buf + m, len);
     m += (int) len;
   }
   return m;
@@ -162,9 +183,12 @@ int FixLazyStore::unpack_border(int n, int first, double *buf)
 
 int FixLazyStore::pack_exchange(int i, double *buf)
 {
-  const size_t len = extent(rows[i]);
+  size_t len = length(i);
+  if (owner)
+    len = owner->compose(i, rows[i], len, buf + 1);
+  else
+    std::memcpy(buf + 1, rows[i], sizeof(double) * len);
   buf[0] = (double) len;
-  std::memcpy(buf + 1, rows[i], sizeof(double) * len);
   return (int) len + 1;
 }
 
@@ -173,7 +197,7 @@ int FixLazyStore::pack_exchange(int i, double *buf)
 int FixLazyStore::unpack_exchange(int nlocal, double *buf)
 {
   const size_t len = (size_t) buf[0];
-  put_row(rows[nlocal], buf + 1, len);
+  put_row(nlocal, buf + 1, len);
   return (int) len + 1;
 }
 
@@ -184,7 +208,12 @@ int FixLazyStore::unpack_exchange(int nlocal, double *buf)
 int FixLazyStore::pack_restart(int i, double *buf)
 {
   buf[0] = ncols + 1;
-  std::memcpy(buf + 1, rows[i], sizeof(double) * ncols);
+  if (owner) {
+    const size_t len = owner->compose(i, rows[i], length(i), buf + 1);
+    std::memset(buf + 1 + len, 0, sizeof(double) * (ncols - len));
+  } else {
+    std::memcpy(buf + 1, rows[i], sizeof(double) * ncols);
+  }
   return ncols + 1;
 }
 
@@ -195,7 +224,7 @@ void FixLazyStore::unpack_restart(int nlocal, int nth)
   double **extra = atom->extra;
   int m = 0;    // skip the values of the fixes before this one
   for (int k = 0; k < nth; k++) m += static_cast<int>(extra[nlocal][m]);
-  put_row(rows[nlocal], &extra[nlocal][m + 1], extent(&extra[nlocal][m + 1]));
+  put_row(nlocal, &extra[nlocal][m + 1], extent(&extra[nlocal][m + 1]));
 }
 
 /* ---------------------------------------------------------------------- */

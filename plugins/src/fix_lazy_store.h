@@ -26,6 +26,21 @@ namespace LAMMPS_NS {
 
 class FixLazyStore : public Fix {
  public:
+  // The owner of a store may keep the values of the atoms a rank holds in a copy of its own
+  // (bond_style bcm/griffith: its working copy, the only live one). The rows then hold only
+  // what arrived with atoms (exchange, restart file) until the owner takes it, and what the
+  // owner hands back (set()); whenever a row leaves (exchange, restart file) the owner
+  // composes it. Rows untouched cost no memory.
+  class Owner {
+   public:
+    // atom i's row into out[0 .. NCOLS), from the owner's copy and the stored row (its first
+    // n values; zeros after them): returns its length, the values after it zero and unwritten
+    virtual size_t compose(int i, const double *stored, size_t n, double *out) = 0;
+
+   protected:
+    ~Owner() = default;    // not deleted through this interface
+  };
+
   FixLazyStore(class LAMMPS *, int, char **);
   ~FixLazyStore() override;
 
@@ -43,11 +58,25 @@ class FixLazyStore : public Fix {
   int size_restart(int) override;
   int maxsize_restart() override;
 
+  // the owner (nullptr: none, the rows are the values, as for fix property/atom)
+  void set_owner(Owner *o) { owner = o; }
+  Owner *get_owner() const { return owner; }
+  int columns() const { return ncols; }
+  // with an owner: the length of atom i's row (its values after it are zero)
+  size_t length(int i) const { return owner ? rowlen[i] : extent(rows[i]); }
+  const double *row(int i) const { return rows[i]; }
+  // atom i's row becomes src[0 .. n) then zeros; whole pages emptied are given back
+  void set(int i, const double *src, size_t n) { put_row(i, src, n); }
+
  private:
   // a row's length up to its last value that is not +0.0; a row set to n values then zeros,
   // writing nothing beyond what either extent covers (untouched pages cost no memory)
   size_t extent(const double *row) const;
-  void put_row(double *dest, const double *src, size_t n);
+  void put_row(int j, const double *src, size_t n);
+  Owner *owner = nullptr;
+  // per row, its length as this fix wrote it (exact while the rows are written only through
+  // this fix: with an owner)
+  std::vector<size_t> rowlen;
   std::string name;
   int ncols;
   int index;                    // into atom->darray
