@@ -128,10 +128,12 @@ inline void rotate_about_body_axis(V hh, const V *in, V *q, V *lb)
   q[1 + b] = c2 * vb - s2 * va;
 }
 
-void free_rotors4(const int *batch, double **quat, double **inertia, double **angmom,
-                  double **omega, double quarter, double whole)
+// four cells' orientations, inertia and angular momenta in the lanes; R(q) and the body-frame
+// angular momentum lb = R^T L
+inline void gather_body(const int *batch, double **quat, double **inertia, double **angmom, V *q,
+                        V *in, V *lb, V R[3][3])
 {
-  V q[4], in[3], L[3], lb[3], R[3][3];
+  V L[3];
   for (int c = 0; c < 4; c++) {
     const int i = batch[c];
     for (int k = 0; k < 4; k++) q[k][c] = quat[i][k];
@@ -142,6 +144,13 @@ void free_rotors4(const int *batch, double **quat, double **inertia, double **an
   }
   quat_to_mat(q, R);
   for (int k = 0; k < 3; k++) lb[k] = R[0][k] * L[0] + R[1][k] * L[1] + R[2][k] * L[2];
+}
+
+void free_rotors4(const int *batch, double **quat, double **inertia, double **angmom,
+                  double **omega, double quarter, double whole)
+{
+  V q[4], in[3], lb[3], R[3][3];
+  gather_body(batch, quat, inertia, angmom, q, in, lb, R);
   const V hq = {quarter, quarter, quarter, quarter}, hw = {whole, whole, whole, whole};
   rotate_about_body_axis<2>(hq, in, q, lb);
   rotate_about_body_axis<1>(hq, in, q, lb);
@@ -165,17 +174,8 @@ void free_rotors4(const int *batch, double **quat, double **inertia, double **an
 // omega = R I^-1 R^T L of four cells, as omega_of()
 void omegas4(const int *batch, double **quat, double **inertia, double **angmom, double **omega)
 {
-  V q[4], in[3], L[3], lb[3], R[3][3];
-  for (int c = 0; c < 4; c++) {
-    const int i = batch[c];
-    for (int k = 0; k < 4; k++) q[k][c] = quat[i][k];
-    for (int k = 0; k < 3; k++) {
-      in[k][c] = inertia[i][k];
-      L[k][c] = angmom[i][k];
-    }
-  }
-  quat_to_mat(q, R);
-  for (int k = 0; k < 3; k++) lb[k] = R[0][k] * L[0] + R[1][k] * L[1] + R[2][k] * L[2];
+  V q[4], in[3], lb[3], R[3][3];
+  gather_body(batch, quat, inertia, angmom, q, in, lb, R);
   for (int k = 0; k < 3; k++) lb[k] /= in[k];
   V om[3];
   for (int k = 0; k < 3; k++) om[k] = R[k][0] * lb[0] + R[k][1] * lb[1] + R[k][2] * lb[2];
