@@ -708,11 +708,14 @@ def erode(cell: Cell, r_m: float) -> Cell:
         if radius <= 0.0:
             raise ValueError(f"r_m = {r_m} is not below the cell's inradius")
     # A face that nearly vanishes in the erosion can leave vertices closer than the merge
-    # tolerance allows the faces to agree on; merge more coarsely (at most 1e-4 of the cell's
-    # size, far below r_m's effect) until every edge is shared by exactly two faces.
+    # tolerance allows the faces to agree on, or drop out as too small and leave a vertex on
+    # two edges only (two vertices 1e-5 of the cell's size apart, found in a bed's grain eroded
+    # at its own scale; pair bcm/contact refuses such a cell); merge more coarsely (at most 1e-4
+    # of the cell's size, far below r_m's effect) until every edge is shared by exactly two
+    # faces and every vertex is on three edges or more.
     for rel_tol in (1e-9, 1e-7, 1e-5, 1e-4):
         verts, faces, planes = halfspace_polyhedron(cell.normals, offsets, interior, rel_tol=rel_tol)
-        if _is_closed(faces):
+        if _is_closed(faces) and _every_vertex_on_three_edges(faces):
             break
     else:
         raise ValueError(f"eroding a cell by r_m = {r_m} gives an inconsistent polyhedron")
@@ -721,6 +724,17 @@ def erode(cell: Cell, r_m: float) -> Cell:
     return Cell(vertices=verts, faces=faces, normals=cell.normals[planes], offsets=offsets[planes],
                 neighbors=cell.neighbors[planes], volume=vol, centroid=cen, inertia=inertia,
                 principal_moments=moments, principal_axes=axes, quaternion=rotation_to_quaternion(axes))
+
+
+def _every_vertex_on_three_edges(faces: list[np.ndarray]) -> bool:
+    """Every vertex of the face loops has at least three distinct neighbours (a vertex on two
+    edges only lies on an edge: a face met there was lost)."""
+    nbr: dict[int, set[int]] = {}
+    for f in faces:
+        for a, b in zip(f, np.roll(f, -1)):
+            nbr.setdefault(int(a), set()).add(int(b))
+            nbr.setdefault(int(b), set()).add(int(a))
+    return all(len(n) >= 3 for n in nbr.values())
 
 
 def _is_closed(faces: list[np.ndarray]) -> bool:
