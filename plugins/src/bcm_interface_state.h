@@ -49,27 +49,62 @@ constexpr int NPOINT = 3 + NCONTACT;    // doubles per point in a slot
 // pair is the pair style's)
 constexpr double INTACT = 0.0, BROKEN = 1.0, RETIRED = 2.0;
 
-// record of a bondlist entry in the working copy: these constants, the slot's header, the
-// damping forces and the geometry (normal in cell 1's frame, then the anchors b1, b2), the
-// per-point values as rows over the points padded to a multiple of LANES (x row, y row, z row:
-// the layout of the 4-lane force kernel, bcm_interface_kernel.h; padding is never summed):
-//   NCONST | NHEAD | fd: 3 P | normal: 3 | b1: 3 P | b2: 3 P
+// record of a bondlist entry in the working copy: these constants, the fields of the slot's
+// header that every interface reads and writes (below), the damping forces and the geometry
+// (normal in cell 1's frame, then the anchors b1, b2), the per-point values as rows over the
+// points padded to a multiple of LANES (x row, y row, z row: the layout of the 4-lane force
+// kernel, bcm_interface_kernel.h; padding is never summed):
+//   NCONST | NRHEAD | fd: 3 P | normal: 3 | b1: 3 P | b2: 3 P
 enum {
   K_AREA,    // S
   K_KP,      // k_n / N_p
   K_KTP,     // k_t / N_p
   K_CP,      // 2 alpha sqrt(k_n m) / N_p
-  K_KC,      // contact k_n / N_p
-  K_KTC,     // contact k_t / N_p
-  K_CC,      // contact 2 alpha_c sqrt(k_n,c m) / N_p
   NCONST
 };
+// the record's header: the slot header's fields of every interface
+enum { RH_BROKEN, RH_E_EL, RH_W_DAMP, RH_LAST_KIND, RH_LAST_DT, RH_PD, NRHEAD };
+constexpr int RECORD_HEAD[NRHEAD] = {H_BROKEN, H_E_EL, H_W_DAMP, H_LAST_KIND, H_LAST_DT, H_PD};
+// the contact block of a broken (or retired) interface, apart from the records: the contact
+// law's constants, the slot header's fields that only a broken interface writes (zeros while
+// intact), then NCONTACT per point:
+//   NBHEAD | contact state: NCONTACT N_p
+enum {
+  B_KC,      // contact k_n / N_p
+  B_KTC,     // contact k_t / N_p
+  B_CC,      // contact 2 alpha_c sqrt(k_n,c m) / N_p
+  B_HEAD,    // the broken-only header fields, BROKEN_HEAD's order
+  NBHEAD = B_HEAD + 9
+};
+constexpr int NBROKEN_HEAD = NBHEAD - B_HEAD;
+constexpr int BROKEN_HEAD[NBROKEN_HEAD] = {H_BREAK_STEP, H_BREAK_TIME, H_E_BREAK, H_W_FRIC,
+                                           H_W_SWITCH, H_W_DAMP_BREAK, H_SLIP, H_NCLOSED,
+                                           H_FN};
+// a broken-only field's place in the contact block
+constexpr int B_BREAK_STEP = B_HEAD, B_BREAK_TIME = B_HEAD + 1, B_E_BREAK = B_HEAD + 2,
+              B_W_FRIC = B_HEAD + 3, B_W_SWITCH = B_HEAD + 4, B_W_DAMP_BREAK = B_HEAD + 5,
+              B_SLIP = B_HEAD + 6, B_NCLOSED = B_HEAD + 7, B_FN = B_HEAD + 8;
+inline long contact_size(int npts) { return NBHEAD + (long) NCONTACT * npts; }
 constexpr int LANES = 4;
 inline int padded(int npts) { return (npts + LANES - 1) / LANES * LANES; }
-constexpr int R_SLOT = NCONST;            // the slot header
-constexpr int R_FD = NCONST + NHEAD;      // damping forces, 3 rows of P
+constexpr int R_HEAD = NCONST;            // the record's header
+constexpr int R_FD = NCONST + NRHEAD;     // damping forces, 3 rows of P
 inline long record_geometry(int npts) { return R_FD + 3L * padded(npts); }    // normal, b1, b2
 inline long record_size(int npts) { return record_geometry(npts) + 3 + 6L * padded(npts); }
+
+// the slot header (NHEAD) from a record and its contact block (nullptr while intact: zeros)
+inline void compose_head(const double *rec, const double *cb, double *head)
+{
+  for (int h = 0; h < NRHEAD; h++) head[RECORD_HEAD[h]] = rec[R_HEAD + h];
+  for (int h = 0; h < NBROKEN_HEAD; h++) head[BROKEN_HEAD[h]] = cb ? cb[B_HEAD + h] : 0.0;
+}
+// a slot header into a record and its contact block (nullptr while intact: not kept)
+inline void split_head(const double *head, double *rec, double *cb)
+{
+  for (int h = 0; h < NRHEAD; h++) rec[R_HEAD + h] = head[RECORD_HEAD[h]];
+  if (cb)
+    for (int h = 0; h < NBROKEN_HEAD; h++) cb[B_HEAD + h] = head[BROKEN_HEAD[h]];
+}
 
 // what the last force evaluation was: it decides which half kicks used its damping force
 enum EvalKind { EVAL_NONE = 0, EVAL_SETUP = 1, EVAL_STEP = 2 };

@@ -472,7 +472,7 @@ void BondBcmGriffith::rebuild_cache()
         const int np = e.npts, P = padded(np);
         const double *rec = &records[e.roff];
         double *out = &saved[soff[o]];
-        std::copy(rec + R_SLOT, rec + R_SLOT + NHEAD, out);
+        compose_head(rec, e.coff >= 0 ? &old_contact[e.coff] : nullptr, out);
         for (int k = 0; k < np; k++)
           for (int c = 0; c < 3; c++) out[NHEAD + 3 * k + c] = rec[R_FD + c * P + k];
         if (old_of[e.iface] < 0) old_of[e.iface] = (int) o;
@@ -517,7 +517,7 @@ void BondBcmGriffith::rebuild_cache()
       // contact state only for an interface that is broken already (one that breaks during
       // the run gets its block then: break_interface())
       e.coff = broken ? ncontact : -1;
-      if (broken) ncontact += NCONTACT * e.npts;
+      if (broken) ncontact += contact_size(e.npts);
     }
 
     records.assign(nrec, 0.0);    // padding lanes zero
@@ -535,7 +535,7 @@ void BondBcmGriffith::rebuild_cache()
       if (source[n] >= 0) {
         st = &saved[soff[source[n]]];
         const long oc = old[source[n]].coff;
-        if (oc >= 0) cst = &old_contact[oc];
+        if (oc >= 0) cst = &old_contact[oc + NBHEAD];
       } else if (source[n] == -2) {
         const int i1 = (bondlist[n][0] < nlocal) ? bondlist[n][0] : bondlist[n][1];
         const int i2 = i1 == e.c1 ? e.c2 : e.c1;
@@ -550,11 +550,11 @@ void BondBcmGriffith::rebuild_cache()
         if (e.coff >= 0) cst = st + NHEAD + 3 * np;
       }
       if (st) {
-        std::copy(st, st + NHEAD, rec + R_SLOT);
+        split_head(st, rec, e.coff >= 0 ? &contact[e.coff] : nullptr);
         for (int k = 0; k < np; k++)
           for (int c = 0; c < 3; c++) rec[R_FD + c * P + k] = st[NHEAD + 3 * k + c];
       }
-      if (e.coff >= 0 && cst) std::copy(cst, cst + NCONTACT * np, &contact[e.coff]);
+      if (e.coff >= 0 && cst) std::copy(cst, cst + NCONTACT * np, &contact[e.coff + NBHEAD]);
       // geometry: normal in cell 1's frame, then the rows of b1 and of b2
       const double *g = table.body_of(itf);
       double *out = rec + record_geometry(np);
@@ -586,7 +586,7 @@ void BondBcmGriffith::rebuild_cache()
         const double *st = &saved[soff[o]];
         std::copy(st, st + NHEAD + 3 * np, row.begin() + off);
         if (e.coff >= 0)
-          std::copy(&old_contact[e.coff], &old_contact[e.coff] + NCONTACT * np,
+          std::copy(&old_contact[e.coff + NBHEAD], &old_contact[e.coff + NBHEAD] + NCONTACT * np,
                     row.begin() + off + NHEAD + 3 * np);
         size_t len = row.size();
         while (len > 0 && row[len - 1] == 0.0 && !std::signbit(row[len - 1])) len--;
@@ -656,11 +656,12 @@ void BondBcmGriffith::slot_from_entry(const Entry &e, double *dest) const
 {
   const int np = e.npts, P = padded(np);
   const double *rec = &records[e.roff];
-  std::copy(rec + R_SLOT, rec + R_SLOT + NHEAD, dest);
+  compose_head(rec, e.coff >= 0 ? &contact[e.coff] : nullptr, dest);
   for (int k = 0; k < np; k++)
     for (int c = 0; c < 3; c++) dest[NHEAD + 3 * k + c] = rec[R_FD + c * P + k];
   if (e.coff >= 0)
-    std::copy(&contact[e.coff], &contact[e.coff] + NCONTACT * np, dest + NHEAD + 3 * np);
+    std::copy(&contact[e.coff + NBHEAD], &contact[e.coff + NBHEAD] + NCONTACT * np,
+              dest + NHEAD + 3 * np);
   else
     std::fill(dest + NHEAD + 3 * np, dest + NHEAD + NPOINT * np, 0.0);
 }
@@ -696,7 +697,7 @@ size_t BondBcmGriffith::compose(int i, const double *stored, size_t n, double *o
    (SPEC 1.2: the whole-interface stiffness and damping shared by N_p points)
 ------------------------------------------------------------------------- */
 
-void BondBcmGriffith::set_constants(const Entry &e, int type, double *rec) const
+void BondBcmGriffith::set_constants(const Entry &e, int type, double *rec)
 {
   if (type <= 0) return;
   const int np = e.npts;
@@ -708,17 +709,32 @@ void BondBcmGriffith::set_constants(const Entry &e, int type, double *rec) const
   rec[K_KP] = f * kn[type] / np;
   rec[K_KTP] = f * kt[type] / np;
   rec[K_CP] = 2.0 * alpha[type] * std::sqrt(f * kn[type] * mred) / np;
+  if (e.coff >= 0) set_contact_constants(e, type, rec, &contact[e.coff]);
+}
+
+/* ----------------------------------------------------------------------
+   the contact law's per-point constants of a broken interface's entry, into
+   its contact block cb (rec: its record, constants set)
+------------------------------------------------------------------------- */
+
+void BondBcmGriffith::set_contact_constants(const Entry &e, int type, const double *rec,
+                                            double *cb) const
+{
+  if (type <= 0) return;
+  const int np = e.npts;
+  const double m1 = atom->rmass[e.c1], m2 = atom->rmass[e.c2];
+  const double mred = m1 * m2 / (m1 + m2);
   // broken interface, closed points: the contact's k_n,c / N_p, k_t,c / N_p (SPEC 1.2, the
   // frictional-contact parameters), or the intact interface's own k_p, k_tp (a closed crack
   // as stiff as the material it cut: the switch then keeps forces and energy)
   const bool own = broken_stiffness == INTERFACE;
-  rec[K_KC] = own ? rec[K_KP] : kn_c[type] / np;
-  rec[K_KTC] = own ? rec[K_KTP] : kt_c[type] / np;
+  cb[B_KC] = own ? rec[K_KP] : kn_c[type] / np;
+  cb[B_KTC] = own ? rec[K_KTP] : kt_c[type] / np;
   // their damping (SPEC 1.2 Eq. 1): the point's stiffness and the pair's reduced mass shared
   // by the N_p points, with the contact's e_n or the interface's (with broken_stiffness
   // interface and broken_damping interface the closed point's dashpot is the intact one, c_p)
   const double a = broken_damping == INTERFACE ? alpha[type] : alpha_c[type];
-  rec[K_CC] = BcmContactLaw::damping(a, rec[K_KC], mred, np);
+  cb[B_CC] = BcmContactLaw::damping(a, cb[B_KC], mred, np);
 }
 
 /* ----------------------------------------------------------------------
@@ -769,8 +785,8 @@ void BondBcmGriffith::compute(int eflag, int vflag)
       set_constants(e, type, rec);
       e.type = type;
     }
-    double *slot = rec + R_SLOT;    // working copy of the slot header
-    if (slot[H_BROKEN] == RETIRED) {    // for good: the pair style's now
+    double *head = rec + R_HEAD;    // the record's header (every interface's fields)
+    if (head[RH_BROKEN] == RETIRED) {    // for good: the pair style's now
       quiet_cert[nb].left = -1.0f;
       continue;
     }
@@ -785,7 +801,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     Result r;
     bool just_broke = false, quiet_broken = false;
     double e_before = 0.0;
-    if (slot[H_BROKEN] == INTACT) {
+    if (head[RH_BROKEN] == INTACT) {
       // SPEC 1.2 Eq. 1, 3: per point k_n / N_p, k_t / N_p and the dashpot 2 alpha sqrt(k_n m)
       // / N_p on the relative velocity; the energy of the springs in tension that the
       // Griffith criterion reads (Eq. 5)
@@ -826,23 +842,23 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     // damping work of the previous evaluation, now that the velocity after its kicks is
     // known: nkicks (h/4) F_d . (dv_then + dv_now), the exact work of a force held over half
     // kicks in velocity Verlet (translation; second order with rotation)
-    const int last = (int) slot[H_LAST_KIND];
+    const int last = (int) head[RH_LAST_KIND];
     const int nkicks = (last != EVAL_NONE && now.kind != EVAL_NONE)
         ? (last == EVAL_STEP) + (now.kind == EVAL_STEP)
         : 0;
-    if (nkicks) slot[H_W_DAMP] += 0.25 * nkicks * slot[H_LAST_DT] * (slot[H_PD] - fd_dv);
-    if (just_broke) slot[H_W_DAMP_BREAK] = slot[H_W_DAMP];
+    if (nkicks) head[RH_W_DAMP] += 0.25 * nkicks * head[RH_LAST_DT] * (head[RH_PD] - fd_dv);
+    if (just_broke) contact[e.coff + B_W_DAMP_BREAK] = head[RH_W_DAMP];
 
     if (quiet_broken)
-      slot[H_NCLOSED] = slot[H_FN] = 0.0;
-    else if (slot[H_BROKEN] != INTACT)
+      contact[e.coff + B_NCLOSED] = contact[e.coff + B_FN] = 0.0;
+    else if (head[RH_BROKEN] != INTACT)
       contact_forces(e, type, rec, p, pts, just_broke, e_before, now, r);
 
-    if (slot[H_BROKEN] != INTACT) nbroken++;
-    slot[H_PD] = r.pd;
-    slot[H_E_EL] = r.stored;
-    slot[H_LAST_KIND] = now.kind;
-    slot[H_LAST_DT] = now.dt;
+    if (head[RH_BROKEN] != INTACT) nbroken++;
+    head[RH_PD] = r.pd;
+    head[RH_E_EL] = r.stored;
+    head[RH_LAST_KIND] = now.kind;
+    head[RH_LAST_DT] = now.dt;
     // a quiet interface's load is zero: adding it changes no force, torque, energy or virial
     if (!quiet_broken) apply(e, p, r);
   }
@@ -866,7 +882,7 @@ bool BondBcmGriffith::quiet(const Entry &e, const double *rec, const Pair &p, co
   if (dot(p.d12, p.d12) >= rsum * rsum) return false;    // retiring: contact_forces()
   const int np = e.npts, P = padded(np);
   const double *fd = rec + R_FD;
-  const double *cb = &contact[e.coff];
+  const double *cb = &contact[e.coff + NBHEAD];    // the points' contact state
   for (int k = 0; k < np; k++)
     if (cb[NCONTACT * k + C_TOUCH] != 0.0 || fd[k] != 0.0 || fd[P + k] != 0.0 ||
         fd[2 * P + k] != 0.0)
@@ -1016,28 +1032,28 @@ void BondBcmGriffith::interface_points(const Pair &p, const double *g, int np, P
 void BondBcmGriffith::break_interface(Entry &e, double *rec, const Pair &p,
                                       const Point *pts, double stored, const Clock &now)
 {
-  double *slot = rec + R_SLOT;
-  slot[H_BROKEN] = BROKEN;
-  slot[H_BREAK_STEP] = (double) now.step;
-  slot[H_BREAK_TIME] = now.time;
-  slot[H_E_BREAK] = stored;
+  if (e.coff < 0) {    // its contact block from now on, zeros as in the store
+    e.coff = (long) contact.size();
+    contact.resize(contact.size() + (size_t) contact_size(e.npts), 0.0);
+  }
+  double *cb = &contact[e.coff];
+  set_contact_constants(e, e.type, rec, cb);
+  rec[R_HEAD + RH_BROKEN] = BROKEN;
+  cb[B_BREAK_STEP] = (double) now.step;
+  cb[B_BREAK_TIME] = now.time;
+  cb[B_E_BREAK] = stored;
   BreakPath::interface(lmp, special, e.c1, e.c2, stored, rec[K_AREA]);    // the event log
 
   const double kp = rec[K_KP], ktp = rec[K_KTP];
-  if (e.coff < 0) {    // its contact state from now on, zeros as in the store
-    e.coff = (long) contact.size();
-    contact.resize(contact.size() + NCONTACT * (size_t) e.npts, 0.0);
-  }
-  double *cb = &contact[e.coff];
   for (int k = 0; k < e.npts; k++) {
     const Point &q = pts[k];
-    double *pt = cb + NCONTACT * k;
+    double *pt = cb + NBHEAD + NCONTACT * k;
     const bool closed = q.dn < 0.0;
-    pt[C_SHIFT] = closed && break_normal == SHIFTED ? q.dn * (1.0 - kp / rec[K_KC]) : 0.0;
+    pt[C_SHIFT] = closed && break_normal == SHIFTED ? q.dn * (1.0 - kp / cb[B_KC]) : 0.0;
     pt[C_TOUCH] = closed ? 1.0 : 0.0;
     double slip[3];
     // slip offset sigma = (1 - kept) dt, so that u_t = dt - sigma = kept dt
-    const double kept = closed && break_shear == CARRIED ? ktp / rec[K_KTC] : 0.0;
+    const double kept = closed && break_shear == CARRIED ? ktp / cb[B_KTC] : 0.0;
     const double keep = 1.0 - kept;
     for (int c = 0; c < 3; c++) slip[c] = keep * q.dt[c];
     BcmRigid::rotate_back(p.R1, slip, pt + C_SLIP);
@@ -1058,22 +1074,21 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
                                      const Clock &now, Result &r)
 {
   r = Result();
-  double *slot = rec + R_SLOT;
+  double *cb = &contact[e.coff];    // contact block: constants, broken-only header, points
   double *fdamp = rec + R_FD;    // rows of P
   const int P = padded(e.npts);
   const double rsum = atom->radius[e.c1] + atom->radius[e.c2];
   // broken_points cells: handed to the pair style at the break (its points never act)
   const bool retiring = (broken_points == CELLS && just_broke) || dot(p.d12, p.d12) >= rsum * rsum;
   const double kp = rec[K_KP], ktp = rec[K_KTP];
-  const BcmInterfaceContact::Constants law{rec[K_KC], rec[K_KTC], rec[K_CC], mu[type]};
+  const BcmInterfaceContact::Constants law{cb[B_KC], cb[B_KTC], cb[B_CC], mu[type]};
   double fric = 0.0, unpaid = 0.0, held = 0.0, slip = 0.0, fn = 0.0;
   int nclosed = 0;
-  double *cb = &contact[e.coff];
   for (int k = 0; k < e.npts; k++) {
     const Point &q = pts[k];
     double fd[3], F[3];
     const BcmInterfaceContact::Energy ce =
-        BcmInterfaceContact::point(law, p, q, cb + NCONTACT * k, fd, F);
+        BcmInterfaceContact::point(law, p, q, cb + NBHEAD + NCONTACT * k, fd, F);
     for (int c = 0; c < 3; c++) fdamp[c * P + k] = fd[c];
     fric += ce.fric;
     slip += ce.slip;
@@ -1097,14 +1112,14 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
   // last increment only for the half kick before the break, (h/2) (F_contact -
   // F_intact) . dv short, which is taken off so that the energy balance closes to O(h^2)
   if (just_broke)
-    slot[H_W_SWITCH] += e_before - r.stored - 2.0 * rec[K_AREA] * gc[type] -
+    cb[B_W_SWITCH] += e_before - r.stored - 2.0 * rec[K_AREA] * gc[type] -
         (now.kind == EVAL_STEP ? 0.5 * now.dt * unpaid : 0.0);
   else {
-    slot[H_W_FRIC] += fric;
-    slot[H_SLIP] += slip;
+    cb[B_W_FRIC] += fric;
+    cb[B_SLIP] += slip;
   }
-  slot[H_NCLOSED] = nclosed;
-  slot[H_FN] = fn;
+  cb[B_NCLOSED] = nclosed;
+  cb[B_FN] = fn;
 
   if (retiring) retire(e, rec, held, now, r);
 }
@@ -1137,19 +1152,18 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
 void BondBcmGriffith::retire(const Entry &e, double *rec, double held, const Clock &now,
                              Result &r)
 {
-  double *slot = rec + R_SLOT;
+  double *cb = &contact[e.coff];
   // the same switch, from the contact springs to nothing: lost, what they store now and the
   // half kick of their elastic force, (h/2) F_el . dv, that the bodies will not get (the
   // damping force is dropped with its work: it never kicks)
-  slot[H_W_SWITCH] += r.stored + (now.kind == EVAL_STEP ? 0.5 * now.dt * held : 0.0);
-  slot[H_BROKEN] = RETIRED;
-  slot[H_NCLOSED] = slot[H_FN] = 0.0;
+  cb[B_W_SWITCH] += r.stored + (now.kind == EVAL_STEP ? 0.5 * now.dt * held : 0.0);
+  rec[R_HEAD + RH_BROKEN] = RETIRED;
+  cb[B_NCLOSED] = cb[B_FN] = 0.0;
   r = Result();
-  double *cb = &contact[e.coff];
   double *fdamp = rec + R_FD;
   const int P = padded(e.npts);
   for (int k = 0; k < e.npts; k++) {
-    double *pt = cb + NCONTACT * k;
+    double *pt = cb + NBHEAD + NCONTACT * k;
     pt[C_TOUCH] = pt[C_FT] = 0.0;
     for (int c = 0; c < 3; c++) fdamp[c * P + k] = 0.0;
   }
@@ -1215,7 +1229,11 @@ const double *BondBcmGriffith::header_of(int i, int m, double *scratch) const
 {
   const int k = table.find(atom->tag[i], atom->bond_atom[i][m]);
   const int n = (have_state && k >= 0) ? entry_of_iface[k] : -1;
-  if (n >= 0) return &records[cache[n].roff] + R_SLOT;
+  if (n >= 0) {
+    const Entry &e = cache[n];
+    compose_head(&records[e.roff], e.coff >= 0 ? &contact[e.coff] : nullptr, scratch);
+    return scratch;
+  }
   if (store_fix)
     row_slot(i, slot_offset(i, m), NHEAD, scratch);
   else
@@ -1318,8 +1336,10 @@ void BondBcmGriffith::tally(double *sums)
       const double *slot;
       double area;
       if (n >= 0) {
-        const double *rec = &records[cache[n].roff];
-        slot = rec + R_SLOT;
+        const Entry &e = cache[n];
+        const double *rec = &records[e.roff];
+        compose_head(rec, e.coff >= 0 ? &contact[e.coff] : nullptr, scratch);
+        slot = scratch;
         area = rec[K_AREA];
       } else {
         const int ii = table.find(tag[i], partner);

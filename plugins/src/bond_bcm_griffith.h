@@ -62,7 +62,9 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds, public FixLazy
     int npts;
     int iface;         // in the interface table
     long roff;         // into records
-    long coff;         // into contact: NCONTACT doubles per point; -1 while intact
+    long coff;         // into contact: its block (BcmInterfaceState::contact_size(npts):
+                       // contact constants, broken-only header, NCONTACT per point); -1
+                       // while intact
   };
   // the working copy of a style that is replaced (bond_style given again), kept by fix
   // bcm/griffith for the next one: it holds the only live copy of the state
@@ -178,7 +180,8 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds, public FixLazy
   void allocate();
   void adopt();
   void rebuild_cache();
-  void set_constants(const Entry &e, int type, double *rec) const;
+  void set_constants(const Entry &e, int type, double *rec);
+  void set_contact_constants(const Entry &e, int type, const double *rec, double *cb) const;
   const double *slot_of(int i, int j, double *scratch) const;
   long slot_offset(int i, int m) const;
   void interface_points(const Pair &p, const double *g, int np, Point *pts);
