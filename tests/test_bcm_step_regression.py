@@ -103,8 +103,8 @@ def load_reference() -> tuple[pd.DataFrame, str]:
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory, plugin_path):
-    if not (REFERENCE / "records.dat.gz").exists():
-        pytest.skip("no reference data (python tests/test_bcm_step_regression.py --write)")
+    # the reference is part of the repository: its absence is a failure, not a skip
+    assert (REFERENCE / "records.dat.gz").exists(), "no reference data (python tests/test_bcm_step_regression.py --write)"
     return run_records(tmp_path_factory.mktemp("step")), load_reference()
 
 
@@ -112,8 +112,8 @@ def runs(tmp_path_factory, plugin_path):
 def runs_without_avx(tmp_path_factory, plugin_path):
     """The same run with the styles' baseline loops (BRITTLE_NO_AVX=1, read when a style is
     created: the run is in this process)."""
-    if not (REFERENCE / "records.dat.gz").exists():
-        pytest.skip("no reference data (python tests/test_bcm_step_regression.py --write)")
+    # the reference is part of the repository: its absence is a failure, not a skip
+    assert (REFERENCE / "records.dat.gz").exists(), "no reference data (python tests/test_bcm_step_regression.py --write)"
     import os  # noqa: PLC0415
 
     before = os.environ.get("BRITTLE_NO_AVX")

@@ -480,9 +480,11 @@ void BondBcmGriffith::rebuild_cache()
     }
     std::vector<char> used(old.size(), 0);
 
-    // where each new entry's state is: an entry before (>= 0), a row (-2), none (-1)
+    // where each new entry's state is: an entry before (>= 0), a row (-2: the atom row_from[n]
+    // at row_off[n]), none (-1)
     cache.swap(fresh);
-    std::vector<int> source(nbondlist, -1);
+    std::vector<int> source(nbondlist, -1), row_from(nbondlist, -1);
+    std::vector<long> row_off(nbondlist, 0);
     std::vector<double> slotbuf(NHEAD + NPOINT * BcmInterfaceTable::MAX_POINTS);
     long nrec = 0, ncontact = 0;
     for (int n = 0; n < nbondlist; n++) {
@@ -510,6 +512,8 @@ void BondBcmGriffith::rebuild_cache()
         }
         if ((size_t) off < store_fix->length(from)) {
           source[n] = -2;
+          row_from[n] = from;
+          row_off[n] = off;
           row_slot(from, off, NHEAD, slotbuf.data());
           broken = slotbuf[H_BROKEN] != INTACT;
         }
@@ -537,15 +541,7 @@ void BondBcmGriffith::rebuild_cache()
         const long oc = old[source[n]].coff;
         if (oc >= 0) cst = &old_contact[oc + NBHEAD];
       } else if (source[n] == -2) {
-        const int i1 = (bondlist[n][0] < nlocal) ? bondlist[n][0] : bondlist[n][1];
-        const int i2 = i1 == e.c1 ? e.c2 : e.c1;
-        long off = slot_offset(i1, slot1[n]);
-        int from = i1;
-        if ((size_t) off >= store_fix->length(i1)) {
-          from = i2;
-          off = slot_offset(i2, BreakableUtil::bond_slot(atom, i2, tag[i1]));
-        }
-        row_slot(from, off, NHEAD + NPOINT * np, slotbuf.data());
+        row_slot(row_from[n], row_off[n], NHEAD + NPOINT * np, slotbuf.data());
         st = slotbuf.data();
         if (e.coff >= 0) cst = st + NHEAD + 3 * np;
       }
