@@ -11,9 +11,11 @@
    in the same order, and the sums over the points are taken lane by lane in point order,
    so that both copies give the scalar code's results bit for bit.
 
-   Layout (the style's working copy, bcm_interface_state.h): the points are padded to P, a
-   multiple of 4; the damping forces fd and the anchors b1, b2 are rows of P values (x row,
-   y row, z row). Padding lanes are computed and never summed. */
+   Layout (the style's working copy, bcm_interface_state.h): the damping forces fd and the
+   anchors b1, b2 are rows of np values (x row, y row, z row), not padded: W values are read at
+   a time, past a row's end into what follows it (finite values of the working copy, which ends
+   with spare ones); those lanes are computed and never summed, and store_first() writes only
+   a row's own values. */
 
 using BcmInterfaceKinematics::IntactSums;
 using BcmInterfaceKinematics::Pair;
@@ -71,7 +73,7 @@ inline void intact_interface(const Pair &p, double kp, double ktp, double cp, in
     for (int c = 0; c < 3; c++) {
       fdn[c] = mcp * dv[c];
       F[c] = -(kdn * n[c] + ktp_ * dt[c]) + fdn[c];
-      store(fd + c * P + g, fdn[c]);
+      store_first(fd + c * P + g, fdn[c], np - g);
     }
     const V pd = fdn[0] * dv[0] + fdn[1] * dv[1] + fdn[2] * dv[2];
     const V tq[3] = {r2[1] * F[2] - r2[2] * F[1], r2[2] * F[0] - r2[0] * F[2],
@@ -114,7 +116,7 @@ inline void intact_interface(const Pair &p, double kp, double ktp, double cp, in
 }
 
 // the normal gap dn of every point of an interface (as BcmInterfaceKinematics::point() computes
-// it), into dn[0 .. P): the screening of a broken interface's points (all open?)
+// it), into dn[0 .. np rounded up to W): the screening of a broken interface's points (all open?)
 inline void interface_gaps(const Pair &p, int np, int P, const double *b1, const double *b2,
                            double *dn)
 {

@@ -51,10 +51,11 @@ constexpr double INTACT = 0.0, BROKEN = 1.0, RETIRED = 2.0;
 
 // record of a bondlist entry in the working copy: these constants, the fields of the slot's
 // header that every interface reads and writes (below), the damping forces and the geometry
-// (normal in cell 1's frame, then the anchors b1, b2), the per-point values as rows over the
-// points padded to a multiple of LANES (x row, y row, z row: the layout of the 4-lane force
-// kernel, bcm_interface_kernel.h; padding is never summed):
-//   NCONST | NRHEAD | fd: 3 P | normal: 3 | b1: 3 P | b2: 3 P
+// (normal in cell 1's frame, then the anchors b1, b2), the per-point values as rows of N_p
+// values (x row, y row, z row: the layout of the 4-lane force kernel, bcm_interface_kernel.h,
+// which reads 4 at a time past a row's end into what follows it, never sums those lanes and
+// writes only the row's own: the working copy ends with RECORD_TAIL spare values):
+//   NCONST | NRHEAD | fd: 3 N_p | normal: 3 | b1: 3 N_p | b2: 3 N_p
 enum {
   K_AREA,    // S
   K_KP,      // k_n / N_p
@@ -86,11 +87,13 @@ constexpr int B_BREAK_STEP = B_HEAD, B_BREAK_TIME = B_HEAD + 1, B_E_BREAK = B_HE
               B_SLIP = B_HEAD + 6, B_NCLOSED = B_HEAD + 7, B_FN = B_HEAD + 8;
 inline long contact_size(int npts) { return NBHEAD + (long) NCONTACT * npts; }
 constexpr int LANES = 4;
-inline int padded(int npts) { return (npts + LANES - 1) / LANES * LANES; }
+// the values of a row of the record: N_p, not padded (issue 27: 0.9 kB per cell)
+inline int row_stride(int npts) { return npts; }
+constexpr long RECORD_TAIL = LANES - 1;    // what a 4-lane read of the last row goes past
 constexpr int R_HEAD = NCONST;            // the record's header
-constexpr int R_FD = NCONST + NRHEAD;     // damping forces, 3 rows of P
-inline long record_geometry(int npts) { return R_FD + 3L * padded(npts); }    // normal, b1, b2
-inline long record_size(int npts) { return record_geometry(npts) + 3 + 6L * padded(npts); }
+constexpr int R_FD = NCONST + NRHEAD;     // damping forces, 3 rows of N_p
+inline long record_geometry(int npts) { return R_FD + 3L * row_stride(npts); }    // normal, b1, b2
+inline long record_size(int npts) { return record_geometry(npts) + 3 + 6L * row_stride(npts); }
 
 // the slot header (NHEAD) from a record and its contact block (nullptr while intact: zeros)
 inline void compose_head(const double *rec, const double *cb, double *head)

@@ -51,6 +51,7 @@ using V = double;
 constexpr int W = 1;
 inline V load(const double *p) { return *p; }
 inline void store(double *p, V v) { *p = v; }
+inline void store_first(double *p, V v, int /*n >= 1*/) { *p = v; }
 inline V splat(double x) { return x; }
 inline V positive_or_zero(V dn, V en) { return dn > 0.0 ? en : 0.0; }
 #include "bcm_interface_kernel.h"
@@ -72,6 +73,16 @@ inline V load(const double *p)
   return v;
 }
 inline void store(double *p, V v) { __builtin_memcpy(p, &v, sizeof(v)); }
+// the first n lanes only (n < 4: the end of a row that the next row follows)
+inline void store_first(double *p, V v, int n)
+{
+  if (n >= W) {
+    store(p, v);
+    return;
+  }
+  const Mask4 first = Mask4{0, 1, 2, 3} < Mask4{n, n, n, n};
+  __builtin_ia32_maskstorepd256((Lanes4 *) p, first, v);
+}
 inline V splat(double x) { return V{x, x, x, x}; }
 inline V positive_or_zero(V dn, V en) { return select_lt(V{}, dn, en, V{}); }    // dn > 0 ? en : 0
 #include "bcm_interface_kernel.h"
@@ -469,7 +480,7 @@ void BondBcmGriffith::rebuild_cache()
       saved.resize(ns);
       for (size_t o = 0; o < old.size(); o++) {
         const Entry &e = old[o];
-        const int np = e.npts, P = padded(np);
+        const int np = e.npts, P = row_stride(np);
         const double *rec = &records[e.roff];
         double *out = &saved[soff[o]];
         compose_head(rec, e.coff >= 0 ? &old_contact[e.coff] : nullptr, out);
@@ -524,11 +535,11 @@ void BondBcmGriffith::rebuild_cache()
       if (broken) ncontact += contact_size(e.npts);
     }
 
-    records.assign(nrec, 0.0);    // padding lanes zero
+    records.assign(nrec + RECORD_TAIL, 0.0);    // what the kernel reads past the last row
     contact.assign(ncontact, 0.0);
     for (int n = 0; n < nbondlist; n++) {
       const Entry &e = cache[n];
-      const int np = e.npts, P = padded(np);
+      const int np = e.npts, P = row_stride(np);
       const BcmInterfaceTable::Interface &itf = table[e.iface];
       double *rec = &records[e.roff];
       rec[K_AREA] = itf.area;
@@ -650,7 +661,7 @@ void BondBcmGriffith::row_slot(int i, long off, long size, double *out) const
 
 void BondBcmGriffith::slot_from_entry(const Entry &e, double *dest) const
 {
-  const int np = e.npts, P = padded(np);
+  const int np = e.npts, P = row_stride(np);
   const double *rec = &records[e.roff];
   compose_head(rec, e.coff >= 0 ? &contact[e.coff] : nullptr, dest);
   for (int k = 0; k < np; k++)
@@ -786,8 +797,8 @@ void BondBcmGriffith::compute(int eflag, int vflag)
       quiet_cert[nb].left = -1.0f;
       continue;
     }
-    const int np = e.npts, P = padded(np);
-    double *fd = rec + R_FD;    // damping forces of the last evaluation, rows of P
+    const int np = e.npts, P = row_stride(np);
+    double *fd = rec + R_FD;    // damping forces of the last evaluation, rows of np
     const double *g = rec + record_geometry(np);    // normal in cell 1's frame, b1 rows, b2 rows
 
     const Pair p(&cells[CELL_STRIDE * (size_t) e.c1], &cells[CELL_STRIDE * (size_t) e.c2], g);
@@ -876,7 +887,7 @@ bool BondBcmGriffith::quiet(const Entry &e, const double *rec, const Pair &p, co
 {
   const double rsum = atom->radius[e.c1] + atom->radius[e.c2];
   if (dot(p.d12, p.d12) >= rsum * rsum) return false;    // retiring: contact_forces()
-  const int np = e.npts, P = padded(np);
+  const int np = e.npts, P = row_stride(np);
   const double *fd = rec + R_FD;
   const double *cb = &contact[e.coff + NBHEAD];    // the points' contact state
   for (int k = 0; k < np; k++)
@@ -982,7 +993,7 @@ bool BondBcmGriffith::quiet_now(const Entry &e, int nb, const double *rec, const
   qc.left = -1.0f;
   if (!q || !step) return q;
   // the lever arm: the farthest anchor of cell 2 from its centre
-  const int np = e.npts, P = padded(np);
+  const int np = e.npts, P = row_stride(np);
   const double *b2 = g + 3 + 3 * P;
   double arm2 = 0.0;
   for (int k = 0; k < np; k++)
@@ -1000,12 +1011,12 @@ bool BondBcmGriffith::quiet_now(const Entry &e, int nb, const double *rec, const
 }
 
 /* ----------------------------------------------------------------------
-   the points of an interface from its record's geometry (rows of P anchors)
+   the points of an interface from its record's geometry (rows of np anchors)
 ------------------------------------------------------------------------- */
 
 void BondBcmGriffith::interface_points(const Pair &p, const double *g, int np, Point *pts)
 {
-  const int P = padded(np);
+  const int P = row_stride(np);
   for (int k = 0; k < np; k++) {
     const double b1[3] = {g[3 + k], g[3 + P + k], g[3 + 2 * P + k]};
     const double b2[3] = {g[3 + 3 * P + k], g[3 + 4 * P + k], g[3 + 5 * P + k]};
@@ -1071,8 +1082,8 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
 {
   r = Result();
   double *cb = &contact[e.coff];    // contact block: constants, broken-only header, points
-  double *fdamp = rec + R_FD;    // rows of P
-  const int P = padded(e.npts);
+  double *fdamp = rec + R_FD;    // rows of np
+  const int P = row_stride(e.npts);
   const double rsum = atom->radius[e.c1] + atom->radius[e.c2];
   // broken_points cells: handed to the pair style at the break (its points never act)
   const bool retiring = (broken_points == CELLS && just_broke) || dot(p.d12, p.d12) >= rsum * rsum;
@@ -1157,7 +1168,7 @@ void BondBcmGriffith::retire(const Entry &e, double *rec, double held, const Clo
   cb[B_NCLOSED] = cb[B_FN] = 0.0;
   r = Result();
   double *fdamp = rec + R_FD;
-  const int P = padded(e.npts);
+  const int P = row_stride(e.npts);
   for (int k = 0; k < e.npts; k++) {
     double *pt = cb + NBHEAD + NCONTACT * k;
     pt[C_TOUCH] = pt[C_FT] = 0.0;
