@@ -246,7 +246,8 @@ void BcmCells::parse(LAMMPS *lmp, const char *text, std::size_t size)
   const long long ncells = next_int("the number of cells");
   if (ncells < 1) error->all(FLERR, "BCM cells file {}: the number of cells must be >= 1", source);
   cells.reserve(ncells);
-  index_of_tag.reserve(ncells);
+  std::vector<std::pair<tagint, int>> tag_line;    // per cell: its tag and header line
+  tag_line.reserve(ncells);
 
   for (long long ic = 0; ic < ncells; ic++) {
     const int line = tk.done() ? -1 : tk.next_line();
@@ -258,8 +259,7 @@ void BcmCells::parse(LAMMPS *lmp, const char *text, std::size_t size)
                  "BCM cells file {} line {}: bad cell header '{} {} {}' (tag >= 1, "
                  "4 <= NV, NF < {})",
                  source, line, tag, nv, nf, MAX_INDEX);
-    if (!index_of_tag.emplace(static_cast<tagint>(tag), static_cast<int>(cells.size())).second)
-      error->all(FLERR, "BCM cells file {} line {}: cell {} appears twice", source, line, tag);
+    tag_line.emplace_back(static_cast<tagint>(tag), line);
 
     Cell c{};
     c.nv = static_cast<int>(nv);
@@ -293,6 +293,18 @@ void BcmCells::parse(LAMMPS *lmp, const char *text, std::size_t size)
                tk.next_line(), ncells);
   face_first.push_back(static_cast<int>(face_vert.size()));
   adj_first.push_back(static_cast<int>(adj.size()));
+  std::vector<int> order(cells.size());
+  for (int i = 0; i < (int) order.size(); i++) order[i] = i;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return tag_line[a].first < tag_line[b].first; });
+  sorted_tag.resize(order.size());
+  for (size_t k = 0; k < order.size(); k++) {
+    sorted_tag[k] = tag_line[order[k]].first;
+    if (k > 0 && sorted_tag[k] == sorted_tag[k - 1])
+      error->all(FLERR, "BCM cells file {} line {}: cell {} appears twice", source,
+                 tag_line[order[k]].second, sorted_tag[k]);
+  }
+  index_of_sorted = std::move(order);
   // the table is kept for the run: no room left from the vectors' growth
   for (auto *v : {&vert, &plane}) v->shrink_to_fit();
   for (auto *v : {&face_first, &adj_first}) v->shrink_to_fit();
@@ -414,7 +426,8 @@ double BcmCells::memory_usage() const
   return sizeof(double) * (vert.capacity() + plane.capacity()) +
       sizeof(int) * (face_first.capacity() + adj_first.capacity()) +
       sizeof(Index) * (face_vert.capacity() + edge.capacity() + adj.capacity()) +
-      sizeof(Cell) * cells.capacity() + 48.0 * index_of_tag.size();
+      sizeof(Cell) * cells.capacity() + sizeof(tagint) * sorted_tag.capacity() +
+      sizeof(int) * index_of_sorted.capacity();
 }
 
 /* ---------------------------------------------------------------------- */

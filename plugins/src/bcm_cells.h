@@ -14,10 +14,10 @@
 
 #include "lmptype.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 namespace LAMMPS_NS {
@@ -48,7 +48,10 @@ class BcmCells {
   std::vector<int> adj_first;      // per vertex + 1 sentinel: range in adj
   std::vector<Index> adj;          // neighbour vertices of each vertex (along edges)
   std::vector<Cell> cells;
-  std::unordered_map<tagint, int> index_of_tag;
+  // the cells by tag: tags ascending and each one's index into cells (8 bytes per cell, as
+  // the table is replicated on every rank)
+  std::vector<tagint> sorted_tag;
+  std::vector<int> index_of_sorted;
   std::string source;              // file name, for messages
 
   // the table of a cells file, shared with the other styles of this instance that read the
@@ -57,8 +60,9 @@ class BcmCells {
 
   const Cell *find(tagint tag) const
   {
-    auto it = index_of_tag.find(tag);
-    return it == index_of_tag.end() ? nullptr : &cells[it->second];
+    const auto it = std::lower_bound(sorted_tag.begin(), sorted_tag.end(), tag);
+    return (it == sorted_tag.end() || *it != tag) ? nullptr
+                                                  : &cells[index_of_sorted[it - sorted_tag.begin()]];
   }
   double memory_usage() const;
 
