@@ -277,6 +277,15 @@ int PairBcmContact::place(int i)
   return placed[i];
 }
 
+const double *PairBcmContact::place_scratch(int i, int k)
+{
+  const BcmCells::Cell *c = cell(i);
+  std::vector<double> &g = scratch[k];
+  g.resize(3 * c->nv + 4 * c->nf);
+  bcm_place_cell(*table, *c, atom->x[i], atom->darray[iquat][i], g.data(), g.data() + 3 * c->nv);
+  return g.data();
+}
+
 /* ----------------------------------------------------------------------
    separation certificates (see pair_bcm_contact.h and bcm_motion.h)
 ------------------------------------------------------------------------- */
@@ -560,9 +569,20 @@ void PairBcmContact::compute(int eflag, int vflag)
 
       const BcmCells::Cell *ca = cell(a), *cb = cell(b);
       const double kn_ = kn[itype][jtype], kt_ = kt[itype][jtype], mu_ = mu[itype][jtype];
-      const int oa = place(a), ob = place(b);
-      const BcmSpaceCell sa{table.get(), ca, x[a], &geom[oa], &geom[oa + 3 * ca->nv]};
-      const BcmSpaceCell sb{table.get(), cb, x[b], &geom[ob], &geom[ob + 3 * cb->nv]};
+      // placed once per evaluation (geom) at a step; at a setup evaluation, where every pair
+      // in reach is tested (no certificate yet) and none is held for later, each pair places
+      // its two cells in scratch instead: geom then holds only what steps need (issue 27)
+      const double *ga, *gb;
+      if (advance) {
+        const int oa = place(a), ob = place(b);
+        ga = &geom[oa];
+        gb = &geom[ob];
+      } else {
+        ga = place_scratch(a, 0);
+        gb = place_scratch(b, 1);
+      }
+      const BcmSpaceCell sa{table.get(), ca, x[a], ga, ga + 3 * ca->nv};
+      const BcmSpaceCell sb{table.get(), cb, x[b], gb, gb + 3 * cb->nv};
       points.clear();
       int np = 0;
       if (bcm_cores_apart(sa, sb, dcut)) {

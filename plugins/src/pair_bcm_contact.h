@@ -104,6 +104,7 @@ class PairBcmContact : public Pair {
   std::vector<tagint> cell_tag;
   std::vector<int> placed;       // offset into geom, or -1
   std::vector<double> geom;      // 3 nv vertices then 4 nf planes per placed cell
+  std::vector<double> scratch[2];    // the two cells of one pair (setup evaluations)
   std::vector<BcmContactPoint> points;
   BcmContactWork work;
 
@@ -136,6 +137,7 @@ class PairBcmContact : public Pair {
   void allocate();
   const BcmCells::Cell *cell(int i);
   int place(int i);
+  const double *place_scratch(int i, int k);    // cell i placed in scratch[k]
   int find_slot(int i, tagint partner, double key, bigint step) const;
   int free_slot(int i, bigint step) const;
 };
