@@ -58,9 +58,7 @@ constexpr double INTACT = 0.0, BROKEN = 1.0, RETIRED = 2.0;
 //   NCONST | NRHEAD | fd: 3 N_p | normal: 3 | b1: 3 N_p | b2: 3 N_p
 enum {
   K_AREA,    // S
-  K_KP,      // k_n / N_p
-  K_KTP,     // k_t / N_p
-  K_CP,      // 2 alpha sqrt(k_n m) / N_p
+  K_CP,      // 2 alpha sqrt(k_n m) / N_p (k_n / N_p and k_t / N_p: BondBcmGriffith::point_stiffness())
   NCONST
 };
 // the record's header: the slot header's fields of every interface

@@ -316,6 +316,16 @@ void BondBcmGriffith::init_style()
   FixBcmGriffith::get_or_create(lmp);
   special = FixBreakableSpecial::get_or_create(lmp);
 
+  // the points' stiffness per type and N_p (point_stiffness(); per_area: per interface)
+  const int nrow = BcmInterfaceTable::MAX_POINTS + 1;
+  kp_of.assign((size_t) (atom->nbondtypes + 1) * nrow, 0.0);
+  ktp_of.assign(kp_of.size(), 0.0);
+  for (int t = 1; t <= atom->nbondtypes; t++)
+    for (int np = 1; np < nrow; np++) {
+      kp_of[t * nrow + np] = 1.0 * kn[t] / np;    // set_constants()'s f = 1
+      ktp_of[t * nrow + np] = 1.0 * kt[t] / np;
+    }
+
   // every bond of the topology has its interface, and the table has no extra interface
   const int nlocal = atom->nlocal;
   const tagint *tag = atom->tag;
@@ -500,7 +510,7 @@ void BondBcmGriffith::rebuild_cache()
     long nrec = 0, ncontact = 0;
     for (int n = 0; n < nbondlist; n++) {
       Entry &e = cache[n];
-      e.roff = nrec;
+      e.roff = (uint32_t) nrec;    // checked below
       nrec += record_size(e.npts);
       const int o = old_of[e.iface];
       bool broken = false;
@@ -531,10 +541,14 @@ void BondBcmGriffith::rebuild_cache()
       }
       // contact state only for an interface that is broken already (one that breaks during
       // the run gets its block then: break_interface())
-      e.coff = broken ? ncontact : -1;
+      e.coff = broken ? (int32_t) ncontact : -1;    // checked below
       if (broken) ncontact += contact_size(e.npts);
     }
 
+    if (nrec + RECORD_TAIL > (long) UINT32_MAX || ncontact > (long) INT32_MAX)
+      error->one(FLERR, "bond_style bcm/griffith: the {} interfaces of this rank need {} values "
+                 "of state; at most {} are supported on a rank: use more ranks", nbondlist,
+                 nrec + ncontact, (long) INT32_MAX);
     records.assign(nrec + RECORD_TAIL, 0.0);    // what the kernel reads past the last row
     contact.assign(ncontact, 0.0);
     for (int n = 0; n < nbondlist; n++) {
@@ -713,10 +727,28 @@ void BondBcmGriffith::set_constants(const Entry &e, int type, double *rec)
   // stiffness per_area: the interface's k_n, k_t are the configured ones times S / <S> (its
   // area over the mean), so the Griffith threshold is a stress, whatever the face's size
   const double f = stiffness == PER_AREA ? rec[K_AREA] / table.mean_area() : 1.0;
-  rec[K_KP] = f * kn[type] / np;
-  rec[K_KTP] = f * kt[type] / np;
   rec[K_CP] = 2.0 * alpha[type] * std::sqrt(f * kn[type] * mred) / np;
   if (e.coff >= 0) set_contact_constants(e, type, rec, &contact[e.coff]);
+}
+
+/* ----------------------------------------------------------------------
+   SPEC 1.2 Eq. 1: k_n / N_p and k_t / N_p of an entry's points, the configured stiffness of
+   its type split over its points; per_area: times S / <S>. Looked up, not kept per record
+   (16 bytes per interface, issue 27)
+------------------------------------------------------------------------- */
+
+inline void BondBcmGriffith::point_stiffness(int type, int npts, const double *rec, double &kp,
+                                             double &ktp) const
+{
+  if (stiffness == PER_AREA) {
+    const double f = rec[K_AREA] / table.mean_area();    // as set_constants()
+    kp = f * kn[type] / npts;
+    ktp = f * kt[type] / npts;
+  } else {
+    const size_t k = (size_t) type * (BcmInterfaceTable::MAX_POINTS + 1) + npts;
+    kp = kp_of[k];
+    ktp = ktp_of[k];
+  }
 }
 
 /* ----------------------------------------------------------------------
@@ -735,8 +767,10 @@ void BondBcmGriffith::set_contact_constants(const Entry &e, int type, const doub
   // frictional-contact parameters), or the intact interface's own k_p, k_tp (a closed crack
   // as stiff as the material it cut: the switch then keeps forces and energy)
   const bool own = broken_stiffness == INTERFACE;
-  cb[B_KC] = own ? rec[K_KP] : kn_c[type] / np;
-  cb[B_KTC] = own ? rec[K_KTP] : kt_c[type] / np;
+  double kp, ktp;
+  point_stiffness(type, np, rec, kp, ktp);
+  cb[B_KC] = own ? kp : kn_c[type] / np;
+  cb[B_KTC] = own ? ktp : kt_c[type] / np;
   // their damping (SPEC 1.2 Eq. 1): the point's stiffness and the pair's reduced mass shared
   // by the N_p points, with the contact's e_n or the interface's (with broken_stiffness
   // interface and broken_damping interface the closed point's dashpot is the intact one, c_p)
@@ -813,12 +847,14 @@ void BondBcmGriffith::compute(int eflag, int vflag)
       // / N_p on the relative velocity; the energy of the springs in tension that the
       // Griffith criterion reads (Eq. 5)
       BcmInterfaceKinematics::IntactSums s;
+      double kp, ktp;
+      point_stiffness(type, np, rec, kp, ktp);
 #if defined(BRITTLE_AVX_LOOPS)
       if (avx_loop)
-        avx::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, g + 3, g + 3 + 3 * P, s);
+        avx::intact_interface(p, kp, ktp, rec[K_CP], np, P, fd, g + 3, g + 3 + 3 * P, s);
       else
 #endif
-        base::intact_interface(p, rec[K_KP], rec[K_KTP], rec[K_CP], np, P, fd, g + 3, g + 3 + 3 * P, s);
+        base::intact_interface(p, kp, ktp, rec[K_CP], np, P, fd, g + 3, g + 3 + 3 * P, s);
       fd_dv = s.fd_dv;
       r.stored = s.stored;
       r.pd = s.pd;
@@ -1040,7 +1076,10 @@ void BondBcmGriffith::break_interface(Entry &e, double *rec, const Pair &p,
                                       const Point *pts, double stored, const Clock &now)
 {
   if (e.coff < 0) {    // its contact block from now on, zeros as in the store
-    e.coff = (long) contact.size();
+    if (contact.size() + (size_t) contact_size(e.npts) > (size_t) INT32_MAX)
+      error->one(FLERR, "bond_style bcm/griffith: more broken interfaces on this rank than its "
+                 "contact state can hold ({} values): use more ranks", (long) INT32_MAX);
+    e.coff = (int32_t) contact.size();
     contact.resize(contact.size() + (size_t) contact_size(e.npts), 0.0);
   }
   double *cb = &contact[e.coff];
@@ -1051,7 +1090,8 @@ void BondBcmGriffith::break_interface(Entry &e, double *rec, const Pair &p,
   cb[B_E_BREAK] = stored;
   BreakPath::interface(lmp, special, e.c1, e.c2, stored, rec[K_AREA]);    // the event log
 
-  const double kp = rec[K_KP], ktp = rec[K_KTP];
+  double kp, ktp;
+  point_stiffness(e.type, e.npts, rec, kp, ktp);
   for (int k = 0; k < e.npts; k++) {
     const Point &q = pts[k];
     double *pt = cb + NBHEAD + NCONTACT * k;
@@ -1087,7 +1127,8 @@ void BondBcmGriffith::contact_forces(const Entry &e, int type, double *rec, cons
   const double rsum = atom->radius[e.c1] + atom->radius[e.c2];
   // broken_points cells: handed to the pair style at the break (its points never act)
   const bool retiring = (broken_points == CELLS && just_broke) || dot(p.d12, p.d12) >= rsum * rsum;
-  const double kp = rec[K_KP], ktp = rec[K_KTP];
+  double kp, ktp;
+  point_stiffness(e.type, e.npts, rec, kp, ktp);
   const BcmInterfaceContact::Constants law{cb[B_KC], cb[B_KTC], cb[B_CC], mu[type]};
   double fric = 0.0, unpaid = 0.0, held = 0.0, slip = 0.0, fn = 0.0;
   int nclosed = 0;

@@ -15,6 +15,7 @@
 #include "fix_breakable_special.h"
 #include "fix_lazy_store.h"
 
+#include <cstdint>
 #include <vector>
 
 namespace LAMMPS_NS {
@@ -55,16 +56,16 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds, public FixLazy
   // neighbours (fix breakable/special, at every run setup)
   bool released(int i, int m) override;
 
-  // an entry of the working copy (below)
+  // an entry of the working copy (below): 24 bytes (issue 27)
   struct Entry {
     int c1, c2;        // local indices of the cells with the smaller and the larger ID
-    int type;          // bond type the constants of the record were taken for
-    int npts;
     int iface;         // in the interface table
-    long roff;         // into records
-    long coff;         // into contact: its block (BcmInterfaceState::contact_size(npts):
+    int32_t coff;      // into contact: its block (BcmInterfaceState::contact_size(npts):
                        // contact constants, broken-only header, NCONTACT per point); -1
                        // while intact
+    uint32_t roff;     // into records
+    int16_t type;      // bond type the constants of the record were taken for
+    int16_t npts;
   };
   // the working copy of a style that is replaced (bond_style given again), kept by fix
   // bcm/griffith for the next one: it holds the only live copy of the state
@@ -181,6 +182,9 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds, public FixLazy
   void adopt();
   void rebuild_cache();
   void set_constants(const Entry &e, int type, double *rec);
+  // k_n / N_p and k_t / N_p of an entry's points (per type and N_p, or per_area from S)
+  std::vector<double> kp_of, ktp_of;    // per_interface: [type * (MAX_POINTS + 1) + N_p]
+  void point_stiffness(int type, int npts, const double *rec, double &kp, double &ktp) const;
   void set_contact_constants(const Entry &e, int type, const double *rec, double *cb) const;
   const double *slot_of(int i, int j, double *scratch) const;
   long slot_offset(int i, int m) const;
