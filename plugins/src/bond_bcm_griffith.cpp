@@ -471,8 +471,11 @@ void BondBcmGriffith::rebuild_cache()
       set_constants(e, e.type, &records[e.roff]);
     }
   } else {
-    // the state of the entries before, header and damping forces by point, and their contact
-    // blocks: all that is read back below (the records are then written over)
+    // the state of the entries before, as their records hold it (the record's header, then
+    // the damping forces' rows: SAVED(np) values), and their contact blocks: all that is read
+    // back below (the records are then written over). The smallest copy (issue 27: the peak
+    // of a run is at such a rebuild)
+    const auto SAVED = [](int np) { return (long) NRHEAD + 3L * row_stride(np); };
     std::vector<int> old_of(ntable, -1);
     std::vector<long> soff;
     std::vector<double> saved;
@@ -485,20 +488,27 @@ void BondBcmGriffith::rebuild_cache()
       long ns = 0;
       for (size_t o = 0; o < old.size(); o++) {
         soff[o] = ns;
-        ns += NHEAD + 3L * old[o].npts;
+        ns += SAVED(old[o].npts);
       }
       saved.resize(ns);
       for (size_t o = 0; o < old.size(); o++) {
         const Entry &e = old[o];
-        const int np = e.npts, P = row_stride(np);
         const double *rec = &records[e.roff];
-        double *out = &saved[soff[o]];
-        compose_head(rec, e.coff >= 0 ? &old_contact[e.coff] : nullptr, out);
-        for (int k = 0; k < np; k++)
-          for (int c = 0; c < 3; c++) out[NHEAD + 3 * k + c] = rec[R_FD + c * P + k];
+        std::copy(rec + R_HEAD, rec + R_HEAD + SAVED(e.npts), &saved[soff[o]]);
         if (old_of[e.iface] < 0) old_of[e.iface] = (int) o;
       }
     }
+    // an old entry's state as a slot of the store (header, damping forces by point)
+    const auto saved_slot = [&](size_t o, double *slot) {
+      const Entry &e = old[o];
+      const int np = e.npts, P = row_stride(np);
+      const double *sv = &saved[soff[o]];
+      const double *cb = e.coff >= 0 ? &old_contact[e.coff] : nullptr;
+      for (int h = 0; h < NRHEAD; h++) slot[RECORD_HEAD[h]] = sv[h];
+      for (int h = 0; h < NBROKEN_HEAD; h++) slot[BROKEN_HEAD[h]] = cb ? cb[B_HEAD + h] : 0.0;
+      for (int k = 0; k < np; k++)
+        for (int c = 0; c < 3; c++) slot[NHEAD + 3 * k + c] = sv[NRHEAD + c * P + k];
+    };
     std::vector<char> used(old.size(), 0);
 
     // where each new entry's state is: an entry before (>= 0), a row (-2: the atom row_from[n]
@@ -517,7 +527,7 @@ void BondBcmGriffith::rebuild_cache()
       if (o >= 0) {
         source[n] = o;
         used[o] = 1;
-        broken = saved[soff[o] + H_BROKEN] != INTACT;
+        broken = saved[soff[o] + RH_BROKEN] != INTACT;
       } else if (rows_held) {
         // the listed atom's row, else the partner's when owned
         const int i1 = (bondlist[n][0] < nlocal) ? bondlist[n][0] : bondlist[n][1];
@@ -562,8 +572,14 @@ void BondBcmGriffith::rebuild_cache()
       // contact state apart
       const double *st = nullptr, *cst = nullptr;
       if (source[n] >= 0) {
-        st = &saved[soff[source[n]]];
+        // as the record before held it: the header and the rows, then the broken-only
+        // header and the points' contact state from its contact block
+        const double *sv = &saved[soff[source[n]]];
+        std::copy(sv, sv + SAVED(np), rec + R_HEAD);
         const long oc = old[source[n]].coff;
+        if (e.coff >= 0)
+          for (int h = 0; h < NBROKEN_HEAD; h++)
+            contact[e.coff + B_HEAD + h] = oc >= 0 ? old_contact[oc + B_HEAD + h] : 0.0;
         if (oc >= 0) cst = &old_contact[oc + NBHEAD];
       } else if (source[n] == -2) {
         row_slot(row_from[n], row_off[n], NHEAD + NPOINT * np, slotbuf.data());
@@ -604,8 +620,7 @@ void BondBcmGriffith::rebuild_cache()
         const long size = NHEAD + NPOINT * np;
         std::vector<double> row(std::max<long>(off + size, (long) store_fix->length(j)), 0.0);
         std::copy(store_fix->row(j), store_fix->row(j) + store_fix->length(j), row.begin());
-        const double *st = &saved[soff[o]];
-        std::copy(st, st + NHEAD + 3 * np, row.begin() + off);
+        saved_slot(o, &row[off]);
         if (e.coff >= 0)
           std::copy(&old_contact[e.coff + NBHEAD], &old_contact[e.coff + NBHEAD] + NCONTACT * np,
                     row.begin() + off + NHEAD + 3 * np);
