@@ -241,9 +241,11 @@ BOND_NAMES = {"atom1": ("batom1", "atom1"), "atom2": ("batom2", "atom2"), "state
 # `dump local` itself names a compute's vector c_ID[k]. Two layouts, the tool's own:
 #  - `compute ID property/local batom1 batom2 btype` (driver/bpm/shear.py, ID bl):
 #    c_ID[1] c_ID[2] c_ID[3], for any ID whose vector has exactly these three components;
-#  - the impact scenario's (driver/bcm/impact.py): `compute ifc property/local batom1
-#    batom2` and `compute ifs bond/local b1 ... b6` of bond bcm/griffith, whose b1 is the
-#    interface state (1 intact, 0 broken): c_ifc[1] c_ifc[2] c_ifs[1].
+#  - the BCM interface dumps of early runs, before their columns were named (batom1 batom2
+#    state ..., runfiles/records.py; now written by the plugin's fix bcm/interfaces/dump):
+#    `compute ifc property/local batom1 batom2` and `compute ifs bond/local b1 ...` of bond
+#    bcm/griffith, whose b1 is the interface state (1 intact, 0 broken): c_ifc[1] c_ifc[2]
+#    c_ifs[1].
 BCM_INTERFACE_NAMES = ("c_ifc[1]", "c_ifc[2]", "c_ifs[1]")
 BOND_NAMES_NEEDED = ("the two atom ids and the bond type or state: batom1 batom2 btype (or atom1 atom2 type|state), "
                      "c_ID[1] c_ID[2] c_ID[3] of `compute ID property/local batom1 batom2 btype`, or "

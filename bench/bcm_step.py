@@ -19,7 +19,9 @@ from `driver run` of the example; the tail's rate is that of its sampled window)
 
 Memory: each tree's 1-rank LAMMPS process (the `lmp` executable alone, peak resident size,
 VmHWM, from wait4) for --memory-steps steps at each --memory-cells size, and bytes per cell
-above the smallest.
+above the smallest; twice: the input up to the stop rule alone, and with the start of a real
+run before the steps (`run 0` and the tree's own cell and interface dumps of the start, from
+its driver's `_dump_commands`), so that the moment of a dump counts.
 
 Wall-clock figures on a shared machine are noisy: the ratio of two runs taken one after the
 other is what this bench is for; it prints the load average before and after.
@@ -75,8 +77,19 @@ else:
     setup, _, _ = render_inputs(cfg, plugin, system)
 (rd.root / "base.lammps").write_text(setup.split("# Stop rule")[0])
 (rd.root / "system.json").write_text(json.dumps(system))
+# the start of a real run: run 0, then the tree's own cell and interface dumps of the start
+# (none where the tree's driver has no _dump_commands)
+try:
+    from driver.bcm.impact import _dump_commands
+except ImportError:
+    try:
+        from driver.scenarios.impact import _dump_commands
+    except ImportError:
+        _dump_commands = None
+start = "run 0\n" + _dump_commands("start") + "\n" if _dump_commands else ""
+(rd.root / "start.lammps").write_text(start)
 print(json.dumps({"cells": system["n_cells"], "interfaces": system["n_interfaces"],
-                  "points": system.get("contact_points"), "plugin": str(plugin)}))
+                  "points": system.get("contact_points"), "plugin": str(plugin), "start_dumps": bool(start)}))
 '''
 
 
@@ -131,10 +144,13 @@ def run_chunks(run: Path, steps: int, chunk: int, ranks: int) -> tuple[list[floa
     return loops[-(steps // chunk):], wall
 
 
-def peak_mib(run: Path, steps: int) -> float:
-    """Peak resident size (VmHWM) of a 1-rank LAMMPS process running `steps` steps, MiB."""
+def peak_mib(run: Path, steps: int, start_dumps: bool = False) -> float:
+    """Peak resident size (VmHWM) of a 1-rank LAMMPS process running `steps` steps, MiB;
+    start_dumps: after `run 0` and the tree's own dumps of the start (start.lammps), as a real
+    run begins."""
     (run / "dumps").mkdir(exist_ok=True)
-    (run / "memory.lammps").write_text((run / "base.lammps").read_text() + f"run {steps}\n")
+    start = (run / "start.lammps").read_text() if start_dumps and (run / "start.lammps").exists() else ""
+    (run / "memory.lammps").write_text((run / "base.lammps").read_text() + start + f"run {steps}\n")
     proc = subprocess.Popen(lmp_command(1, "memory.lammps"), cwd=run, env=lmp_env(),
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     _, status, usage = os.wait4(proc.pid, 0)
@@ -288,26 +304,31 @@ def phases(trees: list[Tree], n: int, args) -> None:
 
 
 def memory(trees: list[Tree], args) -> None:
-    print(f"\nmemory: peak resident size (VmHWM) of the 1-rank LAMMPS process (`lmp`), {args.memory_steps} steps")
-    print(f"  {'cells':>6s} " + " ".join(f"{t.name + ' MiB':>10s} {t.name + ' B/cell above ' + str(args.memory_cells[0]):>22s}"
-                                         for t in trees))
-    peaks = {t.name: {} for t in trees}
-    for n in args.memory_cells:
-        for tree in trees:
-            peaks[tree.name][n] = peak_mib(tree.runs[n], args.memory_steps)
-        cols = []
-        for tree in trees:
-            p = peaks[tree.name]
-            per = ("" if n == args.memory_cells[0]
-                   else f"{(p[n] - p[args.memory_cells[0]]) * 2**20 / (n - args.memory_cells[0]):,.0f}")
-            cols.append(f"{p[n]:10.1f} {per:>22s}")
-        print(f"  {n:6d} " + " ".join(cols), flush=True)
-    if len(args.memory_cells) >= 3:
-        a, b = args.memory_cells[-2], args.memory_cells[-1]
-        for tree in trees:
-            p = peaks[tree.name]
-            print(f"  {tree.name}: {(p[b] - p[a]) * 2**20 / (b - a):,.0f} bytes per cell from {a} to {b} cells")
-
+    for start_dumps in (False, True):
+        what = ("after `run 0` and the tree's own dumps of the start (cells, interfaces), as a run begins"
+                if start_dumps else "no dump (the input up to the stop rule)")
+        missing = [t.name for t in trees if start_dumps and not all(s.get("start_dumps") for s in t.systems.values())]
+        print(f"\nmemory: peak resident size (VmHWM) of the 1-rank LAMMPS process (`lmp`), {args.memory_steps} steps; "
+              f"{what}" + (f" ({', '.join(missing)}: no start dumps in its driver)" if missing else ""))
+        print(f"  {'cells':>6s} " + " ".join(f"{t.name + ' MiB':>10s} "
+                                             f"{t.name + ' B/cell above ' + str(args.memory_cells[0]):>22s}"
+                                             for t in trees))
+        peaks = {t.name: {} for t in trees}
+        for n in args.memory_cells:
+            for tree in trees:
+                peaks[tree.name][n] = peak_mib(tree.runs[n], args.memory_steps, start_dumps)
+            cols = []
+            for tree in trees:
+                p = peaks[tree.name]
+                per = ("" if n == args.memory_cells[0]
+                       else f"{(p[n] - p[args.memory_cells[0]]) * 2**20 / (n - args.memory_cells[0]):,.0f}")
+                cols.append(f"{p[n]:10.1f} {per:>22s}")
+            print(f"  {n:6d} " + " ".join(cols), flush=True)
+        if len(args.memory_cells) >= 3:
+            a, b = args.memory_cells[-2], args.memory_cells[-1]
+            for tree in trees:
+                p = peaks[tree.name]
+                print(f"  {tree.name}: {(p[b] - p[a]) * 2**20 / (b - a):,.0f} bytes per cell from {a} to {b} cells")
 
 if __name__ == "__main__":
     main()

@@ -359,7 +359,8 @@ def read_record(path: str | Path, needed: list[str]) -> pd.DataFrame:
 @dataclass(frozen=True)
 class Column:
     """One dump column: its name in the file (one OVITO maps by itself where it has one), unit,
-    meaning, and the dump argument that writes it (renamed with dump_modify colname)."""
+    meaning, and the dump argument that writes it (renamed with dump_modify colname), or the
+    value keyword of the plugin's interface dump (renamed with its `names`)."""
 
     name: str
     unit: str
@@ -390,6 +391,11 @@ class Dump:
         """dump_modify keywords giving each renamed column its name (`colname N name`)."""
         return " ".join(f"colname {k} {c.name}" for k, c in enumerate(self.columns, start=1) if c.arg != c.name)
 
+    def names_keyword(self) -> str:
+        """The `names` keyword naming every column, for the plugin's interface dump (fix
+        bcm/interfaces/dump, write_bcm_interfaces)."""
+        return "names " + " ".join(self.names)
+
     def describe(self) -> str:
         """A Markdown table of the columns (name, unit, meaning), for the docs."""
         rows = [f"| `{c.name}` | {c.unit or '-'} | {c.meaning} |" for c in self.columns]
@@ -408,25 +414,28 @@ CELLS_DUMP = Dump("cells", (
     *(Column(f"quat{c}", "", f"orientation quaternion, component {c} (body to space)", f"d2_bcm_quat[{k}]")
       for k, c in enumerate("wijk", start=1)),
 ))
-# BCM interfaces (dump local of compute property/local batom1 batom2 and compute bond/local
-# b1..b13 of bond bcm/griffith, plugins/doc/bond_bcm_griffith.md)
+# BCM interfaces (fix bcm/interfaces/dump and write_bcm_interfaces of the plugin,
+# plugins/doc/fix_bcm_interfaces_dump.md: each column's value keyword, batom1 batom2 of the bond
+# and b1..b13 of bond bcm/griffith's single(), plugins/doc/bond_bcm_griffith.md; the file is
+# that of `dump local` of compute property/local and compute bond/local, which dumps of earlier
+# runs came from)
 INTERFACES_DUMP = Dump("interfaces", (
-    Column("batom1", "", "cell 1 (smaller id)", "c_ifc[1]"),
-    Column("batom2", "", "cell 2", "c_ifc[2]"),
-    Column("state", "", "1 intact, 0 broken", "c_ifs[1]"),
-    Column("area", "m^2", "interface area", "c_ifs[2]"),
-    Column("energy", "J", "elastic energy stored now", "c_ifs[3]"),
-    Column("break_step", "", "step of the break (-1 intact)", "c_ifs[4]"),
-    Column("break_time", "s", "time of the break", "c_ifs[5]"),
-    Column("energy_at_break", "J", "elastic energy stored just before the break", "c_ifs[6]"),
+    Column("batom1", "", "cell 1 (smaller id)"),
+    Column("batom2", "", "cell 2"),
+    Column("state", "", "1 intact, 0 broken", "b1"),
+    Column("area", "m^2", "interface area", "b2"),
+    Column("energy", "J", "elastic energy stored now", "b3"),
+    Column("break_step", "", "step of the break (-1 intact)", "b4"),
+    Column("break_time", "s", "time of the break", "b5"),
+    Column("energy_at_break", "J", "elastic energy stored just before the break", "b6"),
     # where each interface's energy went (dumps of runs before these columns lack them)
-    Column("W_damp", "J", "energy its damping dissipated (intact and broken)", "c_ifs[7]"),
-    Column("W_damp_broken", "J", "the part of W_damp after its break", "c_ifs[8]"),
-    Column("W_friction", "J", "energy its friction dissipated (broken)", "c_ifs[9]"),
-    Column("W_switch", "J", "energy lost at its switches (break, retirement)", "c_ifs[10]"),
-    Column("slip", "m", "cumulative Coulomb slip of its points", "c_ifs[11]"),
-    Column("closed_points", "", "its closed points now (broken, not retired)", "c_ifs[12]"),
-    Column("closed_force", "N", "normal force of its closed points now", "c_ifs[13]"),
+    Column("W_damp", "J", "energy its damping dissipated (intact and broken)", "b7"),
+    Column("W_damp_broken", "J", "the part of W_damp after its break", "b8"),
+    Column("W_friction", "J", "energy its friction dissipated (broken)", "b9"),
+    Column("W_switch", "J", "energy lost at its switches (break, retirement)", "b10"),
+    Column("slip", "m", "cumulative Coulomb slip of its points", "b11"),
+    Column("closed_points", "", "its closed points now (broken, not retired)", "b12"),
+    Column("closed_force", "N", "normal force of its closed points now", "b13"),
 ))
 #: the INTERFACES_DUMP columns every interface dump has (the rest came later)
 INTERFACES_REQUIRED = 8

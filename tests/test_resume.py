@@ -30,9 +30,11 @@ SHEAR = {"name": "shear", "seed": 3, "model": {"kind": "bpm", "dimension": 2, "L
                       "measure_strains": [0.1, 0.25, 0.5], "thermo_every": 100},
          "execution": {"chunk_steps": 1000}, "output": {"plots": False}}
 SHEAR_STEPS = 100_000
-# BCM impact of 300 cells at 4.5 m/s, chunks of ~430 steps, settled near step 8,700
+# BCM impact of 300 cells at 4.5 m/s, chunks of ~430 steps, settled near step 8,700; cell and
+# interface dumps every 1000 steps (the resumed process writes its first step's again)
 IMPACT = {"name": "impact", "seed": 1, "model": {"kind": "bcm", "n_cells": 300},
-          "scenario": {"kind": "impact", "velocity": 4.5, "max_time": 4e-4, "thermo_every": 100},
+          "scenario": {"kind": "impact", "velocity": 4.5, "max_time": 4e-4, "thermo_every": 100,
+                       "dump_every": 1000},
           "execution": {"chunk_steps": 500}, "output": {"plots": False}}
 IMPACT_STEPS = 8000
 

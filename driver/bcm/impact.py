@@ -32,12 +32,17 @@ if TYPE_CHECKING:  # for readers and checkers only
 LOADED_FRACTION = 0.5
 
 
+def _interface_values() -> str:
+    # the values and column names of the interface dump (fix bcm/interfaces/dump and
+    # write_bcm_interfaces, which write it from the bond style without LAMMPS's computes)
+    return f"{INTERFACES_DUMP.args()} {INTERFACES_DUMP.names_keyword()}"
+
+
 def _dump_commands(name: str) -> str:
     # columns named as runfiles/records.py declares them (OVITO maps them by name)
     return (f"write_dump      all custom dumps/cells.{name}.lammpstrj {CELLS_DUMP.args()} modify sort id "
             f"{CELLS_DUMP.modify()}\n"
-            f"write_dump      all local dumps/interfaces.{name}.lammpstrj {INTERFACES_DUMP.args()} modify "
-            f"{INTERFACES_DUMP.modify()}")
+            f"write_bcm_interfaces all dumps/interfaces.{name}.lammpstrj {_interface_values()}")
 
 
 def bonded_interfaces(areas: np.ndarray, min_fraction: float) -> np.ndarray:
@@ -101,17 +106,15 @@ def place_particle(cfg: RunConfig, rd: RunDir, gap: float) -> tuple[dict, object
 
 
 def periodic_dumps(dump_every: int) -> str:
-    """The interface computes every run needs, and the cell and interface dumps every
-    `dump_every` steps (none when 0), for the impact and the crush alike."""
-    periodic = ("compute         ifc all property/local batom1 batom2\n"
-                "compute         ifs all bond/local " + " ".join(f"b{k}" for k in range(1, 14)))
-    if dump_every > 0:
-        periodic += (f"\ndump            cells all custom {dump_every} dumps/cells.*.lammpstrj {CELLS_DUMP.args()}\n"
-                     f"dump_modify     cells sort id {CELLS_DUMP.modify()}\n"
-                     f"dump            ifaces all local {dump_every} dumps/interfaces.*.lammpstrj "
-                     f"{INTERFACES_DUMP.args()}\n"
-                     f"dump_modify     ifaces {INTERFACES_DUMP.modify()}")
-    return periodic
+    """The cell and interface dumps every `dump_every` steps (none when 0), for the impact, the
+    crush and the compression alike. The interface dump is the plugin's fix, which holds no
+    array over the interfaces (LAMMPS's compute bond/local would hold one all run)."""
+    if dump_every <= 0:
+        return "# no periodic dumps (scenario.dump_every = 0): cells and interfaces at named moments only"
+    return (f"dump            cells all custom {dump_every} dumps/cells.*.lammpstrj {CELLS_DUMP.args()}\n"
+            f"dump_modify     cells sort id {CELLS_DUMP.modify()}\n"
+            f"fix             ifaces all bcm/interfaces/dump {dump_every} dumps/interfaces.*.lammpstrj "
+            f"{_interface_values()}")
 
 
 def build_system(cfg: RunConfig, rd: RunDir) -> dict:

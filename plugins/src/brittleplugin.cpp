@@ -11,9 +11,11 @@
 #include "pair_cr_repulsion.h"
 #include "bond_bcm_griffith.h"
 #include "fix_bcm_griffith.h"
+#include "fix_bcm_interfaces_dump.h"
 #include "fix_bcm_rigid.h"
 #include "fix_bcm_wall.h"
 #include "pair_bcm_contact.h"
+#include "write_bcm_interfaces.h"
 
 using namespace LAMMPS_NS;
 
@@ -75,6 +77,16 @@ static Pair *pair_bcm_contact_creator(LAMMPS *lmp)
 static Fix *fix_bcm_wall_creator(LAMMPS *lmp, int argc, char **argv)
 {
   return new FixBcmWall(lmp, argc, argv);
+}
+
+static Fix *fix_bcm_interfaces_dump_creator(LAMMPS *lmp, int argc, char **argv)
+{
+  return new FixBcmInterfacesDump(lmp, argc, argv);
+}
+
+static Command *write_bcm_interfaces_creator(LAMMPS *lmp)
+{
+  return new WriteBcmInterfaces(lmp);
 }
 
 extern "C" void lammpsplugin_init(void *lmp, void *handle, void *vregfunc)
@@ -149,6 +161,18 @@ extern "C" void lammpsplugin_init(void *lmp, void *handle, void *vregfunc)
   plugin.name = "bcm/wall";
   plugin.info = "BCM rigid plane against rounded cells, frictional contact (SPEC 1.2)";
   plugin.creator.v2 = (lammpsplugin_factory2 *) &fix_bcm_wall_creator;
+  (*regfunc)(&plugin, lmp);
+
+  plugin.style = "fix";
+  plugin.name = "bcm/interfaces/dump";
+  plugin.info = "BCM interface dump every N steps, streamed from the bond style";
+  plugin.creator.v2 = (lammpsplugin_factory2 *) &fix_bcm_interfaces_dump_creator;
+  (*regfunc)(&plugin, lmp);
+
+  plugin.style = "command";
+  plugin.name = "write_bcm_interfaces";
+  plugin.info = "BCM interface dump of the current state, streamed from the bond style";
+  plugin.creator.v1 = (lammpsplugin_factory1 *) &write_bcm_interfaces_creator;
   (*regfunc)(&plugin, lmp);
 
   plugin.style = "pair";
