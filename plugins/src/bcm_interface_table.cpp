@@ -12,12 +12,15 @@
 #include <cmath>
 #include <fstream>
 #include <mpi.h>
-#include <unordered_map>
 
 using namespace LAMMPS_NS;
 using BcmRigid::dot;
 
 namespace {
+
+// restart files begin with this since the table keeps the cells' reference state; files before
+// begin with reference_taken, 0 or 1 (their layout: read_restart())
+constexpr int RESTART_FORMAT = 2;
 
 bool parse_double(const std::string &s, double &out)
 {
@@ -39,10 +42,9 @@ void BcmInterfaceTable::read(const std::string &file)
 {
   interfaces.clear();
   space.clear();
-  body.clear();
   order.clear();
+  clear_reference();
   geometry_file = file;
-  reference_taken = 0;
 
   std::string problem;
   if (comm->me == 0) {
@@ -101,7 +103,7 @@ void BcmInterfaceTable::read(const std::string &file)
         break;
       }
       for (int k = 0; k < 3; k++) val[k] /= nn;
-      itf.boff = 0;
+      itf.off = 0;
       space.insert(space.end(), val, val + 3 + 3 * itf.npts);
       interfaces.push_back(itf);
     }
@@ -174,22 +176,21 @@ void BcmInterfaceTable::broadcast()
 
 void BcmInterfaceTable::index()
 {
-  long soff = 0, boff = 0;
+  long off = 0;
   maxpts = 0;
   area_mean = 0.0;
   for (const Interface &itf : interfaces) area_mean += itf.area;
   if (!interfaces.empty()) area_mean /= (double) interfaces.size();
-  for (int i = 0; i < (int) interfaces.size(); i++) {
-    Interface &itf = interfaces[i];
-    itf.boff = boff;
-    soff += 3 + 3 * itf.npts;
-    boff += 3 + 6 * itf.npts;
+  for (Interface &itf : interfaces) {
+    itf.off = off;
+    off += 3 + 3 * itf.npts;
     maxpts = std::max(maxpts, itf.npts);
   }
-  // the space frame is gone once the reference is taken (restart files written since hold none)
-  if (soff != (long) space.size() && !(reference_taken && space.empty()))
+  // the body frames of restart files before the cells' reference came without the space frame
+  if (off != (long) space.size() && !(reference == BODIES && space.empty()))
     error->all(FLERR, "bond_style bcm/griffith: inconsistent interface table");
-  body.resize(boff, 0.0);
+  if (reference == BODIES && (long) bodies.size() != 2 * off - 3L * size())
+    error->all(FLERR, "bond_style bcm/griffith: inconsistent body frames in the restart file");
   order.resize(interfaces.size());
   for (int i = 0; i < (int) order.size(); i++) order[i] = i;
   std::sort(order.begin(), order.end(), [&](int a, int b) {
@@ -216,13 +217,146 @@ int BcmInterfaceTable::find(tagint t1, tagint t2) const
   return *it;
 }
 
+/* ---------------------------------------------------------------------- */
+
+void BcmInterfaceTable::clear_reference()
+{
+  reference = NONE;
+  std::vector<double>().swap(cells);
+  std::vector<tagint>().swap(cell_tags);
+  std::vector<double>().swap(bodies);
+  box = Box();
+  span = 0.0;
+}
+
+int BcmInterfaceTable::cell_of(tagint t) const
+{
+  const long ncell = (long) (cells.size() / NREF);
+  if (cell_tags.empty()) return (t >= 1 && t <= ncell) ? (int) (t - 1) : -1;
+  const auto it = std::lower_bound(cell_tags.begin(), cell_tags.end(), t);
+  return (it == cell_tags.end() || *it != t) ? -1 : (int) (it - cell_tags.begin());
+}
+
 /* ----------------------------------------------------------------------
-   body-frame geometry from the reference state (the current one, at the
-   first init): b = R^T (p - x) for each cell of each interface, normal in
-   cell 1's frame. The owner of each cell fills its part; a sum over ranks
-   gives the whole table to every rank. Checks that the file fits the cells:
-   each point inside the cell's bounding sphere and on the cell's side of the
-   face (n . (p - x1) > 0 > n . (p - x2)).
+   d to its minimum image in the box of the reference state: the operations
+   of Domain::minimum_image() of LAMMPS 22 Jul 2025 (src/domain.cpp; read off
+   the installed library) in their order, so that the body frames are those
+   it gave. Orthogonal: per periodic dimension, a length added or taken while
+   |d| exceeds half of it. Triclinic: z first (carrying yz, xz), then y
+   (carrying xy), then x. More than 16 box lengths is an error, as there.
+------------------------------------------------------------------------- */
+
+void BcmInterfaceTable::minimum_image(double *d) const
+{
+  constexpr double MAXIMGCOUNT = 16.0;
+  auto check = [&](int k) {
+    if (std::fabs(d[k]) > MAXIMGCOUNT * box.prd[k])
+      error->one(FLERR, "bond_style bcm/griffith: an interface point or bonded cell lies more "
+                 "than {} box lengths from its cell", MAXIMGCOUNT);
+  };
+  if (!box.triclinic) {
+    for (int k = 0; k < 3; k++) {
+      if (!box.periodic[k]) continue;
+      check(k);
+      while (std::fabs(d[k]) > box.prd_half[k]) {
+        if (d[k] < 0.0)
+          d[k] += box.prd[k];
+        else
+          d[k] -= box.prd[k];
+      }
+    }
+    return;
+  }
+  if (box.periodic[2]) {
+    check(2);
+    while (std::fabs(d[2]) > box.prd_half[2]) {
+      if (d[2] < 0.0) {
+        d[2] += box.prd[2];
+        d[1] += box.yz;
+        d[0] += box.xz;
+      } else {
+        d[2] -= box.prd[2];
+        d[1] -= box.yz;
+        d[0] -= box.xz;
+      }
+    }
+  }
+  if (box.periodic[1]) {
+    check(1);
+    while (std::fabs(d[1]) > box.prd_half[1]) {
+      if (d[1] < 0.0) {
+        d[1] += box.prd[1];
+        d[0] += box.xy;
+      } else {
+        d[1] -= box.prd[1];
+        d[0] -= box.xy;
+      }
+    }
+  }
+  if (box.periodic[0]) {
+    check(0);
+    while (std::fabs(d[0]) > box.prd_half[0]) {
+      if (d[0] < 0.0)
+        d[0] += box.prd[0];
+      else
+        d[0] -= box.prd[0];
+    }
+  }
+}
+
+/* ----------------------------------------------------------------------
+   the body frames of interface i from the reference state of its cells:
+   b = R^T (p - x) for each cell, p - x by minimum image (the points are
+   written near cell 1's centre; in a periodic box either cell may sit,
+   wrapped, across the box from them: the nearest image is the cell's own
+   point; a no-op in a non-periodic box), the normal in cell 1's frame.
+   visit(side, k, d) sees each space-frame difference d = p_k - x before it
+   is rotated (take_reference()'s checks). The one computation of the body
+   frames: every call gives the same bits.
+------------------------------------------------------------------------- */
+
+template <class Visit> void BcmInterfaceTable::frames(int i, double *out, Visit &&visit) const
+{
+  const Interface &itf = interfaces[i];
+  const double *n = &space[itf.off];
+  const double *pts = n + 3;
+  for (int side = 0; side < 2; side++) {
+    const double *ref = &cells[(size_t) NREF * cell_of(side ? itf.tag2 : itf.tag1)];
+    double R[3][3];
+    BcmRigid::rotation(ref + 3, R);
+    if (side == 0) BcmRigid::rotate_back(R, n, out);
+    double *b = out + 3 + 3 * itf.npts * side;
+    for (int k = 0; k < itf.npts; k++) {
+      double d[3];
+      for (int c = 0; c < 3; c++) d[c] = pts[3 * k + c] - ref[c];
+      minimum_image(d);
+      visit(side, k, (const double *) d);
+      BcmRigid::rotate_back(R, d, b + 3 * k);
+    }
+  }
+}
+
+void BcmInterfaceTable::body_of(int i, double *out) const
+{
+  const Interface &itf = interfaces[i];
+  if (reference == BODIES) {
+    // in order, 3 + 6 npts per interface: 2 off - 3 i values before interface i
+    const double *g = &bodies[2 * itf.off - 3L * i];
+    std::copy(g, g + 3 + 6 * itf.npts, out);
+  } else if (reference == CELLS) {
+    frames(i, out, [](int, int, const double *) {});
+  } else {
+    error->one(FLERR, "bond_style bcm/griffith: body frames asked for before the reference");
+  }
+}
+
+/* ----------------------------------------------------------------------
+   the reference state (the current one, at the first init): the position
+   and orientation of every cell of the table, gathered from their owners as
+   they are (every rank then holds the same values), and the box. Checks
+   that the file fits the cells: each cell owned once and with an
+   orientation, each point inside the cell's bounding sphere and on the
+   cell's side of the face (n . (p - x1) > 0 > n . (p - x2)).
 ------------------------------------------------------------------------- */
 
 void BcmInterfaceTable::take_reference(int iquat)
@@ -232,171 +366,263 @@ void BcmInterfaceTable::take_reference(int iquat)
   double **x = atom->x;
   double **quat = atom->darray[iquat];
   const double *radius = atom->radius;
+  const int nif = size();
+  clear_reference();
 
-  std::unordered_map<tagint, int> owned;
-  owned.reserve(nlocal);
-  for (int i = 0; i < nlocal; i++) owned[tag[i]] = i;
-
-  // this rank's part into body, zeros elsewhere, then summed over ranks in place
-  std::fill(body.begin(), body.end(), 0.0);
-  const int nif = (int) interfaces.size();
-  std::vector<int> found(2 * nif, 0);
-  enum { BAD_QUAT, BAD_RADIUS, BAD_SIDE, NBAD };
-  int bad[NBAD] = {nif, nif, nif};    // first offending interface per kind
-  std::vector<double> centres(6 * (size_t) nif, 0.0);
-
-  long soff = 0;
-  for (int ii = 0; ii < nif; ii++) {
-    const Interface &itf = interfaces[ii];
-    const double *n = &space[soff];
-    soff += 3 + 3 * itf.npts;
-    const double *pts = n + 3;
-    double *out = &body[itf.boff];
-    for (int side = 0; side < 2; side++) {
-      const auto it = owned.find(side ? itf.tag2 : itf.tag1);
-      if (it == owned.end()) continue;
-      const int i = it->second;
-      found[2 * ii + side] = 1;
-      for (int c = 0; c < 3; c++) centres[6 * ii + 3 * side + c] = x[i][c];
-      if (!(BcmRigid::quat_norm2(quat[i]) > 0.0)) {
-        bad[BAD_QUAT] = std::min(bad[BAD_QUAT], ii);
-        continue;
-      }
-      double R[3][3];
-      BcmRigid::rotation(quat[i], R);
-      if (side == 0) BcmRigid::rotate_back(R, n, out);
-      double *b = out + 3 + 3 * itf.npts * side;
-      for (int k = 0; k < itf.npts; k++) {
-        double d[3];
-        for (int c = 0; c < 3; c++) d[c] = pts[3 * k + c] - x[i][c];
-        // the points are written near cell 1's centre; in a periodic box either cell may
-        // sit (wrapped) across the box from them: the nearest image is the cell's own point
-        // (a no-op in a non-periodic box)
-        domain->minimum_image(FLERR, d);
-        const double dist = std::sqrt(dot(d, d));
-        if (dist > 1.01 * radius[i]) bad[BAD_RADIUS] = std::min(bad[BAD_RADIUS], ii);
-        const double side_sign = dot(d, n);
-        if (side == 0 ? side_sign <= 0.0 : side_sign >= 0.0)
-          bad[BAD_SIDE] = std::min(bad[BAD_SIDE], ii);
-        BcmRigid::rotate_back(R, d, b + 3 * k);
-      }
-    }
+  // the cells of the table, in tag order
+  std::vector<tagint> tags;
+  tags.reserve(2 * (size_t) nif);
+  for (const Interface &itf : interfaces) {
+    tags.push_back(itf.tag1);
+    tags.push_back(itf.tag2);
   }
+  std::sort(tags.begin(), tags.end());
+  tags.erase(std::unique(tags.begin(), tags.end()), tags.end());
+  const long ncell = (long) tags.size();
 
-  int first[NBAD];
-  MPI_Allreduce(bad, first, NBAD, MPI_INT, MPI_MIN, world);
-  std::vector<int> nfound(2 * nif);
-  MPI_Allreduce(found.data(), nfound.data(), 2 * nif, MPI_INT, MPI_SUM, world);
-  for (int ii = 0; ii < nif; ii++)
-    for (int side = 0; side < 2; side++)
-      if (nfound[2 * ii + side] != 1)
-        error->all(FLERR, "bond_style bcm/griffith: cell {} of interface {}-{} is {}",
-                   side ? interfaces[ii].tag2 : interfaces[ii].tag1, interfaces[ii].tag1,
-                   interfaces[ii].tag2, nfound[2 * ii + side] ? "owned twice" : "not an atom");
+  // the owned ones: tag; x, quaternion and radius (NREF + 1 values)
+  constexpr int NV = NREF + 1;
+  std::vector<tagint> mine;
+  std::vector<double> mine_v;
+  for (int i = 0; i < nlocal; i++) {
+    if (!std::binary_search(tags.begin(), tags.end(), tag[i])) continue;
+    mine.push_back(tag[i]);
+    mine_v.insert(mine_v.end(), x[i], x[i] + 3);
+    mine_v.insert(mine_v.end(), quat[i], quat[i] + 4);
+    mine_v.push_back(radius[i]);
+  }
+  const int nprocs = comm->nprocs;
+  int nmine = (int) mine.size();
+  std::vector<int> count(nprocs), disp(nprocs), vcount(nprocs), vdisp(nprocs);
+  MPI_Allgather(&nmine, 1, MPI_INT, count.data(), 1, MPI_INT, world);
+  int total = 0;
+  for (int r = 0; r < nprocs; r++) {
+    disp[r] = total;
+    vcount[r] = NV * count[r];
+    vdisp[r] = NV * total;
+    total += count[r];
+  }
+  std::vector<tagint> all(total);
+  std::vector<double> all_v((size_t) NV * total);
+  MPI_Allgatherv(mine.data(), nmine, MPI_LMP_TAGINT, all.data(), count.data(), disp.data(),
+                 MPI_LMP_TAGINT, world);
+  MPI_Allgatherv(mine_v.data(), NV * nmine, MPI_DOUBLE, all_v.data(), vcount.data(),
+                 vdisp.data(), MPI_DOUBLE, world);
+
+  // cells, cell_tags: in tag order; dense tags 1..N need no tag list
+  if (!(ncell == 0 || tags.back() == (tagint) ncell)) cell_tags = tags;
+  cells.assign((size_t) NREF * ncell, 0.0);
+  std::vector<double> rad(ncell, 0.0);
+  std::vector<int> owners(ncell, 0);
+  for (int k = 0; k < total; k++) {
+    const long c = std::lower_bound(tags.begin(), tags.end(), all[k]) - tags.begin();
+    if (owners[c]++) continue;
+    std::copy(&all_v[(size_t) NV * k], &all_v[(size_t) NV * k] + NREF, &cells[(size_t) NREF * c]);
+    rad[c] = all_v[(size_t) NV * k + NREF];
+  }
+  std::vector<tagint>().swap(tags);
+  reference = CELLS;
+
+  box.triclinic = domain->triclinic;
+  box.periodic[0] = domain->xperiodic;
+  box.periodic[1] = domain->yperiodic;
+  box.periodic[2] = domain->zperiodic;
+  box.prd[0] = domain->xprd;
+  box.prd[1] = domain->yprd;
+  box.prd[2] = domain->zprd;
+  box.prd_half[0] = domain->xprd_half;
+  box.prd_half[1] = domain->yprd_half;
+  box.prd_half[2] = domain->zprd_half;
+  box.xy = domain->xy;
+  box.xz = domain->xz;
+  box.yz = domain->yz;
+
   auto name = [&](int ii) {
     return fmt::format("{}-{}", interfaces[ii].tag1, interfaces[ii].tag2);
   };
-  if (first[BAD_QUAT] < nif)
-    error->all(FLERR, "bond_style bcm/griffith: a cell of interface {} has no orientation "
-               "(zero d2_{})", name(first[BAD_QUAT]), BcmRigid::QUAT);
-  if (first[BAD_RADIUS] < nif)
+  for (int ii = 0; ii < nif; ii++)
+    for (int side = 0; side < 2; side++) {
+      const tagint t = side ? interfaces[ii].tag2 : interfaces[ii].tag1;
+      const int n = owners[cell_of(t)];
+      if (n != 1)
+        error->all(FLERR, "bond_style bcm/griffith: cell {} of interface {} is {}", t, name(ii),
+                   n ? "owned twice" : "not an atom");
+    }
+  for (int ii = 0; ii < nif; ii++)
+    for (tagint t : {interfaces[ii].tag1, interfaces[ii].tag2})
+      if (!(BcmRigid::quat_norm2(&cells[(size_t) NREF * cell_of(t) + 3]) > 0.0))
+        error->all(FLERR, "bond_style bcm/griffith: a cell of interface {} has no orientation "
+                   "(zero d2_{})", name(ii), BcmRigid::QUAT);
+  int bad_radius = nif, bad_side = nif;    // first offending interface of each kind
+  std::vector<double> body(BODY_MAX);
+  for (int ii = 0; ii < nif && (bad_radius == nif || bad_side == nif); ii++) {
+    const Interface &itf = interfaces[ii];
+    const double *n = &space[itf.off];
+    const double r[2] = {rad[cell_of(itf.tag1)], rad[cell_of(itf.tag2)]};
+    frames(ii, body.data(), [&](int side, int, const double *d) {
+      if (std::sqrt(dot(d, d)) > 1.01 * r[side]) bad_radius = std::min(bad_radius, ii);
+      const double side_sign = dot(d, n);
+      if (side == 0 ? side_sign <= 0.0 : side_sign >= 0.0) bad_side = std::min(bad_side, ii);
+    });
+  }
+  if (bad_radius < nif)
     error->all(FLERR, "bond_style bcm/griffith: a point of interface {} lies outside the "
                "bounding radius of its cell: the geometry file does not match the cells",
-               name(first[BAD_RADIUS]));
-  if (first[BAD_SIDE] < nif)
+               name(bad_radius));
+  if (bad_side < nif)
     error->all(FLERR, "bond_style bcm/griffith: interface {}: the normal must point from cell "
-               "tag1 to cell tag2, with the face between the two cells' centres",
-               name(first[BAD_SIDE]));
+               "tag1 to cell tag2, with the face between the two cells' centres", name(bad_side));
 
-  MPI_Allreduce(MPI_IN_PLACE, body.data(), (int) body.size(), MPI_DOUBLE, MPI_SUM, world);
-  std::vector<double> both(centres.size());
-  MPI_Allreduce(centres.data(), both.data(), (int) both.size(), MPI_DOUBLE, MPI_SUM, world);
   span = 0.0;
-  for (int ii = 0; ii < nif; ii++) {
+  for (const Interface &itf : interfaces) {
+    const double *x1 = &cells[(size_t) NREF * cell_of(itf.tag1)];
+    const double *x2 = &cells[(size_t) NREF * cell_of(itf.tag2)];
     double d[3];
-    for (int c = 0; c < 3; c++) d[c] = both[6 * ii + 3 + c] - both[6 * ii + c];
-    domain->minimum_image(FLERR, d);    // the bonded images are the nearest ones
+    for (int c = 0; c < 3; c++) d[c] = x2[c] - x1[c];
+    minimum_image(d);    // the bonded images are the nearest ones
     span = std::max(span, std::sqrt(dot(d, d)));
   }
-  reference_taken = 1;
-  // the space frame has served: the body frames are the geometry from now on (restart files
-  // keep them)
-  std::vector<double>().swap(space);
 }
 
 /* ----------------------------------------------------------------------
    the whole table, reference included (after the style's own settings,
    which the style writes first: the layout of the restart file is theirs
-   then this)
+   then this): RESTART_FORMAT, reference, span, the interfaces (tags,
+   npts, area), the space frame, the cells (count, tag count, tags, NREF
+   values each), the box, the body frames (BODIES only), the file name
 ------------------------------------------------------------------------- */
 
 void BcmInterfaceTable::write_restart(FILE *fp) const
 {
   const int nif = (int) interfaces.size();
-  const long nspace = (long) space.size(), nbody = (long) body.size();
-  fwrite(&reference_taken, sizeof(int), 1, fp);
+  fwrite(&RESTART_FORMAT, sizeof(int), 1, fp);
+  fwrite(&reference, sizeof(int), 1, fp);
   fwrite(&span, sizeof(double), 1, fp);
   fwrite(&nif, sizeof(int), 1, fp);
-  fwrite(&nspace, sizeof(long), 1, fp);
-  fwrite(&nbody, sizeof(long), 1, fp);
   for (const Interface &itf : interfaces) {
     fwrite(&itf.tag1, sizeof(tagint), 1, fp);
     fwrite(&itf.tag2, sizeof(tagint), 1, fp);
     fwrite(&itf.npts, sizeof(int), 1, fp);
     fwrite(&itf.area, sizeof(double), 1, fp);
   }
+  const long nspace = (long) space.size(), ncells = (long) cells.size(),
+             ntags = (long) cell_tags.size(), nbodies = (long) bodies.size();
+  fwrite(&nspace, sizeof(long), 1, fp);
   fwrite(space.data(), sizeof(double), nspace, fp);
-  fwrite(body.data(), sizeof(double), nbody, fp);
+  fwrite(&ncells, sizeof(long), 1, fp);
+  fwrite(cells.data(), sizeof(double), ncells, fp);
+  fwrite(&ntags, sizeof(long), 1, fp);
+  fwrite(cell_tags.data(), sizeof(tagint), ntags, fp);
+  fwrite(&box.triclinic, sizeof(int), 1, fp);
+  fwrite(box.periodic, sizeof(int), 3, fp);
+  fwrite(box.prd, sizeof(double), 3, fp);
+  fwrite(box.prd_half, sizeof(double), 3, fp);
+  for (const double *t : {&box.xy, &box.xz, &box.yz}) fwrite(t, sizeof(double), 1, fp);
+  fwrite(&nbodies, sizeof(long), 1, fp);
+  fwrite(bodies.data(), sizeof(double), nbodies, fp);
   const int nname = (int) geometry_file.size();
   fwrite(&nname, sizeof(int), 1, fp);
   fwrite(geometry_file.data(), sizeof(char), nname, fp);
 }
 
-/* ---------------------------------------------------------------------- */
+/* ----------------------------------------------------------------------
+   both layouts: RESTART_FORMAT's (write_restart()), and the one before,
+   whose table held the body frames themselves: reference_taken (0, 1),
+   span, nif, nspace, nbody, the interfaces, the space frame (nspace: all
+   of it before the reference was taken, else none or, in older files, all
+   of it), the body frames (nbody, zeros before the reference), the file
+   name. Their body frames are kept as read (BODIES) and returned by
+   body_of(): the run goes on with the geometry it had.
+------------------------------------------------------------------------- */
 
 void BcmInterfaceTable::read_restart(FILE *fp)
 {
-  int nif = 0, nname = 0;
-  long nspace = 0, nbody = 0;
+  auto get = [&](void *buf, size_t size, size_t n) {
+    if (n) utils::sfread(FLERR, buf, size, n, fp, nullptr, error);
+  };
+  auto get_vector = [&](auto &v) {
+    long n = 0;
+    get(&n, sizeof(long), 1);
+    v.resize(n);
+    get(v.data(), sizeof(v[0]), n);
+  };
+  clear_reference();
+  int nname = 0;
   if (comm->me == 0) {
-    utils::sfread(FLERR, &reference_taken, sizeof(int), 1, fp, nullptr, error);
-    utils::sfread(FLERR, &span, sizeof(double), 1, fp, nullptr, error);
-    utils::sfread(FLERR, &nif, sizeof(int), 1, fp, nullptr, error);
-    utils::sfread(FLERR, &nspace, sizeof(long), 1, fp, nullptr, error);
-    utils::sfread(FLERR, &nbody, sizeof(long), 1, fp, nullptr, error);
+    int first = 0, nif = 0;
+    get(&first, sizeof(int), 1);
+    const bool legacy = first != RESTART_FORMAT;
+    if (legacy && first != 0 && first != 1)
+      error->one(FLERR, "bond_style bcm/griffith: unknown layout of the interface table in the "
+                 "restart file");
+    long nspace = 0, nbody = 0;
+    if (legacy) {
+      reference = first ? BODIES : NONE;
+      get(&span, sizeof(double), 1);
+      get(&nif, sizeof(int), 1);
+      get(&nspace, sizeof(long), 1);
+      get(&nbody, sizeof(long), 1);
+    } else {
+      get(&reference, sizeof(int), 1);
+      get(&span, sizeof(double), 1);
+      get(&nif, sizeof(int), 1);
+    }
     interfaces.resize(nif);
     for (Interface &itf : interfaces) {
-      utils::sfread(FLERR, &itf.tag1, sizeof(tagint), 1, fp, nullptr, error);
-      utils::sfread(FLERR, &itf.tag2, sizeof(tagint), 1, fp, nullptr, error);
-      utils::sfread(FLERR, &itf.npts, sizeof(int), 1, fp, nullptr, error);
-      utils::sfread(FLERR, &itf.area, sizeof(double), 1, fp, nullptr, error);
+      get(&itf.tag1, sizeof(tagint), 1);
+      get(&itf.tag2, sizeof(tagint), 1);
+      get(&itf.npts, sizeof(int), 1);
+      get(&itf.area, sizeof(double), 1);
     }
-    space.resize(nspace);
-    body.resize(nbody);
-    utils::sfread(FLERR, space.data(), sizeof(double), nspace, fp, nullptr, error);
-    utils::sfread(FLERR, body.data(), sizeof(double), nbody, fp, nullptr, error);
-    utils::sfread(FLERR, &nname, sizeof(int), 1, fp, nullptr, error);
+    if (legacy) {
+      space.resize(nspace);
+      get(space.data(), sizeof(double), nspace);
+      bodies.resize(nbody);
+      get(bodies.data(), sizeof(double), nbody);
+      if (reference == NONE) std::vector<double>().swap(bodies);    // zeros
+      if (reference == BODIES) std::vector<double>().swap(space);    // older files kept it
+    } else {
+      get_vector(space);
+      get_vector(cells);
+      get_vector(cell_tags);
+      get(&box.triclinic, sizeof(int), 1);
+      get(box.periodic, sizeof(int), 3);
+      get(box.prd, sizeof(double), 3);
+      get(box.prd_half, sizeof(double), 3);
+      for (double *t : {&box.xy, &box.xz, &box.yz}) get(t, sizeof(double), 1);
+      get_vector(bodies);
+    }
+    get(&nname, sizeof(int), 1);
     geometry_file.resize(nname);
-    if (nname) utils::sfread(FLERR, &geometry_file[0], sizeof(char), nname, fp, nullptr, error);
+    get(&geometry_file[0], sizeof(char), nname);
   }
-  MPI_Bcast(&reference_taken, 1, MPI_INT, 0, world);
+  auto bcast = [&](auto &v, MPI_Datatype type) {
+    long n = (long) v.size();
+    MPI_Bcast(&n, 1, MPI_LONG, 0, world);
+    v.resize(n);
+    MPI_Bcast(v.data(), (int) n, type, 0, world);
+  };
+  MPI_Bcast(&reference, 1, MPI_INT, 0, world);
   MPI_Bcast(&span, 1, MPI_DOUBLE, 0, world);
-  MPI_Bcast(&nbody, 1, MPI_LONG, 0, world);
   MPI_Bcast(&nname, 1, MPI_INT, 0, world);
   geometry_file.resize(nname);
   if (nname) MPI_Bcast(&geometry_file[0], nname, MPI_CHAR, 0, world);
-  std::vector<double> saved_body = body;
-  saved_body.resize(nbody);
-  MPI_Bcast(saved_body.data(), (int) nbody, MPI_DOUBLE, 0, world);
-  broadcast();    // interfaces and space; resets the offsets and the look-up
-  body = saved_body;
-  if (reference_taken) std::vector<double>().swap(space);    // older files kept it
+  bcast(cells, MPI_DOUBLE);
+  bcast(cell_tags, MPI_LMP_TAGINT);
+  bcast(bodies, MPI_DOUBLE);
+  MPI_Bcast(&box.triclinic, 1, MPI_INT, 0, world);
+  MPI_Bcast(box.periodic, 3, MPI_INT, 0, world);
+  MPI_Bcast(box.prd, 3, MPI_DOUBLE, 0, world);
+  MPI_Bcast(box.prd_half, 3, MPI_DOUBLE, 0, world);
+  for (double *t : {&box.xy, &box.xz, &box.yz}) MPI_Bcast(t, 1, MPI_DOUBLE, 0, world);
+  broadcast();    // interfaces and space; the offsets and the look-up
 }
 
 /* ---------------------------------------------------------------------- */
 
 double BcmInterfaceTable::memory_usage() const
 {
-  return (double) (space.capacity() + body.capacity()) * sizeof(double) +
+  return (double) (space.capacity() + cells.capacity() + bodies.capacity()) * sizeof(double) +
+      (double) cell_tags.capacity() * sizeof(tagint) +
       (double) interfaces.capacity() * sizeof(Interface) + (double) order.capacity() * sizeof(int);
 }

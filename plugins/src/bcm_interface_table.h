@@ -1,8 +1,11 @@
 /* The interface table of bond_style bcm/griffith (SPEC 1.2; plugins/doc/bond_bcm_griffith.md,
    "Geometry file"): the geometry of every interface, identical on every rank. Read from the
-   geometry file by rank 0 and broadcast; at the first init turned into the body frames of
-   the two cells (take_reference()); written whole into restart files, so that a restarted
-   run keeps the body-frame geometry of the original reference state. */
+   geometry file by rank 0 and broadcast. It keeps that file's space-frame geometry (normal and
+   points of the reference state) and, from the first init (take_reference()), the reference
+   state of the cells (position, orientation) and box: the body frames of an interface's two
+   cells are computed from these whenever they are asked for (body_of()), the same
+   arithmetic every time. Written whole into restart files, so that a restarted run keeps the
+   original reference. */
 
 #ifndef BRITTLE_BCM_INTERFACE_TABLE_H
 #define BRITTLE_BCM_INTERFACE_TABLE_H
@@ -19,12 +22,14 @@ namespace LAMMPS_NS {
 class BcmInterfaceTable : protected Pointers {
  public:
   static constexpr int MAX_POINTS = 16;    // contact points per interface
+  // the longest body-frame geometry of an interface (body_of())
+  static constexpr int BODY_MAX = 3 + 6 * MAX_POINTS;
 
   struct Interface {
     tagint tag1, tag2;
     int npts;
     double area;
-    long boff;    // into body: normal (3), points in cell 1's frame, then in cell 2's
+    long off;    // into space: normal (3), then the points (3 npts)
   };
 
   explicit BcmInterfaceTable(LAMMPS *lmp) : Pointers(lmp) {}
@@ -32,15 +37,17 @@ class BcmInterfaceTable : protected Pointers {
   // the table of a geometry file (rank 0 reads, every rank gets it); the reference is to
   // be taken again
   void read(const std::string &file);
-  // body-frame geometry from the current state of the cells (d2_bcm_quat: atom->darray[iquat])
+  // the reference state from the current state of the cells (x, d2_bcm_quat:
+  // atom->darray[iquat]) and the box; checks that the geometry fits the cells
   void take_reference(int iquat);
-  bool has_reference() const { return reference_taken != 0; }
+  bool has_reference() const { return reference != NONE; }
 
   int find(tagint t1, tagint t2) const;    // index of the interface of two cells, or -1
   int size() const { return (int) interfaces.size(); }
   const Interface &operator[](int i) const { return interfaces[i]; }
-  // normal in cell 1's frame (3), then the points in cell 1's frame, then in cell 2's
-  const double *body_of(const Interface &itf) const { return &body[itf.boff]; }
+  // the body-frame geometry of interface i into out (3 + 6 npts): the normal in cell 1's
+  // frame, then the points in cell 1's frame, then in cell 2's; needs the reference
+  void body_of(int i, double *out) const;
   const std::string &file() const { return geometry_file; }
   double mean_area() const { return area_mean; }    // <S> of the table
   int max_points() const { return maxpts; }
@@ -52,20 +59,42 @@ class BcmInterfaceTable : protected Pointers {
   double memory_usage() const;
 
  private:
+  // what the body frames are computed from: nothing yet (before the first init); the
+  // reference state of the cells; or (restart files written before the cells' reference was
+  // kept) the body frames themselves, as read
+  enum Reference { NONE = 0, CELLS = 1, BODIES = 2 };
+  // minimum image in the box of the reference state: Domain::minimum_image's arithmetic
+  // (LAMMPS 22 Jul 2025) on a copy of that box, which a later run may have deformed
+  struct Box {
+    int triclinic = 0;
+    int periodic[3] = {0, 0, 0};
+    double prd[3] = {0.0, 0.0, 0.0}, prd_half[3] = {0.0, 0.0, 0.0};
+    double xy = 0.0, xz = 0.0, yz = 0.0;
+  };
+  static constexpr int NREF = 7;    // per cell: x (3), d2_bcm_quat (4)
+
   std::vector<Interface> interfaces;
-  // reference state, space frame, from the geometry file (normal, then the points, per
-  // interface in order): dropped once the body frames are taken
+  // reference state, space frame, from the geometry file: per interface in order the normal
+  // (tag1 to tag2), then the points
   std::vector<double> space;
-  std::vector<double> body;     // normal in cell 1's frame, points in cell 1's, then cell 2's
-  std::vector<int> order;       // the interfaces by (tag1, tag2): find()
+  // reference state of the cells of the interfaces, NREF values per cell, in tag order
+  std::vector<double> cells;
+  std::vector<tagint> cell_tags;    // their tags; empty when they are 1..N (cell t at t - 1)
+  Box box;
+  std::vector<double> bodies;    // BODIES only: per interface 3 + 6 npts, in order
+  std::vector<int> order;        // the interfaces by (tag1, tag2): find()
   std::string geometry_file;
   double area_mean = 0.0;
-  int maxpts = 0;              // largest npts of the table: sets the per-slot store size
-  int reference_taken = 0;     // body-frame geometry computed
-  double span = 0.0;           // largest distance between bonded centres, reference state
+  int maxpts = 0;           // largest npts of the table: sets the per-slot store size
+  int reference = NONE;
+  double span = 0.0;    // largest distance between bonded centres, reference state
 
   void broadcast();
   void index();
+  void clear_reference();
+  int cell_of(tagint t) const;    // index into cells of a cell of the table, or -1
+  void minimum_image(double *d) const;
+  template <class Visit> void frames(int i, double *out, Visit &&visit) const;
   using Key = std::pair<tagint, tagint>;
   static Key key(tagint t1, tagint t2);
 };

@@ -561,6 +561,7 @@ void BondBcmGriffith::rebuild_cache()
                  nrec + ncontact, (long) INT32_MAX);
     records.assign(nrec + RECORD_TAIL, 0.0);    // what the kernel reads past the last row
     contact.assign(ncontact, 0.0);
+    double g[BcmInterfaceTable::BODY_MAX];
     for (int n = 0; n < nbondlist; n++) {
       const Entry &e = cache[n];
       const int np = e.npts, P = row_stride(np);
@@ -592,8 +593,9 @@ void BondBcmGriffith::rebuild_cache()
           for (int c = 0; c < 3; c++) rec[R_FD + c * P + k] = st[NHEAD + 3 * k + c];
       }
       if (e.coff >= 0 && cst) std::copy(cst, cst + NCONTACT * np, &contact[e.coff + NBHEAD]);
-      // geometry: normal in cell 1's frame, then the rows of b1 and of b2
-      const double *g = table.body_of(itf);
+      // geometry: normal in cell 1's frame, then the rows of b1 and of b2 (computed by the
+      // table from the reference state)
+      table.body_of(e.iface, g);
       double *out = rec + record_geometry(np);
       for (int c = 0; c < 3; c++) out[c] = g[c];
       for (int k = 0; k < np; k++)
@@ -1473,9 +1475,9 @@ void BondBcmGriffith::read_restart(FILE *fp)
 
 
 /* ----------------------------------------------------------------------
-   the convention, the stiffness mode and the whole interface table,
-   reference included, so a restarted run keeps the body-frame geometry of
-   the original reference
+   the convention, the stiffness mode and the whole interface table, the
+   reference state of its cells and box included, so a restarted run keeps
+   the body frames of the original reference
 ------------------------------------------------------------------------- */
 
 void BondBcmGriffith::write_restart_settings(FILE *fp)
