@@ -1097,7 +1097,12 @@ void BondBcmGriffith::break_interface(Entry &e, double *rec, const Pair &p,
       error->one(FLERR, "bond_style bcm/griffith: more broken interfaces on this rank than its "
                  "contact state can hold ({} values): use more ranks", (long) INT32_MAX);
     e.coff = (int32_t) contact.size();
-    contact.resize(contact.size() + (size_t) contact_size(e.npts), 0.0);
+    // grown by an eighth, not doubled: in a fracture the blocks arrive by thousands, and a
+    // doubling holds the old array and twice it at once (issue 27: a run's peak)
+    const size_t need = contact.size() + (size_t) contact_size(e.npts);
+    if (need > contact.capacity())
+      contact.reserve(std::max(need, contact.size() + contact.size() / 8 + 4096));
+    contact.resize(need, 0.0);
   }
   double *cb = &contact[e.coff];
   set_contact_constants(e, e.type, rec, cb);
