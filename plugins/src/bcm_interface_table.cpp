@@ -182,8 +182,11 @@ void BcmInterfaceTable::index()
   for (const Interface &itf : interfaces) area_mean += itf.area;
   if (!interfaces.empty()) area_mean /= (double) interfaces.size();
   for (Interface &itf : interfaces) {
-    itf.off = off;
+    itf.off = (uint32_t) off;
     off += 3 + 3 * itf.npts;
+    if (off > (long) UINT32_MAX)
+      error->all(FLERR, "bond_style bcm/griffith: the interface table holds more than {} "
+                 "values of geometry", (long) UINT32_MAX);
     maxpts = std::max(maxpts, itf.npts);
   }
   // the body frames of restart files before the cells' reference came without the space frame
@@ -341,7 +344,7 @@ void BcmInterfaceTable::body_of(int i, double *out) const
   const Interface &itf = interfaces[i];
   if (reference == BODIES) {
     // in order, 3 + 6 npts per interface: 2 off - 3 i values before interface i
-    const double *g = &bodies[2 * itf.off - 3L * i];
+    const double *g = &bodies[2L * itf.off - 3L * i];
     std::copy(g, g + 3 + 6 * itf.npts, out);
   } else if (reference == CELLS) {
     frames(i, out, [](int, int, const double *) {});

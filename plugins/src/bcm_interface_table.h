@@ -12,6 +12,7 @@
 
 #include "pointers.h"
 
+#include <cstdint>
 #include <cstdio>
 #include <string>
 #include <utility>
@@ -25,11 +26,11 @@ class BcmInterfaceTable : protected Pointers {
   // the longest body-frame geometry of an interface (body_of())
   static constexpr int BODY_MAX = 3 + 6 * MAX_POINTS;
 
-  struct Interface {
+  struct Interface {    // 24 bytes: every rank holds every interface
     tagint tag1, tag2;
-    int npts;
     double area;
-    long off;    // into space: normal (3), then the points (3 npts)
+    uint32_t off;    // into space: normal (3), then the points (3 npts); checked in index()
+    int npts;
   };
 
   explicit BcmInterfaceTable(LAMMPS *lmp) : Pointers(lmp) {}
