@@ -61,9 +61,19 @@ enum {
   K_CP,      // 2 alpha sqrt(k_n m) / N_p (k_n / N_p and k_t / N_p: BondBcmGriffith::point_stiffness())
   NCONST
 };
-// the record's header: the slot header's fields of every interface
-enum { RH_BROKEN, RH_E_EL, RH_W_DAMP, RH_LAST_KIND, RH_LAST_DT, RH_PD, NRHEAD };
-constexpr int RECORD_HEAD[NRHEAD] = {H_BROKEN, H_E_EL, H_W_DAMP, H_LAST_KIND, H_LAST_DT, H_PD};
+// what the last force evaluation was: it decides which half kicks used its damping force
+enum EvalKind { EVAL_NONE = 0, EVAL_SETUP = 1, EVAL_STEP = 2 };
+// the record's header: the slot header's fields of every interface, the last evaluation's
+// kind and time step in one value (RH_LAST: +dt after a step, -dt after a setup, 0 before
+// any; exact both ways, dt > 0)
+enum { RH_BROKEN, RH_E_EL, RH_W_DAMP, RH_LAST, RH_PD, NRHEAD };
+constexpr int RECORD_HEAD[NRHEAD] = {H_BROKEN, H_E_EL, H_W_DAMP, -1, H_PD};    // -1: RH_LAST
+inline double last_of(int kind, double dt)
+{
+  return kind == EVAL_STEP ? dt : kind == EVAL_SETUP ? -dt : 0.0;
+}
+inline int last_kind(double last) { return last > 0.0 ? EVAL_STEP : last < 0.0 ? EVAL_SETUP : EVAL_NONE; }
+inline double last_dt(double last) { return last < 0.0 ? -last : last; }
 // the contact block of a broken (or retired) interface, apart from the records: the contact
 // law's constants, the slot header's fields that only a broken interface writes (zeros while
 // intact), then NCONTACT per point:
@@ -94,21 +104,28 @@ inline long record_geometry(int npts) { return R_FD + 3L * row_stride(npts); }  
 inline long record_size(int npts) { return record_geometry(npts) + 3 + 6L * row_stride(npts); }
 
 // the slot header (NHEAD) from a record and its contact block (nullptr while intact: zeros)
+// rh: a record's header (rec + R_HEAD), or a copy of it
+inline void compose_record_head(const double *rh, double *head)
+{
+  for (int h = 0; h < NRHEAD; h++)
+    if (h != RH_LAST) head[RECORD_HEAD[h]] = rh[h];
+  head[H_LAST_KIND] = last_kind(rh[RH_LAST]);
+  head[H_LAST_DT] = last_dt(rh[RH_LAST]);
+}
 inline void compose_head(const double *rec, const double *cb, double *head)
 {
-  for (int h = 0; h < NRHEAD; h++) head[RECORD_HEAD[h]] = rec[R_HEAD + h];
+  compose_record_head(rec + R_HEAD, head);
   for (int h = 0; h < NBROKEN_HEAD; h++) head[BROKEN_HEAD[h]] = cb ? cb[B_HEAD + h] : 0.0;
 }
 // a slot header into a record and its contact block (nullptr while intact: not kept)
 inline void split_head(const double *head, double *rec, double *cb)
 {
-  for (int h = 0; h < NRHEAD; h++) rec[R_HEAD + h] = head[RECORD_HEAD[h]];
+  for (int h = 0; h < NRHEAD; h++)
+    if (h != RH_LAST) rec[R_HEAD + h] = head[RECORD_HEAD[h]];
+  rec[R_HEAD + RH_LAST] = last_of((int) head[H_LAST_KIND], head[H_LAST_DT]);
   if (cb)
     for (int h = 0; h < NBROKEN_HEAD; h++) cb[B_HEAD + h] = head[BROKEN_HEAD[h]];
 }
-
-// what the last force evaluation was: it decides which half kicks used its damping force
-enum EvalKind { EVAL_NONE = 0, EVAL_SETUP = 1, EVAL_STEP = 2 };
 
 }    // namespace BcmInterfaceState
 

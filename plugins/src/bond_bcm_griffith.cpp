@@ -504,7 +504,7 @@ void BondBcmGriffith::rebuild_cache()
       const int np = e.npts, P = row_stride(np);
       const double *sv = &saved[soff[o]];
       const double *cb = e.coff >= 0 ? &old_contact[e.coff] : nullptr;
-      for (int h = 0; h < NRHEAD; h++) slot[RECORD_HEAD[h]] = sv[h];
+      compose_record_head(sv, slot);
       for (int h = 0; h < NBROKEN_HEAD; h++) slot[BROKEN_HEAD[h]] = cb ? cb[B_HEAD + h] : 0.0;
       for (int k = 0; k < np; k++)
         for (int c = 0; c < 3; c++) slot[NHEAD + 3 * k + c] = sv[NRHEAD + c * P + k];
@@ -820,6 +820,9 @@ void BondBcmGriffith::compute(int eflag, int vflag)
   Clock now;
   now.kind = (update->whichflag == 1) ? (update->setupflag ? EVAL_SETUP : EVAL_STEP) : EVAL_NONE;
   now.dt = update->dt;
+  // the records keep the last time step signed by the kind (RH_LAST): it must be > 0
+  if (now.kind != EVAL_NONE && !(now.dt > 0.0))
+    error->all(FLERR, "bond_style bcm/griffith needs a time step > 0 (timestep {})", now.dt);
   now.step = update->ntimestep;
   now.time = update->atime + (double) (now.step - update->atimestep) * now.dt;
 
@@ -902,11 +905,11 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     // damping work of the previous evaluation, now that the velocity after its kicks is
     // known: nkicks (h/4) F_d . (dv_then + dv_now), the exact work of a force held over half
     // kicks in velocity Verlet (translation; second order with rotation)
-    const int last = (int) head[RH_LAST_KIND];
+    const int last = last_kind(head[RH_LAST]);
     const int nkicks = (last != EVAL_NONE && now.kind != EVAL_NONE)
         ? (last == EVAL_STEP) + (now.kind == EVAL_STEP)
         : 0;
-    if (nkicks) head[RH_W_DAMP] += 0.25 * nkicks * head[RH_LAST_DT] * (head[RH_PD] - fd_dv);
+    if (nkicks) head[RH_W_DAMP] += 0.25 * nkicks * last_dt(head[RH_LAST]) * (head[RH_PD] - fd_dv);
     if (just_broke) contact[e.coff + B_W_DAMP_BREAK] = head[RH_W_DAMP];
 
     if (quiet_broken)
@@ -917,8 +920,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     if (head[RH_BROKEN] != INTACT) nbroken++;
     head[RH_PD] = r.pd;
     head[RH_E_EL] = r.stored;
-    head[RH_LAST_KIND] = now.kind;
-    head[RH_LAST_DT] = now.dt;
+    head[RH_LAST] = last_of(now.kind, now.dt);
     // a quiet interface's load is zero: adding it changes no force, torque, energy or virial
     if (!quiet_broken) apply(e, p, r);
   }
