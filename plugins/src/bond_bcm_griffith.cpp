@@ -1399,45 +1399,53 @@ void BondBcmGriffith::tally(double *sums)
   const tagint *tag = atom->tag;
   const int nlocal = atom->nlocal;
   const int bpa = atom->bond_per_atom;
+  // one interface's fields (a record's header and contact block, or a composed slot) into
+  // the sums, in the same order for both
+  const auto add = [&](double broken, double area, int type, double e_el, double w_damp,
+                       double last_kind_, double last_dt_, double pd, const double *bh) {
+    if (broken != INTACT) {    // broken or retired
+      sums[1] += 1.0;
+      sums[2] += area;
+      sums[3] += 2.0 * area * gc[type];
+    } else {
+      sums[0] += 1.0;
+    }
+    sums[4] += e_el;
+    const double pending = (int) last_kind_ == EVAL_STEP ? pd : 0.0;
+    const double damp = w_damp + 0.5 * last_dt_ * pending;
+    sums[5] += damp;
+    // bh: the broken-only fields in BROKEN_HEAD's order (nullptr while intact: zeros)
+    sums[6] += bh ? bh[B_W_FRIC - B_HEAD] : 0.0;
+    sums[7] += bh ? bh[B_W_SWITCH - B_HEAD] : 0.0;
+    if (broken != INTACT) {
+      const double nclosed = bh ? bh[B_NCLOSED - B_HEAD] : 0.0;
+      sums[8] += nclosed > 0.0;
+      sums[9] += nclosed;
+      sums[10] += bh ? bh[B_FN - B_HEAD] : 0.0;
+      sums[11] += bh ? bh[B_SLIP - B_HEAD] : 0.0;
+      sums[12] += damp - (bh ? bh[B_W_DAMP_BREAK - B_HEAD] : 0.0);
+    }
+  };
   for (int i = 0; i < nlocal; i++)
     for (int m = 0; m < atom->num_bond[i]; m++) {
       const int type = atom->bond_type[i][m];
       const tagint partner = atom->bond_atom[i][m];
       if (type <= 0 || tag[i] > partner) continue;
       const int n = cached ? entry_of_slot[(size_t) i * bpa + m] : -1;
-      const double *slot;
-      double area;
-      if (n >= 0) {
+      if (n >= 0) {    // the working copy's fields as they are (compose_head()'s values)
         const Entry &e = cache[n];
-        const double *rec = &records[e.roff];
-        compose_head(rec, e.coff >= 0 ? &contact[e.coff] : nullptr, scratch);
-        slot = scratch;
-        area = rec[K_AREA];
+        const double *rh = &records[e.roff] + R_HEAD;
+        add(rh[RH_BROKEN], records[e.roff + K_AREA], type, rh[RH_E_EL], rh[RH_W_DAMP],
+            last_kind(rh[RH_LAST]), last_dt(rh[RH_LAST]), rh[RH_PD],
+            e.coff >= 0 ? &contact[e.coff + B_HEAD] : nullptr);
       } else {
         const int ii = table.find(tag[i], partner);
         if (ii < 0) continue;
-        slot = header_of(i, m, scratch);
-        area = table[ii].area;
-      }
-      if (slot[H_BROKEN] != INTACT) {    // broken or retired
-        sums[1] += 1.0;
-        sums[2] += area;
-        sums[3] += 2.0 * area * gc[type];
-      } else {
-        sums[0] += 1.0;
-      }
-      sums[4] += slot[H_E_EL];
-      const double pending = (int) slot[H_LAST_KIND] == EVAL_STEP ? slot[H_PD] : 0.0;
-      const double damp = slot[H_W_DAMP] + 0.5 * slot[H_LAST_DT] * pending;
-      sums[5] += damp;
-      sums[6] += slot[H_W_FRIC];
-      sums[7] += slot[H_W_SWITCH];
-      if (slot[H_BROKEN] != INTACT) {
-        sums[8] += slot[H_NCLOSED] > 0.0;
-        sums[9] += slot[H_NCLOSED];
-        sums[10] += slot[H_FN];
-        sums[11] += slot[H_SLIP];
-        sums[12] += damp - slot[H_W_DAMP_BREAK];
+        const double *slot = header_of(i, m, scratch);
+        double bh[NBROKEN_HEAD];
+        for (int h = 0; h < NBROKEN_HEAD; h++) bh[h] = slot[BROKEN_HEAD[h]];
+        add(slot[H_BROKEN], table[ii].area, type, slot[H_E_EL], slot[H_W_DAMP],
+            slot[H_LAST_KIND], slot[H_LAST_DT], slot[H_PD], bh);
       }
     }
 }
