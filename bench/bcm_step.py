@@ -21,13 +21,16 @@ Memory: each tree's 1-rank LAMMPS process (the `lmp` executable alone, peak resi
 VmHWM, from wait4) for --memory-steps steps at each --memory-cells size, and bytes per cell
 above the smallest; twice: the input up to the stop rule alone, and with the start of a real
 run before the steps (`run 0` and the tree's own cell and interface dumps of the start, from
-its driver's `_dump_commands`), so that the moment of a dump counts.
+its driver's `_dump_commands`), so that the moment of a dump counts. With --memory-chunks K,
+also over K chunks of --chunk steps (`run` commands, as the driver runs them: each setup sorts
+the atoms and lays the working copy out again) from step 0, through contact and fracture.
 
 Wall-clock figures on a shared machine are noisy: the ratio of two runs taken one after the
 other is what this bench is for; it prints the load average before and after.
 
     python bench/bcm_step.py [--ref 37ec331] [--cells 300 1728] [--ranks 1 2] [--repeats 2]
-                             [--memory-cells 300 1728 8000] [--skip-memory] [--skip-phases]
+                             [--memory-cells 300 1728 8000] [--memory-chunks 65] [--skip-memory]
+                             [--skip-phases]
 """
 
 from __future__ import annotations
@@ -144,13 +147,15 @@ def run_chunks(run: Path, steps: int, chunk: int, ranks: int) -> tuple[list[floa
     return loops[-(steps // chunk):], wall
 
 
-def peak_mib(run: Path, steps: int, start_dumps: bool = False) -> float:
-    """Peak resident size (VmHWM) of a 1-rank LAMMPS process running `steps` steps, MiB;
-    start_dumps: after `run 0` and the tree's own dumps of the start (start.lammps), as a real
-    run begins."""
+def peak_mib(run: Path, steps: int, start_dumps: bool = False, chunks: int = 1) -> float:
+    """Peak resident size (VmHWM) of a 1-rank LAMMPS process running `chunks` runs of `steps`
+    steps, MiB; start_dumps: after `run 0` and the tree's own dumps of the start (start.lammps),
+    as a real run begins."""
     (run / "dumps").mkdir(exist_ok=True)
+    for name in ("thermo.dat", "breaks.dat"):
+        (run / name).unlink(missing_ok=True)
     start = (run / "start.lammps").read_text() if start_dumps and (run / "start.lammps").exists() else ""
-    (run / "memory.lammps").write_text((run / "base.lammps").read_text() + start + f"run {steps}\n")
+    (run / "memory.lammps").write_text((run / "base.lammps").read_text() + start + f"run {steps}\n" * chunks)
     proc = subprocess.Popen(lmp_command(1, "memory.lammps"), cwd=run, env=lmp_env(),
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     _, status, usage = os.wait4(proc.pid, 0)
@@ -198,6 +203,8 @@ def main() -> None:
                          "tail sample needs it)")
     ap.add_argument("--memory-cells", type=int, nargs="+", default=[300, 1728, 8000])
     ap.add_argument("--memory-steps", type=int, default=300)
+    ap.add_argument("--memory-chunks", type=int, default=0,
+                    help="also the peak over this many chunks of --chunk steps (0: not measured)")
     ap.add_argument("--skip-memory", action="store_true")
     ap.add_argument("--skip-phases", action="store_true")
     ap.add_argument("--keep", type=Path, default=None, help="keep the work directory here")
@@ -304,11 +311,15 @@ def phases(trees: list[Tree], n: int, args) -> None:
 
 
 def memory(trees: list[Tree], args) -> None:
-    for start_dumps in (False, True):
+    variants = [(False, 1, args.memory_steps), (True, 1, args.memory_steps)]
+    if args.memory_chunks:
+        variants.append((False, args.memory_chunks, args.chunk))
+    for start_dumps, chunks, steps in variants:
         what = ("after `run 0` and the tree's own dumps of the start (cells, interfaces), as a run begins"
                 if start_dumps else "no dump (the input up to the stop rule)")
         missing = [t.name for t in trees if start_dumps and not all(s.get("start_dumps") for s in t.systems.values())]
-        print(f"\nmemory: peak resident size (VmHWM) of the 1-rank LAMMPS process (`lmp`), {args.memory_steps} steps; "
+        span = f"{steps} steps" if chunks == 1 else f"{chunks} runs of {steps} steps (contact and fracture)"
+        print(f"\nmemory: peak resident size (VmHWM) of the 1-rank LAMMPS process (`lmp`), {span}; "
               f"{what}" + (f" ({', '.join(missing)}: no start dumps in its driver)" if missing else ""))
         print(f"  {'cells':>6s} " + " ".join(f"{t.name + ' MiB':>10s} "
                                              f"{t.name + ' B/cell above ' + str(args.memory_cells[0]):>22s}"
@@ -316,7 +327,7 @@ def memory(trees: list[Tree], args) -> None:
         peaks = {t.name: {} for t in trees}
         for n in args.memory_cells:
             for tree in trees:
-                peaks[tree.name][n] = peak_mib(tree.runs[n], args.memory_steps, start_dumps)
+                peaks[tree.name][n] = peak_mib(tree.runs[n], steps, start_dumps, chunks)
             cols = []
             for tree in trees:
                 p = peaks[tree.name]
