@@ -131,11 +131,18 @@ def lmp_env() -> dict:
                                                    if os.environ.get("LD_LIBRARY_PATH") else ""))
 
 
-def run_chunks(run: Path, steps: int, chunk: int, ranks: int) -> tuple[list[float], float]:
-    """Loop seconds of each chunk of `steps` steps from step 0, and the process's wall time."""
+def fresh_outputs(run: Path) -> None:
+    """Before a LAMMPS run in one of the bench's own run directories (built by HELPER in its
+    work directory): the records and break log of the previous run there removed, the dumps'
+    directory made."""
     for name in ("thermo.dat", "breaks.dat"):
         (run / name).unlink(missing_ok=True)
     (run / "dumps").mkdir(exist_ok=True)
+
+
+def run_chunks(run: Path, steps: int, chunk: int, ranks: int) -> tuple[list[float], float]:
+    """Loop seconds of each chunk of `steps` steps from step 0, and the process's wall time."""
+    fresh_outputs(run)
     text = (run / "base.lammps").read_text() + f"run {chunk}\n" * (steps // chunk)
     (run / "bench.lammps").write_text(text)
     t0 = time.perf_counter()
@@ -151,9 +158,7 @@ def peak_mib(run: Path, steps: int, start_dumps: bool = False, chunks: int = 1) 
     """Peak resident size (VmHWM) of a 1-rank LAMMPS process running `chunks` runs of `steps`
     steps, MiB; start_dumps: after `run 0` and the tree's own dumps of the start (start.lammps),
     as a real run begins."""
-    (run / "dumps").mkdir(exist_ok=True)
-    for name in ("thermo.dat", "breaks.dat"):
-        (run / name).unlink(missing_ok=True)
+    fresh_outputs(run)
     start = (run / "start.lammps").read_text() if start_dumps and (run / "start.lammps").exists() else ""
     (run / "memory.lammps").write_text((run / "base.lammps").read_text() + start + f"run {steps}\n" * chunks)
     proc = subprocess.Popen(lmp_command(1, "memory.lammps"), cwd=run, env=lmp_env(),

@@ -103,19 +103,19 @@ constexpr int R_FD = NCONST + NRHEAD;     // damping forces, 3 rows of N_p
 inline long record_geometry(int npts) { return R_FD + 3L * row_stride(npts); }    // normal, b1, b2
 inline long record_size(int npts) { return record_geometry(npts) + 3 + 6L * row_stride(npts); }
 
-// the slot header (NHEAD) from a record and its contact block (nullptr while intact: zeros)
-// rh: a record's header (rec + R_HEAD), or a copy of it
-inline void compose_record_head(const double *rh, double *head)
+// the slot header (NHEAD) from a record's header rh (rec + R_HEAD, or a copy of it) and its
+// contact block cb (nullptr while intact: zeros)
+inline void compose_head_from(const double *rh, const double *cb, double *head)
 {
   for (int h = 0; h < NRHEAD; h++)
     if (h != RH_LAST) head[RECORD_HEAD[h]] = rh[h];
   head[H_LAST_KIND] = last_kind(rh[RH_LAST]);
   head[H_LAST_DT] = last_dt(rh[RH_LAST]);
+  for (int h = 0; h < NBROKEN_HEAD; h++) head[BROKEN_HEAD[h]] = cb ? cb[B_HEAD + h] : 0.0;
 }
 inline void compose_head(const double *rec, const double *cb, double *head)
 {
-  compose_record_head(rec + R_HEAD, head);
-  for (int h = 0; h < NBROKEN_HEAD; h++) head[BROKEN_HEAD[h]] = cb ? cb[B_HEAD + h] : 0.0;
+  compose_head_from(rec + R_HEAD, cb, head);
 }
 // a slot header into a record and its contact block (nullptr while intact: not kept)
 inline void split_head(const double *head, double *rec, double *cb)

@@ -313,6 +313,10 @@ void BondBcmGriffith::init_style()
     error->all(FLERR, "bond_style bcm/griffith requires the per-atom array d2_{} (4 columns, "
                "ghost yes) of fix property/atom", BcmRigid::QUAT);
 
+  // the records keep the last time step signed by the kind (RH_LAST): it must be > 0
+  if (!(update->dt > 0.0))
+    error->all(FLERR, "bond_style bcm/griffith needs a time step > 0 (timestep {})", update->dt);
+
   FixBcmGriffith::get_or_create(lmp);
   special = FixBreakableSpecial::get_or_create(lmp);
 
@@ -504,8 +508,7 @@ void BondBcmGriffith::rebuild_cache()
       const int np = e.npts, P = row_stride(np);
       const double *sv = &saved[soff[o]];
       const double *cb = e.coff >= 0 ? &old_contact[e.coff] : nullptr;
-      compose_record_head(sv, slot);
-      for (int h = 0; h < NBROKEN_HEAD; h++) slot[BROKEN_HEAD[h]] = cb ? cb[B_HEAD + h] : 0.0;
+      compose_head_from(sv, cb, slot);
       for (int k = 0; k < np; k++)
         for (int c = 0; c < 3; c++) slot[NHEAD + 3 * k + c] = sv[NRHEAD + c * P + k];
     };
@@ -735,15 +738,26 @@ size_t BondBcmGriffith::compose(int i, const double *stored, size_t n, double *o
    (SPEC 1.2: the whole-interface stiffness and damping shared by N_p points)
 ------------------------------------------------------------------------- */
 
+/* ----------------------------------------------------------------------
+   stiffness per_area: the interface's k_n, k_t are the configured ones times S / <S> (its
+   area over the mean), so the Griffith threshold is a stress, whatever the face's size;
+   per_interface: 1
+------------------------------------------------------------------------- */
+
+inline double BondBcmGriffith::stiffness_factor(const double *rec) const
+{
+  return stiffness == PER_AREA ? rec[K_AREA] / table.mean_area() : 1.0;
+}
+
+/* ---------------------------------------------------------------------- */
+
 void BondBcmGriffith::set_constants(const Entry &e, int type, double *rec)
 {
   if (type <= 0) return;
   const int np = e.npts;
   const double m1 = atom->rmass[e.c1], m2 = atom->rmass[e.c2];
   const double mred = m1 * m2 / (m1 + m2);
-  // stiffness per_area: the interface's k_n, k_t are the configured ones times S / <S> (its
-  // area over the mean), so the Griffith threshold is a stress, whatever the face's size
-  const double f = stiffness == PER_AREA ? rec[K_AREA] / table.mean_area() : 1.0;
+  const double f = stiffness_factor(rec);
   rec[K_CP] = 2.0 * alpha[type] * std::sqrt(f * kn[type] * mred) / np;
   if (e.coff >= 0) set_contact_constants(e, type, rec, &contact[e.coff]);
 }
@@ -758,7 +772,7 @@ inline void BondBcmGriffith::point_stiffness(int type, int npts, const double *r
                                              double &ktp) const
 {
   if (stiffness == PER_AREA) {
-    const double f = rec[K_AREA] / table.mean_area();    // as set_constants()
+    const double f = stiffness_factor(rec);
     kp = f * kn[type] / npts;
     ktp = f * kt[type] / npts;
   } else {
@@ -820,9 +834,6 @@ void BondBcmGriffith::compute(int eflag, int vflag)
   Clock now;
   now.kind = (update->whichflag == 1) ? (update->setupflag ? EVAL_SETUP : EVAL_STEP) : EVAL_NONE;
   now.dt = update->dt;
-  // the records keep the last time step signed by the kind (RH_LAST): it must be > 0
-  if (now.kind != EVAL_NONE && !(now.dt > 0.0))
-    error->all(FLERR, "bond_style bcm/griffith needs a time step > 0 (timestep {})", now.dt);
   now.step = update->ntimestep;
   now.time = update->atime + (double) (now.step - update->atimestep) * now.dt;
 

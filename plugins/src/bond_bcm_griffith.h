@@ -181,6 +181,7 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds, public FixLazy
   void allocate();
   void adopt();
   void rebuild_cache();
+  double stiffness_factor(const double *rec) const;    // per_area: S / <S>, else 1
   void set_constants(const Entry &e, int type, double *rec);
   // k_n / N_p and k_t / N_p of an entry's points (per type and N_p, or per_area from S)
   std::vector<double> kp_of, ktp_of;    // per_interface: [type * (MAX_POINTS + 1) + N_p]
