@@ -564,17 +564,22 @@ def write_lattice(tmp_path, shape, drift, burst=0.0, seed=0):
     (tmp_path / "lattice.data").write_text("\n".join(out) + "\n")
 
 
-def run_lmp(tmp_path, nprocs, text):
+def run_lmp(tmp_path, nprocs, text, eval_both=False):
+    """`lmp` on nprocs ranks; eval_both: BRITTLE_EVAL_BOTH=1 (every rank evaluates the
+    interfaces of its cells, copies included: the path before issue 27's evaluation once)."""
+    import os  # noqa: PLC0415
     import subprocess  # noqa: PLC0415
 
     from driver.engine import venv_bin  # noqa: PLC0415
 
-    inp = tmp_path / f"in.{nprocs}"
+    name = f"{nprocs}{'b' if eval_both else ''}"
+    inp = tmp_path / f"in.{name}"
     inp.write_text(text)
     cmd = [venv_bin("mpiexec"), "-n", str(nprocs), venv_bin("lmp"), "-in", inp.name,
-           "-log", f"log.{nprocs}", "-screen", "none", "-nocite"]
-    proc = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300)
-    log = (tmp_path / f"log.{nprocs}").read_text()
+           "-log", f"log.{name}", "-screen", "none", "-nocite"]
+    env = dict(os.environ, BRITTLE_EVAL_BOTH="1" if eval_both else "0")
+    proc = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=300, env=env)
+    log = (tmp_path / f"log.{name}").read_text()
     assert proc.returncode == 0, log[-2000:] + proc.stderr
     start = [ln for ln in log.splitlines() if ln.startswith("START")][-1]
     result = [ln for ln in log.splitlines() if ln.startswith("RESULT")][-1]
@@ -582,18 +587,21 @@ def run_lmp(tmp_path, nprocs, text):
 
 
 @pytest.mark.mpi
-def test_two_ranks_follow_one_rank(plugin_path, tmp_path):
+@pytest.mark.parametrize("eval_both", [False, True], ids=["once", "both"])
+def test_two_ranks_follow_one_rank(plugin_path, tmp_path, eval_both):
     """A 6x2x2 block of bonded cells drifts across the boundary between two ranks while it
-    vibrates, breaks part of its interfaces and slides on them: every interface is computed
-    by both owners of its cells (or once, when both are on one rank), its state migrates with
-    the cells, and each interface is counted once. The two-rank run follows the one-rank run,
-    and the energy balance (kinetic energy about the centre of mass) closes in both."""
+    vibrates, breaks part of its interfaces and slides on them: an interface across the ranks
+    is evaluated by the owner of its cell with the smaller ID, which sends its state to the
+    other rank's copy at every re-neighbouring ("once", the default), or by both owners of its
+    cells ("both", BRITTLE_EVAL_BOTH=1); its state migrates with the cells, and each interface
+    is counted once. The two-rank run follows the one-rank run, and the energy balance
+    (kinetic energy about the centre of mass) closes in both."""
     write_lattice(tmp_path, (6, 2, 2), drift=np.array([120.0, 0.0, 0.0]))
     text = MPI_INPUT.format(plugin=plugin_path, cutoff=fnum(2 * A), skin=fnum(0.2 * A),
                             kn=KN, kt=KT, gc=0.1, knc=KNC, ktc=KTC, mu=MU,
                             dt=fnum(PERIOD / 400), steps=4000, thermo_modify="")
     start1, one = run_lmp(tmp_path, 1, text)
-    start2, two = run_lmp(tmp_path, 2, text)
+    start2, two = run_lmp(tmp_path, 2, text, eval_both)
     middle = X1[0] + 3.5 * A  # of the box, in x: the boundary between the two ranks
     assert one[1] > middle  # the whole block crossed it
     assert 0 < one[3] < 40  # some of the 40 interfaces broke, not all

@@ -33,9 +33,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <memory>
 #include <mpi.h>
+#include <unordered_map>
 
 using namespace LAMMPS_NS;
 using namespace BcmInterfaceState;
@@ -295,7 +297,7 @@ void BondBcmGriffith::init_style()
 {
   if (force->newton_bond)
     error->all(FLERR, "bond_style bcm/griffith requires newton_bond off (command: newton on off): "
-                      "every rank owning a cell of an interface computes it and keeps its state");
+                      "every rank owning a cell of an interface keeps its state");
   if (atom->molecular != Atom::MOLECULAR)
     error->all(FLERR, "bond_style bcm/griffith requires a molecular atom style (not a template)");
   if (!atom->rmass || !atom->radius || !atom->omega || !atom->torque)
@@ -319,6 +321,10 @@ void BondBcmGriffith::init_style()
 
   FixBcmGriffith::get_or_create(lmp);
   special = FixBreakableSpecial::get_or_create(lmp);
+  // an interface across ranks evaluated by one of them (sync_copies()): its forces on the
+  // other's cell travel back with the reverse communication, done only with newton on
+  const char *both = std::getenv("BRITTLE_EVAL_BOTH");
+  once = force->newton && force->bond == this && !(both && std::strcmp(both, "1") == 0);
 
   // the points' stiffness per type and N_p (point_stiffness(); per_area: per interface)
   const int nrow = BcmInterfaceTable::MAX_POINTS + 1;
@@ -485,8 +491,11 @@ void BondBcmGriffith::rebuild_cache()
     std::vector<double> saved;
     std::vector<double> old_contact;
     std::vector<Entry> old;
+    std::vector<uint8_t> old_side;
     if (have_state) {
       old.swap(cache);
+      old_side.swap(side);
+      old_side.resize(old.size(), OWNED);    // a parked working copy (adopt()) has none
       old_contact.swap(contact);
       soff.resize(old.size());
       long ns = 0;
@@ -499,7 +508,9 @@ void BondBcmGriffith::rebuild_cache()
         const Entry &e = old[o];
         const double *rec = &records[e.roff];
         std::copy(rec + R_HEAD, rec + R_HEAD + SAVED(e.npts), &saved[soff[o]]);
-        if (old_of[e.iface] < 0) old_of[e.iface] = (int) o;
+        // an evaluated entry before a copy (the same state after sync_copies())
+        if (old_of[e.iface] < 0 || (old_side[old_of[e.iface]] == COPY && old_side[o] != COPY))
+          old_of[e.iface] = (int) o;
       }
     }
     // an old entry's state as a slot of the store (header, damping forces by point)
@@ -532,10 +543,13 @@ void BondBcmGriffith::rebuild_cache()
         used[o] = 1;
         broken = saved[soff[o] + RH_BROKEN] != INTACT;
       } else if (rows_held) {
-        // the listed atom's row, else the partner's when owned
-        const int i1 = (bondlist[n][0] < nlocal) ? bondlist[n][0] : bondlist[n][1];
+        // the row of cell 1 (the smaller ID: the rank that evaluates the interface composes
+        // it) when owned, else cell 2's
+        const int listed = (bondlist[n][0] < nlocal) ? bondlist[n][0] : bondlist[n][1];
+        const int i1 = e.c1 < nlocal ? e.c1 : listed;
         const int i2 = i1 == e.c1 ? e.c2 : e.c1;
-        long off = slot_offset(i1, slot1[n]);
+        const int m1 = i1 == listed ? slot1[n] : BreakableUtil::bond_slot(atom, i1, tag[i2]);
+        long off = m1 >= 0 ? slot_offset(i1, m1) : (long) store_fix->length(i1);
         int from = i1;
         if ((size_t) off >= store_fix->length(i1) && i2 < nlocal) {
           const int m2 = BreakableUtil::bond_slot(atom, i2, tag[i1]);
@@ -638,9 +652,21 @@ void BondBcmGriffith::rebuild_cache()
 
   // rows that arrived: the slots of interfaces now in the working copy are emptied (the
   // working copy is current for them), the others kept
+  // by the owner of each cell (a ghost may be the image of a cell owned here too: periodic)
+  side.resize(nbondlist);
+  const auto owned = [&](int i) {
+    const int j = i < nlocal ? i : atom->map(tag[i]);
+    return j >= 0 && j < nlocal;
+  };
+  for (int n = 0; n < nbondlist; n++) {
+    const bool own1 = owned(cache[n].c1), own2 = owned(cache[n].c2);
+    side[n] = own1 && own2 ? OWNED : own1 ? CROSSING : COPY;
+  }
   entry_of_iface.assign(ntable, -1);
-  for (int n = 0; n < nbondlist; n++)
-    if (entry_of_iface[cache[n].iface] < 0) entry_of_iface[cache[n].iface] = n;
+  for (int n = 0; n < nbondlist; n++) {
+    int &k = entry_of_iface[cache[n].iface];
+    if (k < 0 || (side[k] == COPY && side[n] != COPY)) k = n;
+  }
   if (rows_held) {
     std::vector<double> row;
     for (int i = 0; i < nlocal; i++) {
@@ -670,6 +696,14 @@ void BondBcmGriffith::rebuild_cache()
       if (m1 >= 0) entry_of_slot[(size_t) e.c1 * atom->bond_per_atom + m1] = n;
     }
   }
+  used_cells.clear();
+  for (int n = 0; n < nbondlist; n++) {
+    if (once && side[n] == COPY) continue;    // not evaluated here
+    used_cells.push_back(cache[n].c1);
+    used_cells.push_back(cache[n].c2);
+  }
+  std::sort(used_cells.begin(), used_cells.end());
+  used_cells.erase(std::unique(used_cells.begin(), used_cells.end()), used_cells.end());
   quiet_cert.assign(nbondlist, QuietCert());
   moves_known = false;
   cache_valid = true;
@@ -827,7 +861,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
   const int nall = atom->nlocal + atom->nghost;
   double **quat = atom->darray[iquat];
   cells.resize(CELL_STRIDE * (size_t) nall);
-  for (int i = 0; i < nall; i++)
+  for (const int i : used_cells)
     BcmInterfaceKinematics::pack_cell(atom->x[i], atom->v[i], atom->omega[i], quat[i],
                                       &cells[CELL_STRIDE * (size_t) i]);
 
@@ -849,6 +883,10 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     const int type = bondlist[nb][2];
     if (type <= 0) {
       quiet_cert[nb].left = -1.0f;    // not evaluated: its certificate would miss this step
+      continue;
+    }
+    if (once && side[nb] == COPY) {    // evaluated by the owner of its cell 1
+      quiet_cert[nb].left = -1.0f;
       continue;
     }
     Entry &e = cache[nb];
@@ -933,7 +971,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     head[RH_E_EL] = r.stored;
     head[RH_LAST] = last_of(now.kind, now.dt);
     // a quiet interface's load is zero: adding it changes no force, torque, energy or virial
-    if (!quiet_broken) apply(e, p, r);
+    if (!quiet_broken) apply(e, p, r, once && side[nb] == CROSSING);
   }
   nbroken_last = nbroken;
 }
@@ -999,7 +1037,7 @@ void BondBcmGriffith::cell_moves(bool step)
   if (!known) quiet_cert.assign(quiet_cert.size(), QuietCert());
   cell_prev.resize(7 * (size_t) nall);
   cell_move.resize(4 * (size_t) nall);
-  for (int i = 0; i < nall; i++) {
+  for (const int i : used_cells) {
     double *prev = &cell_prev[7 * (size_t) i], *mv = &cell_move[4 * (size_t) i];
     const double *q = quat[i];
     if (known) {
@@ -1102,21 +1140,27 @@ void BondBcmGriffith::interface_points(const Pair &p, const double *g, int np, P
    springs held and no longer do is booked at the switch (contact_forces()).
 ------------------------------------------------------------------------- */
 
+int32_t BondBcmGriffith::new_contact_block(int npts)
+{
+  if (contact.size() + (size_t) contact_size(npts) > (size_t) INT32_MAX)
+    error->one(FLERR, "bond_style bcm/griffith: more broken interfaces on this rank than its "
+               "contact state can hold ({} values): use more ranks", (long) INT32_MAX);
+  const auto coff = (int32_t) contact.size();
+  // grown by an eighth, not doubled: in a fracture the blocks arrive by thousands, and a
+  // doubling holds the old array and twice it at once (issue 27: a run's peak)
+  const size_t need = contact.size() + (size_t) contact_size(npts);
+  if (need > contact.capacity())
+    contact.reserve(std::max(need, contact.size() + contact.size() / 8 + 4096));
+  contact.resize(need, 0.0);    // zeros, as in the store
+  return coff;
+}
+
+/* ---------------------------------------------------------------------- */
+
 void BondBcmGriffith::break_interface(Entry &e, double *rec, const Pair &p,
                                       const Point *pts, double stored, const Clock &now)
 {
-  if (e.coff < 0) {    // its contact block from now on, zeros as in the store
-    if (contact.size() + (size_t) contact_size(e.npts) > (size_t) INT32_MAX)
-      error->one(FLERR, "bond_style bcm/griffith: more broken interfaces on this rank than its "
-                 "contact state can hold ({} values): use more ranks", (long) INT32_MAX);
-    e.coff = (int32_t) contact.size();
-    // grown by an eighth, not doubled: in a fracture the blocks arrive by thousands, and a
-    // doubling holds the old array and twice it at once (issue 27: a run's peak)
-    const size_t need = contact.size() + (size_t) contact_size(e.npts);
-    if (need > contact.capacity())
-      contact.reserve(std::max(need, contact.size() + contact.size() / 8 + 4096));
-    contact.resize(need, 0.0);
-  }
+  if (e.coff < 0) e.coff = new_contact_block(e.npts);    // its contact block from now on
   double *cb = &contact[e.coff];
   set_contact_constants(e, e.type, rec, cb);
   rec[R_HEAD + RH_BROKEN] = BROKEN;
@@ -1256,12 +1300,14 @@ void BondBcmGriffith::retire(const Entry &e, double *rec, double held, const Clo
 }
 
 /* ----------------------------------------------------------------------
-   the forces of an interface on its owned cells (newton_bond is off: each
-   rank adds to its owned cells only), and the rigid-body virial from the
-   centres, (x1 - x2) (x) F on cell 1
+   the forces of an interface on its cells, and the rigid-body virial from
+   the centres, (x1 - x2) (x) F on cell 1. newton_bond is off: a rank adds to
+   its owned cells only, except for an interface across ranks evaluated once
+   (both): its rank adds to both cells (the ghost's forces travel back to its
+   owner) and tallies all of its energy and virial
 ------------------------------------------------------------------------- */
 
-void BondBcmGriffith::apply(const Entry &e, const Pair &p, const Result &r)
+void BondBcmGriffith::apply(const Entry &e, const Pair &p, const Result &r, bool both)
 {
   double **f = atom->f;
   double **torque = atom->torque;
@@ -1274,14 +1320,14 @@ void BondBcmGriffith::apply(const Entry &e, const Pair &p, const Result &r)
       f[e.c1][c] -= ftot[c];
       torque[e.c1][c] += t1[c];
     }
-  if (e.c2 < nlocal)
+  if (e.c2 < nlocal || both)
     for (int c = 0; c < 3; c++) {
       f[e.c2][c] += ftot[c];
       torque[e.c2][c] += t2[c];
     }
   if (evflag)
-    ev_tally_xyz(e.c1, e.c2, nlocal, 0, r.stored, -ftot[0], -ftot[1], -ftot[2], -p.d12[0],
-                 -p.d12[1], -p.d12[2]);
+    ev_tally_xyz(e.c1, e.c2, nlocal, both ? 1 : 0, r.stored, -ftot[0], -ftot[1], -ftot[2],
+                 -p.d12[0], -p.d12[1], -p.d12[2]);
 }
 
 /* ----------------------------------------------------------------------
@@ -1353,6 +1399,81 @@ bool BondBcmGriffith::released(int i, int m)
   if (store_index < 0 || atom->bond_type[i][m] <= 0) return false;
   double scratch[NHEAD];
   return header_of(i, m, scratch)[H_BROKEN] == RETIRED;
+}
+
+/* ----------------------------------------------------------------------
+   the copies of interfaces evaluated on another rank take their state from
+   the rank evaluating them:
+   each rank sends its evaluated entries whose cell 2 is a ghost (interface,
+   then its state as a slot of the store) to all ranks. Collective; see the
+   header. A retired interface is released from the special lists of the
+   copy's owned cell here, as the evaluating rank released its own.
+------------------------------------------------------------------------- */
+
+void BondBcmGriffith::sync_copies()
+{
+  if (!once) return;
+  const bool ready = have_state && side.size() == cache.size();
+  std::vector<double> mine;
+  if (ready)
+    for (size_t n = 0; n < cache.size(); n++) {
+      if (side[n] != CROSSING) continue;
+      const Entry &e = cache[n];
+      const size_t at = mine.size();
+      mine.resize(at + 1 + NHEAD + NPOINT * e.npts);
+      mine[at] = (double) e.iface;
+      slot_from_entry(e, &mine[at + 1]);
+    }
+  const int nprocs = comm->nprocs;
+  const int nmine = (int) mine.size();
+  std::vector<int> counts(nprocs), displs(nprocs, 0);
+  MPI_Allgather(&nmine, 1, MPI_INT, counts.data(), 1, MPI_INT, world);
+  long total = 0;
+  for (int p = 0; p < nprocs; p++) {
+    displs[p] = (int) total;
+    total += counts[p];
+  }
+  if (total > (long) INT32_MAX)
+    error->all(FLERR, "bond_style bcm/griffith: the interfaces across ranks hold more state than "
+               "one exchange carries ({} values)", total);
+  if (total == 0) return;
+  std::vector<double> all(total);
+  MPI_Allgatherv(mine.data(), nmine, MPI_DOUBLE, all.data(), counts.data(), displs.data(),
+                 MPI_DOUBLE, world);
+  if (!ready) return;
+  std::unordered_map<int, long> slot_at;
+  for (long at = 0; at < total;) {
+    const int k = (int) all[at];
+    slot_at.emplace(k, at + 1);
+    at += 1 + NHEAD + NPOINT * table[k].npts;
+  }
+  for (size_t n = 0; n < cache.size(); n++) {
+    if (side[n] != COPY) continue;
+    const auto it = slot_at.find(cache[n].iface);
+    if (it != slot_at.end()) load_copy(cache[n], &all[it->second]);
+  }
+}
+
+/* ----------------------------------------------------------------------
+   an entry's state from a slot of the store (sync_copies()). A contact block
+   is made when the slot is broken; its constants are set at the rebuild of
+   the working copy that follows every sync (the re-neighbouring, the next
+   run's setup) before any evaluation
+------------------------------------------------------------------------- */
+
+void BondBcmGriffith::load_copy(Entry &e, const double *slot)
+{
+  double *rec = &records[e.roff];
+  const bool was_retired = rec[R_HEAD + RH_BROKEN] == RETIRED;
+  if (slot[H_BROKEN] != INTACT && e.coff < 0) e.coff = new_contact_block(e.npts);
+  split_head(slot, rec, e.coff >= 0 ? &contact[e.coff] : nullptr);
+  const int np = e.npts, P = row_stride(np);
+  for (int k = 0; k < np; k++)
+    for (int c = 0; c < 3; c++) rec[R_FD + c * P + k] = slot[NHEAD + 3 * k + c];
+  if (e.coff >= 0)
+    std::copy(slot + NHEAD + 3 * np, slot + NHEAD + NPOINT * np, &contact[e.coff + NBHEAD]);
+  if (!was_retired && rec[R_HEAD + RH_BROKEN] == RETIRED)
+    special->add_broken_bond(table[e.iface].tag1, table[e.iface].tag2, 0);
 }
 
 /* ----------------------------------------------------------------------

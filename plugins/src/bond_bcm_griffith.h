@@ -55,6 +55,18 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds, public FixLazy
   // bond slot m of owned atom i is a retired interface: its cells are no longer 1-2 special
   // neighbours (fix breakable/special, at every run setup)
   bool released(int i, int m) override;
+  // fix breakable/special, before the special lists are brought up to date: sync_copies()
+  void before_special_update() override { sync_copies(); }
+  // an interface whose cells are owned by two ranks is evaluated once (issue 27), by the
+  // owner of its cell 1 (the smaller ID), which applies its forces to both cells (the ghost's
+  // reach its owner with LAMMPS's reverse communication of forces and torques); the other
+  // rank's entry is a copy, not evaluated. Here every copy takes its interface's state from
+  // the rank that evaluates it, and a copy's interface retired since is released from the
+  // special lists of this rank's cell (add_broken_bond). Collective; called at every
+  // re-neighbouring and run setup (before_special_update()) and after every run (fix
+  // bcm/griffith): a row that leaves with its atom (exchange, restart file) is composed from
+  // an up-to-date copy.
+  void sync_copies();
 
   // an entry of the working copy (below): 24 bytes (issue 27)
   struct Entry {
@@ -123,8 +135,23 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds, public FixLazy
   bool cache_valid;                  // entries match the bond list (else rebuilt)
   bool have_state;                   // the records hold the state of their interfaces
   bool atoms_moved;                  // atoms may have moved since the working copy was built
-  // per interface of the table: its entry, or -1 (valid while have_state)
+  // per interface of the table: its entry (an evaluated one before a copy), or -1 (valid
+  // while have_state)
   std::vector<int> entry_of_iface;
+  // per entry, by the owners of its cells: both owned here (a ghost may be the periodic
+  // image of a cell owned here: both of that interface's entries are evaluated, each adding
+  // to its owned cell, as before issue 27), cell 2 owned by another rank (evaluated here for
+  // both cells), or cell 1 owned by another rank (a copy: evaluated here only when `once` is
+  // off); set with the working copy
+  enum Side : uint8_t { OWNED = 0, CROSSING = 1, COPY = 2 };
+  std::vector<uint8_t> side;
+  // each interface evaluated by one rank (sync_copies()): on with a reverse communication of
+  // forces (newton on: newton_pair on) and this style not a hybrid's sub-style, unless the
+  // environment sets BRITTLE_EVAL_BOTH=1 (every rank evaluates its entries, copies included,
+  // as before issue 27's change: a check of the once path)
+  bool once = false;
+  int32_t new_contact_block(int npts);
+  void load_copy(Entry &e, const double *slot);
   // per owned atom and bond slot: the entry of the interface when the atom is its cell with
   // the smaller ID, or -1 (tally() reads the working copy in the store's order)
   std::vector<int> entry_of_slot;
@@ -136,8 +163,13 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds, public FixLazy
   const double *header_of(int i, int m, double *scratch) const;
   // the stored row's slot at off, size values, zero-filled past the row's length
   void row_slot(int i, long off, long size, double *out) const;
-  // per owned and ghost cell, this evaluation: BcmInterfaceKinematics::pack_cell()
+  // per owned and ghost cell, this evaluation: BcmInterfaceKinematics::pack_cell(), of the
+  // cells in used_cells only (the others' values are left as they were: nothing reads them)
   std::vector<double> cells;
+  // the local indices the working copy's entries name (c1, c2), ascending, set with it: a
+  // ghost that is no interface's partner is neither packed nor followed (cell_moves()); on 2
+  // ranks of the 1728-cell impact 350 ghosts per rank, about half of them partners
+  std::vector<int> used_cells;
   // quiet certificates (issue 27): a broken interface found quiet at a step keeps what is
   // left of its least gap (dn - s over its points, less round-off allowances), less at each
   // later step a bound on how far its gaps can have moved over that step (quiet_now()); while
@@ -199,7 +231,7 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds, public FixLazy
   void contact_forces(const Entry &e, int type, double *rec, const Pair &p, const Point *pts,
                       bool just_broke, double e_before, const Clock &now, Result &r);
   void retire(const Entry &e, double *rec, double held, const Clock &now, Result &r);
-  void apply(const Entry &e, const Pair &p, const Result &r);
+  void apply(const Entry &e, const Pair &p, const Result &r, bool both);
 };
 
 }    // namespace LAMMPS_NS

@@ -40,7 +40,19 @@ FixBcmGriffith *FixBcmGriffith::get_or_create(LAMMPS *lmp)
 
 int FixBcmGriffith::setmask()
 {
-  return FixConst::PRE_EXCHANGE | FixConst::MIN_PRE_EXCHANGE;
+  return FixConst::PRE_EXCHANGE | FixConst::MIN_PRE_EXCHANGE | FixConst::POST_RUN;
+}
+
+/* ----------------------------------------------------------------------
+   after a run, the copies of interfaces evaluated on another rank brought up
+   to date, so that a restart file or data written now holds the live state
+   (collective)
+------------------------------------------------------------------------- */
+
+void FixBcmGriffith::post_run()
+{
+  auto bond = dynamic_cast<BondBcmGriffith *>(force->bond_match("bcm/griffith"));
+  if (bond) bond->sync_copies();
 }
 
 /* ----------------------------------------------------------------------

@@ -34,6 +34,7 @@ class FixBcmGriffith : public Fix {
   FixBcmGriffith(class LAMMPS *, int, char **);
 
   int setmask() override;
+  void post_run() override;
   void setup_pre_exchange() override;
   void pre_exchange() override;
   void min_pre_exchange() override;

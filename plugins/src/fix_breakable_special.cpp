@@ -152,6 +152,7 @@ void FixBreakableSpecial::resync_special()
 
 void FixBreakableSpecial::setup_pre_exchange()
 {
+  if (auto *r = dynamic_cast<SpecialReleasedBonds *>(force->bond)) r->before_special_update();
   resync_special();
   broken_since_exchange.clear();
   broken_since_force.clear();    // the setup rebuilds every neighbor list from the specials
@@ -163,6 +164,7 @@ void FixBreakableSpecial::setup_pre_exchange()
 
 void FixBreakableSpecial::pre_exchange()
 {
+  if (auto *r = dynamic_cast<SpecialReleasedBonds *>(force->bond)) r->before_special_update();
   const int nlocal = atom->nlocal;
   for (const auto &p : broken_since_exchange) {
     const int i = atom->map(p.first);

@@ -43,6 +43,12 @@ namespace LAMMPS_NS {
 class SpecialReleasedBonds {
  public:
   virtual bool released(int i, int m) = 0;
+  // called on every rank (collective) before the special lists are brought up to date: at
+  // every re-neighbouring (pre_exchange) and run setup (setup_pre_exchange). A style whose
+  // ranks keep copies of a bond's state that only one rank evaluates brings them up to date
+  // here, and reports the bonds released since through add_broken_bond() (bond_style
+  // bcm/griffith: BondBcmGriffith::sync_copies())
+  virtual void before_special_update() {}
 
  protected:
   ~SpecialReleasedBonds() = default;    // never deleted through this interface
