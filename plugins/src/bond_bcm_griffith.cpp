@@ -658,9 +658,11 @@ void BondBcmGriffith::rebuild_cache()
     const int j = i < nlocal ? i : atom->map(tag[i]);
     return j >= 0 && j < nlocal;
   };
+  ncrossing_entries = 0;
   for (int n = 0; n < nbondlist; n++) {
     const bool own1 = owned(cache[n].c1), own2 = owned(cache[n].c2);
     side[n] = own1 && own2 ? OWNED : own1 ? CROSSING : COPY;
+    ncrossing_entries += side[n] != OWNED;
   }
   entry_of_iface.assign(ntable, -1);
   for (int n = 0; n < nbondlist; n++) {
@@ -861,9 +863,14 @@ void BondBcmGriffith::compute(int eflag, int vflag)
   const int nall = atom->nlocal + atom->nghost;
   double **quat = atom->darray[iquat];
   cells.resize(CELL_STRIDE * (size_t) nall);
-  for (const int i : used_cells)
+  const auto pack = [&](int i) {
     BcmInterfaceKinematics::pack_cell(atom->x[i], atom->v[i], atom->omega[i], quat[i],
                                       &cells[CELL_STRIDE * (size_t) i]);
+  };
+  if (used_cells.size() == (size_t) nall)    // one rank: every cell (the plain loop is faster)
+    for (int i = 0; i < nall; i++) pack(i);
+  else
+    for (const int i : used_cells) pack(i);
 
   Clock now;
   now.kind = (update->whichflag == 1) ? (update->setupflag ? EVAL_SETUP : EVAL_STEP) : EVAL_NONE;
@@ -878,6 +885,8 @@ void BondBcmGriffith::compute(int eflag, int vflag)
   const bool step = now.kind == EVAL_STEP;
   cell_moves(step);
   long nbroken = 0;
+  // entries across ranks here (none on one rank): the loop reads their side only then
+  const bool across = once && ncrossing_entries > 0;
 
   for (int nb = 0; nb < nbondlist; nb++) {
     const int type = bondlist[nb][2];
@@ -885,7 +894,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
       quiet_cert[nb].left = -1.0f;    // not evaluated: its certificate would miss this step
       continue;
     }
-    if (once && side[nb] == COPY) {    // evaluated by the owner of its cell 1
+    if (across && side[nb] == COPY) {    // evaluated by the owner of its cell 1
       quiet_cert[nb].left = -1.0f;
       continue;
     }
@@ -971,7 +980,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
     head[RH_E_EL] = r.stored;
     head[RH_LAST] = last_of(now.kind, now.dt);
     // a quiet interface's load is zero: adding it changes no force, torque, energy or virial
-    if (!quiet_broken) apply(e, p, r, once && side[nb] == CROSSING);
+    if (!quiet_broken) apply(e, p, r, across && side[nb] == CROSSING);
   }
   nbroken_last = nbroken;
 }
@@ -1037,7 +1046,9 @@ void BondBcmGriffith::cell_moves(bool step)
   if (!known) quiet_cert.assign(quiet_cert.size(), QuietCert());
   cell_prev.resize(7 * (size_t) nall);
   cell_move.resize(4 * (size_t) nall);
-  for (const int i : used_cells) {
+  const bool every = used_cells.size() == (size_t) nall;
+  for (size_t u = 0; u < (every ? (size_t) nall : used_cells.size()); u++) {
+    const int i = every ? (int) u : used_cells[u];
     double *prev = &cell_prev[7 * (size_t) i], *mv = &cell_move[4 * (size_t) i];
     const double *q = quat[i];
     if (known) {

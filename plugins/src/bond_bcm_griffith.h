@@ -145,6 +145,7 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds, public FixLazy
   // off); set with the working copy
   enum Side : uint8_t { OWNED = 0, CROSSING = 1, COPY = 2 };
   std::vector<uint8_t> side;
+  long ncrossing_entries = 0;    // entries not OWNED
   // each interface evaluated by one rank (sync_copies()): on with a reverse communication of
   // forces (newton on: newton_pair on) and this style not a hybrid's sub-style, unless the
   // environment sets BRITTLE_EVAL_BOTH=1 (every rank evaluates its entries, copies included,
