@@ -523,12 +523,10 @@ print "RESULT ${{balance}} ${{xmin}} $(f_BCM_GRIFFITH[1]) $(f_BCM_GRIFFITH[2]) &
 """
 
 
-def write_lattice(tmp_path, shape, drift, burst=0.0, seed=0):
-    """Cube cells on a lattice with spacing A, every face bonded; random body frames,
-    velocities and spins on top of a common drift and of a radial burst of speed `burst`."""
-    rng = np.random.default_rng(seed)
-    index = {ijk: t for t, ijk in enumerate(np.ndindex(*shape), start=1)}
-    centres = {t: X1 + A * np.array(ijk, dtype=float) for ijk, t in index.items()}
+def lattice_faces(index: dict, centres: dict) -> tuple[list[str], list[tuple[int, int]]]:
+    """The shared faces of cube cells on a lattice with spacing A (index: lattice site -> tag,
+    centres: tag -> centre): the geometry file's lines (4 corner points, in the space frame)
+    and the bonds (tag pairs, the first cell the one nearer the origin)."""
     lines, bonds = [], []
     for ijk, t in index.items():
         for d in range(3):
@@ -540,6 +538,16 @@ def write_lattice(tmp_path, shape, drift, burst=0.0, seed=0):
             pts = [mid + 0.5 * A * (a * u + b * w) for a, b in [(-1, -1), (1, -1), (1, 1), (-1, 1)]]
             lines.append(geometry_line(t, index[nb], S, n, pts))
             bonds.append((t, index[nb]))
+    return lines, bonds
+
+
+def write_lattice(tmp_path, shape, drift, burst=0.0, seed=0):
+    """Cube cells on a lattice with spacing A, every face bonded; random body frames,
+    velocities and spins on top of a common drift and of a radial burst of speed `burst`."""
+    rng = np.random.default_rng(seed)
+    index = {ijk: t for t, ijk in enumerate(np.ndindex(*shape), start=1)}
+    centres = {t: X1 + A * np.array(ijk, dtype=float) for ijk, t in index.items()}
+    lines, bonds = lattice_faces(index, centres)
     (tmp_path / "lattice.geo").write_text("\n".join(lines) + "\n")
     lo, hi = X1 - 3 * A, X1 + A * (np.array(shape) + 4)
     out = [f"BCM cube lattice\n\n{len(index)} atoms\n1 atom types\n{len(bonds)} bonds\n"

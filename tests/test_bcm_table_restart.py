@@ -33,7 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from driver.engine import Lammps  # noqa: E402
 from test_bcm_interface import (  # noqa: E402
-    A, KN, KNC, KT, KTC, MASS, MOMENTS, MU, PERIOD, S, X1, fnum, geometry_line, wxyz)
+    A, KN, KNC, KT, KTC, MASS, MOMENTS, MU, PERIOD, X1, fnum, lattice_faces, wxyz)
 
 LEGACY = Path(__file__).resolve().parent / "data" / "bcm_table_legacy"
 SHAPE = (4, 2, 2)
@@ -80,17 +80,7 @@ def write_block(path: Path, tag_step: int = 1, seed: int = 3):
     rng = np.random.default_rng(seed)
     index = {ijk: 1 + tag_step * k for k, ijk in enumerate(np.ndindex(*SHAPE))}
     centres = {t: X1 + A * np.array(ijk, dtype=float) for ijk, t in index.items()}
-    lines, bonds = [], []
-    for ijk, t in index.items():
-        for d in range(3):
-            nb = tuple(c + (k == d) for k, c in enumerate(ijk))
-            if nb not in index:
-                continue
-            n, u, w = np.eye(3)[d], np.eye(3)[(d + 1) % 3], np.eye(3)[(d + 2) % 3]
-            mid = centres[t] + 0.5 * A * n
-            pts = [mid + 0.5 * A * (a * u + b * w) for a, b in [(-1, -1), (1, -1), (1, 1), (-1, 1)]]
-            lines.append(geometry_line(t, index[nb], S, n, pts))
-            bonds.append((t, index[nb]))
+    lines, bonds = lattice_faces(index, centres)
     (path / "block.geo").write_text("\n".join(lines) + "\n")
     xlo = X1[0] + 0.5 * A
     lo, hi = X1 - 3 * A, X1 + A * (np.array(SHAPE) + 2)
