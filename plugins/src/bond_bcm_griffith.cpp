@@ -588,28 +588,23 @@ void BondBcmGriffith::rebuild_cache()
       set_constants(e, e.type, rec);
       // state: slot header, damping forces (per point in a slot, rows here), then the
       // contact state apart
-      const double *st = nullptr, *cst = nullptr;
       if (source[n] >= 0) {
         // as the record before held it: the header and the rows, then the broken-only
         // header and the points' contact state from its contact block
         const double *sv = &saved[soff[source[n]]];
         std::copy(sv, sv + SAVED(np), rec + R_HEAD);
         const long oc = old[source[n]].coff;
-        if (e.coff >= 0)
+        if (e.coff >= 0) {
           for (int h = 0; h < NBROKEN_HEAD; h++)
             contact[e.coff + B_HEAD + h] = oc >= 0 ? old_contact[oc + B_HEAD + h] : 0.0;
-        if (oc >= 0) cst = &old_contact[oc + NBHEAD];
+          if (oc >= 0)
+            std::copy(&old_contact[oc + NBHEAD], &old_contact[oc + NBHEAD] + NCONTACT * np,
+                      &contact[e.coff + NBHEAD]);
+        }
       } else if (source[n] == -2) {
         row_slot(row_from[n], row_off[n], NHEAD + NPOINT * np, slotbuf.data());
-        st = slotbuf.data();
-        if (e.coff >= 0) cst = st + NHEAD + 3 * np;
+        entry_from_slot(e, slotbuf.data());
       }
-      if (st) {
-        split_head(st, rec, e.coff >= 0 ? &contact[e.coff] : nullptr);
-        for (int k = 0; k < np; k++)
-          for (int c = 0; c < 3; c++) rec[R_FD + c * P + k] = st[NHEAD + 3 * k + c];
-      }
-      if (e.coff >= 0 && cst) std::copy(cst, cst + NCONTACT * np, &contact[e.coff + NBHEAD]);
       // geometry: normal in cell 1's frame, then the rows of b1 and of b2 (computed by the
       // table from the reference state)
       table.body_of(e.iface, g);
@@ -650,9 +645,8 @@ void BondBcmGriffith::rebuild_cache()
     }
   }
 
-  // rows that arrived: the slots of interfaces now in the working copy are emptied (the
-  // working copy is current for them), the others kept
-  // by the owner of each cell (a ghost may be the image of a cell owned here too: periodic)
+  // each entry's side, by the owner of each cell (a ghost may be the image of a cell owned
+  // here too: periodic)
   side.resize(nbondlist);
   const auto owned = [&](int i) {
     const int j = i < nlocal ? i : atom->map(tag[i]);
@@ -669,6 +663,8 @@ void BondBcmGriffith::rebuild_cache()
     int &k = entry_of_iface[cache[n].iface];
     if (k < 0 || (side[k] == COPY && side[n] != COPY)) k = n;
   }
+  // rows that arrived: the slots of interfaces now in the working copy are emptied (the
+  // working copy is current for them), the others kept
   if (rows_held) {
     std::vector<double> row;
     for (int i = 0; i < nlocal; i++) {
@@ -744,6 +740,22 @@ void BondBcmGriffith::slot_from_entry(const Entry &e, double *dest) const
 }
 
 /* ----------------------------------------------------------------------
+   the inverse: an entry's state from a slot of the store (its contact block,
+   if it has one, takes the broken-only header and the points' contact state)
+------------------------------------------------------------------------- */
+
+void BondBcmGriffith::entry_from_slot(const Entry &e, const double *slot)
+{
+  const int np = e.npts, P = row_stride(np);
+  double *rec = &records[e.roff];
+  split_head(slot, rec, e.coff >= 0 ? &contact[e.coff] : nullptr);
+  for (int k = 0; k < np; k++)
+    for (int c = 0; c < 3; c++) rec[R_FD + c * P + k] = slot[NHEAD + 3 * k + c];
+  if (e.coff >= 0)
+    std::copy(slot + NHEAD + 3 * np, slot + NHEAD + NPOINT * np, &contact[e.coff + NBHEAD]);
+}
+
+/* ----------------------------------------------------------------------
    fix lazy/store: atom i's row leaves (exchange, restart file). Each slot
    from the working copy where it holds the interface, else from the stored
    row; its length up to its last value that is not +0.0
@@ -770,11 +782,6 @@ size_t BondBcmGriffith::compose(int i, const double *stored, size_t n, double *o
 }
 
 /* ----------------------------------------------------------------------
-   per-point constants of an entry's interface for bond type `type`
-   (SPEC 1.2: the whole-interface stiffness and damping shared by N_p points)
-------------------------------------------------------------------------- */
-
-/* ----------------------------------------------------------------------
    stiffness per_area: the interface's k_n, k_t are the configured ones times S / <S> (its
    area over the mean), so the Griffith threshold is a stress, whatever the face's size;
    per_interface: 1
@@ -785,7 +792,10 @@ inline double BondBcmGriffith::stiffness_factor(const double *rec) const
   return stiffness == PER_AREA ? rec[K_AREA] / table.mean_area() : 1.0;
 }
 
-/* ---------------------------------------------------------------------- */
+/* ----------------------------------------------------------------------
+   per-point constants of an entry's interface for bond type `type`
+   (SPEC 1.2: the whole-interface stiffness and damping shared by N_p points)
+------------------------------------------------------------------------- */
 
 void BondBcmGriffith::set_constants(const Entry &e, int type, double *rec)
 {
@@ -1414,9 +1424,9 @@ bool BondBcmGriffith::released(int i, int m)
 
 /* ----------------------------------------------------------------------
    the copies of interfaces evaluated on another rank take their state from
-   the rank evaluating them:
-   each rank sends its evaluated entries whose cell 2 is a ghost (interface,
-   then its state as a slot of the store) to all ranks. Collective; see the
+   the rank evaluating them: each rank sends its evaluated entries whose
+   cell 2 is a ghost (interface, then its state as a slot of the store) to
+   all ranks. Collective; see the
    header. A retired interface is released from the special lists of the
    copy's owned cell here, as the evaluating rank released its own.
 ------------------------------------------------------------------------- */
@@ -1466,23 +1476,18 @@ void BondBcmGriffith::sync_copies()
 }
 
 /* ----------------------------------------------------------------------
-   an entry's state from a slot of the store (sync_copies()). A contact block
-   is made when the slot is broken; its constants are set at the rebuild of
-   the working copy that follows every sync (the re-neighbouring, the next
-   run's setup) before any evaluation
+   a copy's state from the evaluating rank's slot (sync_copies()). A contact
+   block is made when the slot is broken; its constants are set at the
+   rebuild of the working copy that follows every sync (the re-neighbouring,
+   the next run's setup) before any evaluation
 ------------------------------------------------------------------------- */
 
 void BondBcmGriffith::load_copy(Entry &e, const double *slot)
 {
-  double *rec = &records[e.roff];
+  const double *rec = &records[e.roff];
   const bool was_retired = rec[R_HEAD + RH_BROKEN] == RETIRED;
   if (slot[H_BROKEN] != INTACT && e.coff < 0) e.coff = new_contact_block(e.npts);
-  split_head(slot, rec, e.coff >= 0 ? &contact[e.coff] : nullptr);
-  const int np = e.npts, P = row_stride(np);
-  for (int k = 0; k < np; k++)
-    for (int c = 0; c < 3; c++) rec[R_FD + c * P + k] = slot[NHEAD + 3 * k + c];
-  if (e.coff >= 0)
-    std::copy(slot + NHEAD + 3 * np, slot + NHEAD + NPOINT * np, &contact[e.coff + NBHEAD]);
+  entry_from_slot(e, slot);
   if (!was_retired && rec[R_HEAD + RH_BROKEN] == RETIRED)
     special->add_broken_bond(table[e.iface].tag1, table[e.iface].tag2, 0);
 }

@@ -159,6 +159,8 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds, public FixLazy
   FixLazyStore *store_fix;           // the per-slot store (rows that arrived or were handed back)
   // the state of an entry as a slot of the store (header, damping forces by point, contact)
   void slot_from_entry(const Entry &e, double *dest) const;
+  // its inverse: the entry's record (and contact block, if it has one) from a slot
+  void entry_from_slot(const Entry &e, const double *slot);
   // the header of the interface in bond slot m of owned atom i (working copy, else the
   // atom's row, else zeros: scratch holds the copy)
   const double *header_of(int i, int m, double *scratch) const;
