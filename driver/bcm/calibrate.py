@@ -40,22 +40,20 @@ import numpy as np
 
 from driver.bcm import styles
 from driver.bcm.block import BlockTessellation, cached_periodic_cvt
+from driver.bcm.lammps_files import CELL_PROPS, read_cells
 from driver.bcm.tessellation import Cell, erode
 from driver.moduli_protocol import phases, record_every, resume_phase, write_phase_files
 
-#: Cell-props fix shared by the fresh start and every restart (plugins/src/bcm_rigid.h).
-CELL_PROPS = "fix             cellprops all property/atom d2_bcm_quat 4 d2_bcm_inertia 3 d2_bcm_angmom 3 ghost yes"
 SYSTEM_FRESH = f"""units           si
 dimension       3
 boundary        p p p
-atom_style      hybrid bond sphere
+atom_style      bpm/sphere
 atom_modify     map array
 # newton bond off: both ranks holding an interface's cells evaluate it identically.
 newton          on off
 # bonded cells interact only through their interface (intact or broken), never as a pair.
 special_bonds   lj 0 1 1 coul 1 1 1
-{CELL_PROPS}
-read_data       system.data fix cellprops NULL BcmProps
+{read_cells("system.data")}
 # simple shear tilts the box
 change_box      all triclinic"""
 #: The undeformed block, written after `run 0` and read back before every phase.

@@ -12,16 +12,17 @@ from pathlib import Path
 
 import numpy as np
 
+from driver.bcm.lammps_files import read_cells
+
 CONSERVATIVE_SETUP = """
 units           si
 dimension       3
 boundary        m m m
-atom_style      hybrid bond sphere
+atom_style      bpm/sphere
 atom_modify     map array
 newton          on off
 special_bonds   lj 0 1 1 coul 1 1 1
-fix             cellprops all property/atom d2_bcm_quat 4 d2_bcm_inertia 3 d2_bcm_angmom 3 ghost yes
-read_data       {dir}/system.data fix cellprops NULL BcmProps
+""" + read_cells("{dir}/system.data") + """
 comm_modify     vel yes cutoff {cutoff!r}
 pair_style      bcm/contact cells {dir}/cells.txt rm {rm!r}
 pair_coeff      * * {kn_c!r} {kt_c!r} 1.0 0.0

@@ -14,7 +14,7 @@ from analysis.plots import PlotGuard
 from analysis.tables import save_table
 from driver.bcm import styles
 from driver.bcm.cellstats import cell_statistics, plot_cell_stats
-from driver.bcm.lammps_files import write_particle
+from driver.bcm.lammps_files import CELL_PROPS, read_cells, write_particle
 from driver.bcm.particle import build_particle, contact_timestep, particle_tessellation
 from driver.cache import cache_base
 from driver.runner import ProgressSpec
@@ -127,19 +127,17 @@ def build_system(cfg: RunConfig, rd: RunDir) -> dict:
 SYSTEM_FRESH = """units           si
 dimension       3
 boundary        m m m
-atom_style      hybrid bond sphere
+atom_style      bpm/sphere
 atom_modify     map array
 # newton bond off: both ranks holding an interface's cells evaluate it identically.
 newton          on off
 # bonded cells interact only through their interface (intact or broken), never as a pair.
 special_bonds   lj 0 1 1 coul 1 1 1
-fix             cellprops all property/atom d2_bcm_quat 4 d2_bcm_inertia 3 d2_bcm_angmom 3 ghost yes
-read_data       system.data fix cellprops NULL BcmProps"""
+""" + read_cells("system.data")
 # A checkpoint holds the box, atoms, topology, the bond style with its interface table and
 # reference state, the pair style with its counters, and the wall's counters; the per-atom
 # arrays come back when their fix is defined again with the same id.
-SYSTEM_RESUME = """read_restart    ${checkpoint}
-fix             cellprops all property/atom d2_bcm_quat 4 d2_bcm_inertia 3 d2_bcm_angmom 3 ghost yes"""
+SYSTEM_RESUME = "read_restart    ${checkpoint}\n" + CELL_PROPS
 
 
 def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str, str, dict]:

@@ -1,9 +1,11 @@
 """Files that carry a BCM particle into LAMMPS: the data file, the interface geometry, the cells.
 
-- data file (`atom_style hybrid bond sphere`): one atom per cell at its centroid, with mass
-  rmass, a bounding diameter (for neighbour lists only), one bond per interface, and the
-  section `BcmProps` (quaternion, principal moments, angular momentum) read by
-  `fix property/atom d2_bcm_quat 4 d2_bcm_inertia 3 d2_bcm_angmom 3` (plugins/src/bcm_rigid.h);
+- data file (`atom_style bpm/sphere`, read by the commands of `read_cells`): one atom per cell
+  at its centroid, with mass rmass, a bounding diameter (for neighbour lists only), one bond
+  per interface, the section `BcmProps` (principal moments, angular momentum) read by
+  `fix property/atom d2_bcm_inertia 3 d2_bcm_angmom 3` (plugins/src/bcm_rigid.h) and the
+  section `BcmOrientations` (quaternion body -> space), which the plugin's `bcm_orient` puts
+  into the atom style's quaternion (LAMMPS's data files have no column for it);
 - interfaces file (read by `bond_style bcm/griffith geometry FILE`): per interface
   `tag1 tag2 area nx ny nz npts` and the polygon's vertices in space, reference state;
 - cells file (runfiles/cells.py): each cell's rounded core; write_particle writes all three.
@@ -20,6 +22,22 @@ import numpy as np
 from runfiles.atomic import atomic_write_text
 from runfiles.cells import write_cells
 
+#: The cells' per-atom arrays beside the atom style's (plugins/src/bcm_rigid.h); a restart file
+#: brings their values back when this fix is defined again after read_restart.
+CELL_PROPS = "fix             cellprops all property/atom d2_bcm_inertia 3 d2_bcm_angmom 3 ghost yes"
+
+
+def read_cells(data: str) -> str:
+    """LAMMPS commands reading the data file `data` of write_cell_data (after `plugin load`, with
+    the box settings before them). The orientation lives in atom_style bpm/sphere's quaternion,
+    which LAMMPS sends to ghost cells with their positions and velocities
+    (plugins/src/bcm_orientation.h)."""
+    return f"""{CELL_PROPS}
+fix             orient0 all property/atom d2_bcm_quat0 4
+read_data       {data} fix cellprops NULL BcmProps fix orient0 NULL BcmOrientations
+bcm_orient      d2_bcm_quat0
+unfix           orient0"""
+
 
 def _rows(arr: np.ndarray, fmt: str) -> str:
     buf = io.StringIO()
@@ -31,7 +49,8 @@ def write_cell_data(path: Path, centroids: np.ndarray, quats: np.ndarray, masses
                     moments: np.ndarray, bound_diameters: np.ndarray, bonds: np.ndarray,
                     margin: float = 0.0, box: tuple[np.ndarray, np.ndarray] | None = None,
                     grain: np.ndarray | None = None) -> Path:
-    """LAMMPS data file of the cells (ids 1..n in array order; bonds are 0-based index pairs).
+    """LAMMPS data file of the cells (ids 1..n in array order; bonds are 0-based index pairs),
+    read by the commands of read_cells().
     The box: `box` = (lo, hi) when given (a periodic block: centroids wrapped into it), else
     the centroids' bounds widened by `margin`. `grain`: each cell's grain id (1-based), written
     as its molecule id (1 for every cell of a single particle)."""
@@ -41,24 +60,24 @@ def write_cell_data(path: Path, centroids: np.ndarray, quats: np.ndarray, masses
     else:
         lo = centroids.min(axis=0) - margin
         hi = centroids.max(axis=0) + margin
-    # sphere sub-style takes a density: choose it so that rmass is the cell's exact mass
+    # the atom style takes a density: choose it so that rmass is the cell's exact mass
     density = masses / (np.pi / 6.0 * bound_diameters ** 3)
     head = [
         "LAMMPS data file: BCM cells (brittle-driver)", "",
         f"{n} atoms", "1 atom types", f"{len(bonds)} bonds", "1 bond types", "",
         f"{lo[0]:.17g} {hi[0]:.17g} xlo xhi", f"{lo[1]:.17g} {hi[1]:.17g} ylo yhi",
         f"{lo[2]:.17g} {hi[2]:.17g} zlo zhi", "",
-        "Masses", "", f"1 {float(np.mean(masses)):.17g}", "",
-        "Atoms # hybrid", "",
+        "Atoms # bpm/sphere", "",
     ]
     ids = np.arange(1, n + 1)
     mol = np.ones(n) if grain is None else np.asarray(grain)
-    atoms = np.column_stack([ids, np.ones(n), centroids, mol, bound_diameters, density])
-    body = _rows(atoms, "%d %d %.17g %.17g %.17g %d %.17g %.17g")
+    atoms = np.column_stack([ids, mol, np.ones(n), bound_diameters, density, centroids])
+    body = _rows(atoms, "%d %d %d %.17g %.17g %.17g %.17g %.17g")
     bond_rows = np.column_stack([np.arange(1, len(bonds) + 1), np.ones(len(bonds)), bonds + 1])
-    props = np.column_stack([ids, quats, moments, np.zeros((n, 3))])
+    props = np.column_stack([ids, moments, np.zeros((n, 3))])
     text = ("\n".join(head) + "\n" + body + "\nBonds\n\n" + _rows(bond_rows, "%d %d %d %d")
-            + "\nBcmProps\n\n" + _rows(props, "%d" + " %.17g" * 10))
+            + "\nBcmProps\n\n" + _rows(props, "%d" + " %.17g" * 6)
+            + "\nBcmOrientations\n\n" + _rows(np.column_stack([ids, quats]), "%d" + " %.17g" * 4))
     return atomic_write_text(path, text)
 
 

@@ -362,12 +362,11 @@ void BcmInterfaceTable::body_of(int i, double *out) const
    cell's side of the face (n . (p - x1) > 0 > n . (p - x2)).
 ------------------------------------------------------------------------- */
 
-void BcmInterfaceTable::take_reference(int iquat)
+void BcmInterfaceTable::take_reference(double **quat)
 {
   const int nlocal = atom->nlocal;
   const tagint *tag = atom->tag;
   double **x = atom->x;
-  double **quat = atom->darray[iquat];
   const double *radius = atom->radius;
   const int nif = size();
   clear_reference();
@@ -455,7 +454,7 @@ void BcmInterfaceTable::take_reference(int iquat)
     for (tagint t : {interfaces[ii].tag1, interfaces[ii].tag2})
       if (!(BcmRigid::quat_norm2(&cells[(size_t) NREF * cell_of(t) + 3]) > 0.0))
         error->all(FLERR, "bond_style bcm/griffith: a cell of interface {} has no orientation "
-                   "(zero d2_{})", name(ii), BcmRigid::QUAT);
+                   "(a zero quaternion)", name(ii));
   int bad_radius = nif, bad_side = nif;    // first offending interface of each kind
   std::vector<double> body(BODY_MAX);
   for (int ii = 0; ii < nif && (bad_radius == nif || bad_side == nif); ii++) {

@@ -38,9 +38,9 @@ class BcmInterfaceTable : protected Pointers {
   // the table of a geometry file (rank 0 reads, every rank gets it); the reference is to
   // be taken again
   void read(const std::string &file);
-  // the reference state from the current state of the cells (x, d2_bcm_quat:
-  // atom->darray[iquat]) and the box; checks that the geometry fits the cells
-  void take_reference(int iquat);
+  // the reference state from the current state of the cells (x, orientations quat:
+  // bcm_orientation.h) and the box; checks that the geometry fits the cells
+  void take_reference(double **quat);
   bool has_reference() const { return reference != NONE; }
 
   int find(tagint t1, tagint t2) const;    // index of the interface of two cells, or -1
@@ -72,7 +72,7 @@ class BcmInterfaceTable : protected Pointers {
     double prd[3] = {0.0, 0.0, 0.0}, prd_half[3] = {0.0, 0.0, 0.0};
     double xy = 0.0, xz = 0.0, yz = 0.0;
   };
-  static constexpr int NREF = 7;    // per cell: x (3), d2_bcm_quat (4)
+  static constexpr int NREF = 7;    // per cell: x (3), orientation (4)
 
   std::vector<Interface> interfaces;
   // reference state, space frame, from the geometry file: per interface in order the normal

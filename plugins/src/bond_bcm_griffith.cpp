@@ -18,6 +18,7 @@
 #include "bcm_griffith.h"
 #include "bcm_interface_contact.h"
 #include "bcm_interface_state.h"
+#include "bcm_orientation.h"
 #include "bcm_rigid.h"
 #include "break_events.h"
 #include "breakable_util.h"
@@ -302,18 +303,14 @@ void BondBcmGriffith::init_style()
     error->all(FLERR, "bond_style bcm/griffith requires a molecular atom style (not a template)");
   if (!atom->rmass || !atom->radius || !atom->omega || !atom->torque)
     error->all(FLERR, "bond_style bcm/griffith requires per-atom rmass, radius, omega and "
-                      "torque (atom_style hybrid bond sphere)");
+                      "torque (atom_style bpm/sphere)");
   if (!comm->ghost_velocity)
     error->all(FLERR, "bond_style bcm/griffith requires comm_modify vel yes "
                       "(damping reads the velocities and omega of ghost cells)");
   if (force->special_lj[1] != 0.0)
     error->all(FLERR, "bond_style bcm/griffith requires special_bonds lj 0 ... (bonded cells "
                       "interact only through their interface, not through the pair style)");
-  int flag = -1, cols = -1, ghost = 0;
-  iquat = atom->find_custom_ghost(BcmRigid::QUAT, flag, cols, ghost);
-  if (iquat < 0 || flag != 1 || cols != 4 || !ghost)
-    error->all(FLERR, "bond_style bcm/griffith requires the per-atom array d2_{} (4 columns, "
-               "ghost yes) of fix property/atom", BcmRigid::QUAT);
+  iquat = BcmOrientation::find(atom, error, "bond_style bcm/griffith", true);
 
   // the records keep the last time step signed by the kind (RH_LAST): it must be > 0
   if (!(update->dt > 0.0))
@@ -376,7 +373,7 @@ void BondBcmGriffith::init_style()
     error->all(FLERR, "bond_style bcm/griffith: {} interfaces in the geometry table but {} bonds "
                "in the topology", table.size(), total);
 
-  if (!table.has_reference()) table.take_reference(iquat);
+  if (!table.has_reference()) table.take_reference(BcmOrientation::of(atom, iquat));
   adopt();
   cache_valid = false;
 }
@@ -871,7 +868,7 @@ void BondBcmGriffith::compute(int eflag, int vflag)
 
   // centre, velocity, angular velocity and orientation of every cell, once per evaluation
   const int nall = atom->nlocal + atom->nghost;
-  double **quat = atom->darray[iquat];
+  double **quat = BcmOrientation::of(atom, iquat);
   cells.resize(CELL_STRIDE * (size_t) nall);
   const auto pack = [&](int i) {
     BcmInterfaceKinematics::pack_cell(atom->x[i], atom->v[i], atom->omega[i], quat[i],
@@ -1051,7 +1048,7 @@ void BondBcmGriffith::cell_moves(bool step)
     moves_known = false;
     return;
   }
-  double **x = atom->x, **quat = atom->darray[iquat];
+  double **x = atom->x, **quat = BcmOrientation::of(atom, iquat);
   const bool known = moves_known && cell_prev.size() == 7 * (size_t) nall;
   if (!known) quiet_cert.assign(quiet_cert.size(), QuietCert());
   cell_prev.resize(7 * (size_t) nall);

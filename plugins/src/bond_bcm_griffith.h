@@ -193,7 +193,7 @@ class BondBcmGriffith : public Bond, public SpecialReleasedBonds, public FixLazy
   void cell_moves(bool step);
 
   int store_index;     // atom->darray index of the per-slot state
-  int iquat;           // atom->darray index of d2_bcm_quat
+  int iquat;           // where the orientations live (bcm_orientation.h)
   bigint nevaluations;
   bool avx_loop;       // the 4-lane AVX kernel (BreakableUtil::avx_loops())
   FixBreakableSpecial *special;    // takes retired interfaces out of the special lists

@@ -16,6 +16,7 @@
 #include "fix_bcm_wall.h"
 #include "pair_bcm_contact.h"
 #include "write_bcm_interfaces.h"
+#include "bcm_orient.h"
 
 using namespace LAMMPS_NS;
 
@@ -82,6 +83,11 @@ static Fix *fix_bcm_wall_creator(LAMMPS *lmp, int argc, char **argv)
 static Fix *fix_bcm_interfaces_dump_creator(LAMMPS *lmp, int argc, char **argv)
 {
   return new FixBcmInterfacesDump(lmp, argc, argv);
+}
+
+static Command *bcm_orient_creator(LAMMPS *lmp)
+{
+  return new BcmOrient(lmp);
 }
 
 static Command *write_bcm_interfaces_creator(LAMMPS *lmp)
@@ -173,6 +179,12 @@ extern "C" void lammpsplugin_init(void *lmp, void *handle, void *vregfunc)
   plugin.name = "write_bcm_interfaces";
   plugin.info = "BCM interface dump of the current state, streamed from the bond style";
   plugin.creator.v1 = (lammpsplugin_factory1 *) &write_bcm_interfaces_creator;
+  (*regfunc)(&plugin, lmp);
+
+  plugin.style = "command";
+  plugin.name = "bcm_orient";
+  plugin.info = "BCM cells' orientations (atom_style bpm/sphere's quaternion) from a per-atom array";
+  plugin.creator.v1 = (lammpsplugin_factory1 *) &bcm_orient_creator;
   (*regfunc)(&plugin, lmp);
 
   plugin.style = "pair";

@@ -15,6 +15,7 @@
 #include "fix_bcm_rigid.h"
 
 #include "atom.h"
+#include "bcm_orientation.h"
 #include "bcm_rigid.h"
 #include "breakable_util.h"
 #include "comm.h"
@@ -192,7 +193,7 @@ void omegas4(const int *batch, double **quat, double **inertia, double **angmom,
 
 FixBcmRigid::FixBcmRigid(LAMMPS *_lmp, int narg, char **arg) :
     Fix(_lmp, narg, arg), dtv(0.0), dtf(0.0), iquat(-1), iinertia(-1), iangmom(-1),
-    comm_with_omega(0), avx_loop(false)
+    comm_with_omega(0), send_quat(true), avx_loop(false)
 {
   if (narg != 3)
     error->all(FLERR, "Illegal fix bcm/rigid command: takes no arguments (fix ID group bcm/rigid)");
@@ -222,8 +223,8 @@ int FixBcmRigid::find_array(const char *name, int ncols)
   if (index < 0 || flag != 1 || cols != ncols)
     error->all(FLERR,
                "Fix bcm/rigid requires the per-atom array d2_{} with {} columns: declare "
-               "`fix ID all property/atom d2_{} {} d2_{} {} d2_{} {} ghost yes` before read_data",
-               name, ncols, BcmRigid::QUAT, 4, BcmRigid::INERTIA, 3, BcmRigid::ANGMOM, 3);
+               "`fix ID all property/atom d2_{} {} d2_{} {} ghost yes` before read_data",
+               name, ncols, BcmRigid::INERTIA, 3, BcmRigid::ANGMOM, 3);
   if (!ghost)
     error->all(FLERR, "Fix bcm/rigid requires d2_{} with `ghost yes` (ghost cells need it)", name);
   return index;
@@ -235,15 +236,18 @@ void FixBcmRigid::init()
 {
   if (!atom->rmass || !atom->omega || !atom->torque)
     error->all(FLERR, "Fix bcm/rigid requires per-atom rmass, omega and torque "
-                      "(atom_style hybrid bond sphere)");
-  iquat = find_array(BcmRigid::QUAT, 4);
+                      "(atom_style bpm/sphere)");
+  iquat = BcmOrientation::find(atom, error, "Fix bcm/rigid", true);
+  // atom_style bpm/sphere with comm_modify vel yes: the orientations travel with the
+  // positions and velocities (bcm_orientation.h)
+  send_quat = !(iquat == BcmOrientation::ATOM_QUAT && comm->ghost_velocity);
   iinertia = find_array(BcmRigid::INERTIA, 3);
   iangmom = find_array(BcmRigid::ANGMOM, 3);
   reset_dt();
 
   // every cell needs positive principal moments, a mass and an orientation; the smallest
   // offending atom ID over all ranks is named
-  double **quat = atom->darray[iquat];
+  double **quat = BcmOrientation::of(atom, iquat);
   double **inertia = atom->darray[iinertia];
   const double *rmass = atom->rmass;
   const int *mask = atom->mask;
@@ -265,8 +269,8 @@ void FixBcmRigid::init()
     error->all(FLERR, "Fix bcm/rigid: atom {} has a zero or negative principal moment in d2_{}",
                global[0], BcmRigid::INERTIA);
   if (global[1] != MAXTAGINT)
-    error->all(FLERR, "Fix bcm/rigid: atom {} has no orientation (zero quaternion in d2_{})",
-               global[1], BcmRigid::QUAT);
+    error->all(FLERR, "Fix bcm/rigid: atom {} has no orientation (a zero quaternion)",
+               global[1]);
   if (global[2] != MAXTAGINT)
     error->all(FLERR, "Fix bcm/rigid: atom {} has no positive mass", global[2]);
 
@@ -295,7 +299,7 @@ void FixBcmRigid::reset_dt()
 
 void FixBcmRigid::set_omega(int i)
 {
-  omega_of(atom->darray[iquat][i], atom->darray[iinertia][i], atom->darray[iangmom][i],
+  omega_of(BcmOrientation::of(atom, iquat)[i], atom->darray[iinertia][i], atom->darray[iangmom][i],
            atom->omega[i]);
 }
 
@@ -336,7 +340,7 @@ void FixBcmRigid::initial_integrate(int /*vflag*/)
     if (n == BATCH) {
 #if defined(BRITTLE_AVX_LOOPS)
       if (avx_loop)
-        avx::free_rotors4(batch, atom->darray[iquat], atom->darray[iinertia], angmom, atom->omega,
+        avx::free_rotors4(batch, BcmOrientation::of(atom, iquat), atom->darray[iinertia], angmom, atom->omega,
                           0.5 * (0.5 * dtv), 0.5 * dtv);
       else
 #endif
@@ -354,7 +358,7 @@ void FixBcmRigid::initial_integrate(int /*vflag*/)
 void FixBcmRigid::free_rotors(const int *batch, int n)
 {
   double **omega = atom->omega;
-  double **quat = atom->darray[iquat];
+  double **quat = BcmOrientation::of(atom, iquat);
   double **inertia = atom->darray[iinertia];
   double **angmom = atom->darray[iangmom];
   double q[BATCH][4], in[BATCH][3], lb[BATCH][3];
@@ -388,13 +392,13 @@ void FixBcmRigid::free_rotors(const int *batch, int n)
 }
 
 /* ----------------------------------------------------------------------
-   after the positions moved (and before any force): ghost orientations.
-   Ghost velocities and omega travel with comm_modify vel yes.
+   after the positions moved (and before any force): ghost orientations, unless LAMMPS's
+   own communication carried them. Ghost velocities and omega travel with comm_modify vel yes.
 ------------------------------------------------------------------------- */
 
 void FixBcmRigid::pre_force(int /*vflag*/)
 {
-  comm->forward_comm(this, 4);
+  if (send_quat) comm->forward_comm(this, 4);
 }
 
 /* ---------------------------------------------------------------------- */
@@ -407,7 +411,7 @@ void FixBcmRigid::final_integrate()
   const double *rmass = atom->rmass;
   const int *mask = atom->mask;
   double **angmom = atom->darray[iangmom];
-  double **quat = atom->darray[iquat];
+  double **quat = BcmOrientation::of(atom, iquat);
   double **inertia = atom->darray[iinertia];
   double **omega = atom->omega;
   const int nlocal = atom->nlocal;
@@ -444,7 +448,7 @@ void FixBcmRigid::final_integrate()
 
 double FixBcmRigid::compute_scalar()
 {
-  double **quat = atom->darray[iquat];
+  double **quat = BcmOrientation::of(atom, iquat);
   double **inertia = atom->darray[iinertia];
   double **angmom = atom->darray[iangmom];
   const int *mask = atom->mask;
@@ -468,7 +472,7 @@ double FixBcmRigid::compute_scalar()
 int FixBcmRigid::pack_forward_comm(int n, int *list, double *buf, int /*pbc_flag*/,
                                    int * /*pbc*/)
 {
-  double **quat = atom->darray[iquat];
+  double **quat = BcmOrientation::of(atom, iquat);
   double **omega = atom->omega;
   int m = 0;
   for (int ii = 0; ii < n; ii++) {
@@ -484,7 +488,7 @@ int FixBcmRigid::pack_forward_comm(int n, int *list, double *buf, int /*pbc_flag
 
 void FixBcmRigid::unpack_forward_comm(int n, int first, double *buf)
 {
-  double **quat = atom->darray[iquat];
+  double **quat = BcmOrientation::of(atom, iquat);
   double **omega = atom->omega;
   int m = 0;
   const int last = first + n;

@@ -2,7 +2,8 @@
    body frame) inertia tensor. Velocity Verlet for translation; for rotation the symplectic,
    time-reversible NO_SQUISH splitting of the free rotor (Miller et al., J. Chem. Phys. 116,
    8649, 2002) between two half kicks of the space-frame angular momentum. Orientation,
-   principal moments and angular momentum live in the per-atom arrays of bcm_rigid.h.
+   principal moments and angular momentum live in the per-atom arrays of bcm_rigid.h
+   (the orientation in atom_style bpm/sphere's quaternion: bcm_orientation.h).
    See plugins/doc/fix_bcm_rigid.md. */
 
 #ifndef BRITTLE_FIX_BCM_RIGID_H
@@ -29,8 +30,10 @@ class FixBcmRigid : public Fix {
 
  private:
   double dtv, dtf;
-  int iquat, iinertia, iangmom;    // atom->darray indices of the bcm_rigid.h arrays
+  int iquat;                       // where the orientations live (bcm_orientation.h)
+  int iinertia, iangmom;           // atom->darray indices of the bcm_rigid.h arrays
   int comm_with_omega;             // the current forward communication carries omega too
+  bool send_quat;                  // every step's pre_force sends the ghosts' orientations
   bool avx_loop;                   // full batches of 4 cells in AVX lanes (free_rotors4)
 
   int find_array(const char *name, int ncols);

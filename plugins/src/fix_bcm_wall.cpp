@@ -39,6 +39,7 @@
 
 #include "atom.h"
 #include "bcm_contact_law.h"
+#include "bcm_orientation.h"
 #include "bcm_rigid.h"
 #include "comm.h"
 #include "error.h"
@@ -202,12 +203,8 @@ void FixBcmWall::init()
 {
   if (!atom->rmass_flag || !atom->omega_flag || !atom->torque_flag)
     error->all(FLERR, "fix bcm/wall requires per-atom rmass, omega and torque "
-                      "(atom_style hybrid bond sphere)");
-  int flag = -1, cols = -1;
-  iquat = atom->find_custom(BcmRigid::QUAT, flag, cols);
-  if (iquat < 0 || flag != 1 || cols != 4)
-    error->all(FLERR, "fix bcm/wall requires the per-atom array d2_{} with 4 columns",
-               BcmRigid::QUAT);
+                      "(atom_style bpm/sphere)");
+  iquat = BcmOrientation::find(atom, error, "fix bcm/wall", false);
   ihist = bcm_peratom_array(lmp, hist_id, hist_name, SLOT * nslots, false);
   if (atom->map_style == Atom::MAP_NONE)
     error->all(FLERR, "fix bcm/wall requires an atom map (atom_modify map array): the "
@@ -246,7 +243,7 @@ void FixBcmWall::wall_forces(bool advance)
 {
   double **x = atom->x, **v = atom->v, **f = atom->f;
   double **omega = atom->omega, **torque = atom->torque;
-  double **quat = atom->darray[iquat];
+  double **quat = BcmOrientation::of(atom, iquat);
   double **hist = atom->darray[ihist];
   const double *rmass = atom->rmass;
   const int *mask = atom->mask;

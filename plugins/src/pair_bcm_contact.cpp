@@ -35,6 +35,7 @@
 #include "atom.h"
 #include "bcm_contact_law.h"
 #include "bcm_motion.h"
+#include "bcm_orientation.h"
 #include "bcm_rigid.h"
 #include "comm.h"
 #include "error.h"
@@ -184,7 +185,7 @@ void PairBcmContact::init_style()
 {
   if (!atom->radius_flag || !atom->rmass_flag || !atom->omega_flag || !atom->torque_flag)
     error->all(FLERR, "pair_style bcm/contact requires per-atom radius, rmass, omega and torque "
-                      "(atom_style hybrid bond sphere)");
+                      "(atom_style bpm/sphere)");
   if (!comm->ghost_velocity)
     error->all(FLERR, "pair_style bcm/contact requires comm_modify vel yes "
                       "(the contact damping reads ghost velocities and angular velocities)");
@@ -192,12 +193,7 @@ void PairBcmContact::init_style()
     error->all(FLERR, "pair_style bcm/contact requires special_bonds lj 0 1 1: bonded cells "
                       "(interfaces) must not touch through contacts");
 
-  int flag = -1, cols = -1, ghost = -1;
-  iquat = atom->find_custom_ghost(BcmRigid::QUAT, flag, cols, ghost);
-  if (iquat < 0 || flag != 1 || cols != 4 || !ghost)
-    error->all(FLERR, "pair_style bcm/contact requires the per-atom array d2_{} with 4 columns "
-                      "and ghost yes (fix property/atom d2_{} 4 ... ghost yes)",
-               BcmRigid::QUAT, BcmRigid::QUAT);
+  iquat = BcmOrientation::find(atom, error, "pair_style bcm/contact", true);
   ihist = bcm_peratom_array(lmp, HIST_FIX_ID, HIST_NAME, SLOT * nslots, true);
   if (atom->map_style == Atom::MAP_NONE)
     error->all(FLERR, "pair_style bcm/contact requires an atom map (atom_modify map array): "
@@ -271,8 +267,8 @@ int PairBcmContact::place(int i)
     const BcmCells::Cell *c = cell(i);
     placed[i] = static_cast<int>(geom.size());
     geom.resize(geom.size() + 3 * c->nv + 4 * c->nf);
-    bcm_place_cell(*table, *c, atom->x[i], atom->darray[iquat][i], &geom[placed[i]],
-                   &geom[placed[i] + 3 * c->nv]);
+    bcm_place_cell(*table, *c, atom->x[i], BcmOrientation::of(atom, iquat)[i],
+                   &geom[placed[i]], &geom[placed[i] + 3 * c->nv]);
   }
   return placed[i];
 }
@@ -282,7 +278,7 @@ const double *PairBcmContact::place_scratch(int i, int k)
   const BcmCells::Cell *c = cell(i);
   std::vector<double> &g = scratch[k];
   g.resize(3 * c->nv + 4 * c->nf);
-  bcm_place_cell(*table, *c, atom->x[i], atom->darray[iquat][i], g.data(), g.data() + 3 * c->nv);
+  bcm_place_cell(*table, *c, atom->x[i], BcmOrientation::of(atom, iquat)[i], g.data(), g.data() + 3 * c->nv);
   return g.data();
 }
 
@@ -293,7 +289,7 @@ const double *PairBcmContact::place_scratch(int i, int k)
 bool PairBcmContact::still_apart(const ApartCert &c, int a, int b) const
 {
   if (c.ta != atom->tag[a] || c.tb != atom->tag[b]) return false;
-  double **quat = atom->darray[iquat];
+  double **quat = BcmOrientation::of(atom, iquat);
   return BcmMotion::holds(c.motion, atom->x[a], atom->x[b], quat[a], quat[b]);
 }
 
@@ -301,7 +297,7 @@ void PairBcmContact::certify(ApartCert &c, int a, int b, const BcmSpaceCell &sa,
                              const BcmSpaceCell &sb, double m, int side) const
 {
   c.ta = 0;
-  double **quat = atom->darray[iquat];
+  double **quat = BcmOrientation::of(atom, iquat);
   // side 0: B's points over a plane of A; 1: A's over a plane of B; 2: both ways round
   const double ra = sa.cell->rbound, rb = sb.cell->rbound;
   if (!BcmMotion::certify(c.motion, atom->x[a], atom->x[b], quat[a], quat[b], m,

@@ -46,7 +46,7 @@ class PairBcmContact : public Pair {
   // per type pair: frictional-contact parameters and alpha (SPEC 1.2 Eq. 2)
   double **kn, **kt, **en2, **mu, **alpha;
 
-  int iquat;             // atom->darray index of the orientation (bcm_rigid.h)
+  int iquat;             // where the orientations live (bcm_orientation.h)
   int ihist;             // atom->darray index of the tangential history slots
   double maxrad;         // largest atom radius over all ranks
   bool warned_slots;     // a point found no free history slot (warned once)
