@@ -402,9 +402,10 @@ class Dump:
         return "\n".join(["| column | unit | meaning |", "|---|---|---|", *rows])
 
 
-# BCM: one atom per cell (SPEC 1.1); the orientation is atom_style bpm/sphere's quaternion (the
-# names of OVITO's and LAMMPS's quaternion columns; dumps of runs before 2026-12-05 wrote
-# d2_bcm_quat[k] under the same names); radius: the cell's bounding sphere
+# BCM: one atom per cell (SPEC 1.1); the orientation is atom_style bpm/sphere's quaternion, from
+# the compute bcm_quat of driver/bcm/lammps_files.py (QUAT_COMPUTE), named as OVITO's and
+# LAMMPS's quaternion columns (dumps of runs up to main fc0b266 wrote d2_bcm_quat[k] under the
+# same names); radius: the cell's bounding sphere
 CELLS_DUMP = Dump("cells", (
     Column("id", "", "cell id"), Column("mass", "kg", "cell mass"),
     Column("x", "m", "centroid x"), Column("y", "m", "centroid y"), Column("z", "m", "centroid z"),
@@ -412,7 +413,8 @@ CELLS_DUMP = Dump("cells", (
     Column("omegax", "1/s", "angular velocity x"), Column("omegay", "1/s", "angular velocity y"),
     Column("omegaz", "1/s", "angular velocity z"),
     Column("radius", "m", "radius of the cell's bounding sphere (neighbour lists)"),
-    *(Column(f"quat{c}", "", f"orientation quaternion, component {c} (body to space)") for c in "wijk"),
+    *(Column(f"quat{c}", "", f"orientation quaternion, component {c} (body to space)", f"c_bcm_quat[{k}]")
+      for k, c in enumerate("wijk", start=1)),
 ))
 # BCM interfaces (fix bcm/interfaces/dump and write_bcm_interfaces of the plugin,
 # plugins/doc/fix_bcm_interfaces_dump.md: each column's value keyword, batom1 batom2 of the bond

@@ -85,11 +85,11 @@ def test_builder_places_grains_apart_with_their_ids_and_volume(tmp_path, sizes):
 def test_data_file_carries_grain_ids(small_bed):
     """system.data's molecule column is each cell's grain, in the order of system.json's grains."""
     text = (small_bed / "system.data").read_text()
-    atoms = text.split("Atoms # hybrid")[1].split("Bonds")[0]
+    atoms = text.split("Atoms # bpm/sphere")[1].split("Bonds")[0]
     rows = np.array([line.split() for line in atoms.strip().splitlines()], dtype=float)
     system = json.loads((small_bed / "system.json").read_text())
     expected = np.repeat(np.arange(1, system["n_grains"] + 1), system["grain_cells"])
-    np.testing.assert_array_equal(rows[np.argsort(rows[:, 0]), 5], expected)
+    np.testing.assert_array_equal(rows[np.argsort(rows[:, 0]), 1], expected)  # id molecule type ...
 
 
 # ------------------------------------------------------------------------------- the run

@@ -492,14 +492,13 @@ def test_rebound_restitution_and_energy_balance(lmp, tmp_path):
 MPI_INPUT = """
 plugin load {plugin}
 units si
-atom_style hybrid bond sphere
+{read_lattice}
 boundary f f f
 processors * 1 1
 newton on off
 comm_modify vel yes
 special_bonds lj/coul 0 1 1
-fix props all property/atom d2_bcm_quat 4 d2_bcm_inertia 3 d2_bcm_angmom 3 ghost yes
-read_data lattice.data fix props NULL Cells
+{read_data}
 pair_style zero {cutoff}
 pair_coeff * *
 bond_style bcm/griffith geometry lattice.geo
@@ -541,9 +540,26 @@ def lattice_faces(index: dict, centres: dict) -> tuple[list[str], list[tuple[int
     return lines, bonds
 
 
-def write_lattice(tmp_path, shape, drift, burst=0.0, seed=0):
+# The two layouts of a cell's orientation (plugins/doc/fix_bcm_rigid.md): atom_style
+# bpm/sphere's quaternion, sent to ghosts by LAMMPS with x, v and omega ("bpm", the driver's),
+# or the array d2_bcm_quat that fix bcm/rigid sends itself ("legacy", files up to main fc0b266):
+# the atom style line and the commands that read lattice.data (MPI_INPUT's keys)
+LAYOUTS = {
+    "legacy": dict(read_lattice="atom_style hybrid bond sphere", read_data=(
+        "fix props all property/atom d2_bcm_quat 4 d2_bcm_inertia 3 d2_bcm_angmom 3 ghost yes\n"
+        "read_data lattice.data fix props NULL Cells")),
+    "bpm": dict(read_lattice="atom_style bpm/sphere", read_data=(
+        "fix props all property/atom d2_bcm_inertia 3 d2_bcm_angmom 3 ghost yes\n"
+        "fix orient0 all property/atom d2_bcm_quat0 4\n"
+        "read_data lattice.data fix props NULL Cells fix orient0 NULL Orientations\n"
+        "bcm_orient d2_bcm_quat0\nunfix orient0")),
+}
+
+
+def write_lattice(tmp_path, shape, drift, burst=0.0, seed=0, layout="legacy"):
     """Cube cells on a lattice with spacing A, every face bonded; random body frames,
-    velocities and spins on top of a common drift and of a radial burst of speed `burst`."""
+    velocities and spins on top of a common drift and of a radial burst of speed `burst`.
+    The data file's layout: LAYOUTS (the same cells either way)."""
     rng = np.random.default_rng(seed)
     index = {ijk: t for t, ijk in enumerate(np.ndindex(*shape), start=1)}
     centres = {t: X1 + A * np.array(ijk, dtype=float) for ijk, t in index.items()}
@@ -554,9 +570,14 @@ def write_lattice(tmp_path, shape, drift, burst=0.0, seed=0):
            "1 bond types\n"]
     out += [f"{fnum(lo[k])} {fnum(hi[k])} {c}lo {c}hi" for k, c in enumerate("xyz")]
     density = MASS / (np.pi / 6 * (2 * A) ** 3)
-    out += ["\nAtoms # hybrid\n"]
-    out += [f"{t} 1 " + " ".join(fnum(c) for c in x) + f" 1 {fnum(2 * A)} {fnum(density)}"
-            for t, x in centres.items()]
+    if layout == "legacy":
+        out += ["\nAtoms # hybrid\n"]
+        out += [f"{t} 1 " + " ".join(fnum(c) for c in x) + f" 1 {fnum(2 * A)} {fnum(density)}"
+                for t, x in centres.items()]
+    else:
+        out += ["\nAtoms # bpm/sphere\n"]
+        out += [f"{t} 1 1 {fnum(2 * A)} {fnum(density)} " + " ".join(fnum(c) for c in x)
+                for t, x in centres.items()]
     out += ["\nVelocities\n"]
     middle = np.mean(list(centres.values()), axis=0)
     for t, x in centres.items():
@@ -564,23 +585,27 @@ def write_lattice(tmp_path, shape, drift, burst=0.0, seed=0):
         v = drift + radial + rng.normal(scale=0.5, size=3)
         out.append(f"{t} " + " ".join(fnum(c) for c in v) + " 0 0 0")
     out += ["\nBonds\n"] + [f"{b} 1 {t1} {t2}" for b, (t1, t2) in enumerate(bonds, start=1)]
+    quats = {t: wxyz(Rotation.random(random_state=100 + t)) for t in centres}
     out += ["\nCells\n"]
     for t in centres:
-        values = [*wxyz(Rotation.random(random_state=100 + t)), *MOMENTS,
+        values = [*(quats[t] if layout == "legacy" else []), *MOMENTS,
                   *rng.normal(scale=100 * MOMENTS[0], size=3)]
         out.append(f"{t} " + " ".join(fnum(v) for v in values))
+    if layout != "legacy":
+        out += ["\nOrientations\n"] + [f"{t} " + " ".join(fnum(v) for v in q) for t, q in quats.items()]
     (tmp_path / "lattice.data").write_text("\n".join(out) + "\n")
 
 
-def run_lmp(tmp_path, nprocs, text, eval_both=False):
+def run_lmp(tmp_path, nprocs, text, eval_both=False, tag=""):
     """`lmp` on nprocs ranks; eval_both: BRITTLE_EVAL_BOTH=1 (every rank evaluates the
-    interfaces of its cells, copies included: the path before issue 27's evaluation once)."""
+    interfaces of its cells, copies included: the path before issue 27's evaluation once);
+    tag: added to the input and log names."""
     import os  # noqa: PLC0415
     import subprocess  # noqa: PLC0415
 
     from driver.engine import venv_bin  # noqa: PLC0415
 
-    name = f"{nprocs}{'b' if eval_both else ''}"
+    name = f"{nprocs}{'b' if eval_both else ''}{tag}"
     inp = tmp_path / f"in.{name}"
     inp.write_text(text)
     cmd = [venv_bin("mpiexec"), "-n", str(nprocs), venv_bin("lmp"), "-in", inp.name,
@@ -594,20 +619,27 @@ def run_lmp(tmp_path, nprocs, text, eval_both=False):
     return float(start.split()[1]), np.array([float(t) for t in result.split()[1:]])
 
 
+def drift_input(plugin_path, layout):
+    """MPI_INPUT of test_two_ranks_follow_one_rank's drifting block (lattice.data written)."""
+    return MPI_INPUT.format(plugin=plugin_path, cutoff=fnum(2 * A), skin=fnum(0.2 * A),
+                            kn=KN, kt=KT, gc=0.1, knc=KNC, ktc=KTC, mu=MU,
+                            dt=fnum(PERIOD / 400), steps=4000, thermo_modify="", **LAYOUTS[layout])
+
+
 @pytest.mark.mpi
-@pytest.mark.parametrize("eval_both", [False, True], ids=["once", "both"])
-def test_two_ranks_follow_one_rank(plugin_path, tmp_path, eval_both):
+@pytest.mark.parametrize("eval_both,layout", [(False, "bpm"), (True, "bpm"), (False, "legacy")],
+                         ids=["once", "both", "once-legacy"])
+def test_two_ranks_follow_one_rank(plugin_path, tmp_path, eval_both, layout):
     """A 6x2x2 block of bonded cells drifts across the boundary between two ranks while it
     vibrates, breaks part of its interfaces and slides on them: an interface across the ranks
     is evaluated by the owner of its cell with the smaller ID, which sends its state to the
     other rank's copy at every re-neighbouring ("once", the default), or by both owners of its
     cells ("both", BRITTLE_EVAL_BOTH=1); its state migrates with the cells, and each interface
     is counted once. The two-rank run follows the one-rank run, and the energy balance
-    (kinetic energy about the centre of mass) closes in both."""
-    write_lattice(tmp_path, (6, 2, 2), drift=np.array([120.0, 0.0, 0.0]))
-    text = MPI_INPUT.format(plugin=plugin_path, cutoff=fnum(2 * A), skin=fnum(0.2 * A),
-                            kn=KN, kt=KT, gc=0.1, knc=KNC, ktc=KTC, mu=MU,
-                            dt=fnum(PERIOD / 400), steps=4000, thermo_modify="")
+    (kinetic energy about the centre of mass) closes in both. Orientations of ghost cells
+    reach them in LAMMPS's communication ("bpm") or in fix bcm/rigid's ("legacy")."""
+    write_lattice(tmp_path, (6, 2, 2), drift=np.array([120.0, 0.0, 0.0]), layout=layout)
+    text = drift_input(plugin_path, layout)
     start1, one = run_lmp(tmp_path, 1, text)
     start2, two = run_lmp(tmp_path, 2, text, eval_both)
     middle = X1[0] + 3.5 * A  # of the box, in x: the boundary between the two ranks
@@ -620,16 +652,32 @@ def test_two_ranks_follow_one_rank(plugin_path, tmp_path, eval_both):
 
 
 @pytest.mark.mpi
+def test_orientation_layouts_agree_to_the_bit(plugin_path, tmp_path):
+    """The drifting block of test_two_ranks_follow_one_rank on two ranks, its orientations in
+    atom_style bpm/sphere's quaternion (sent with LAMMPS's positions and velocities) or in
+    d2_bcm_quat (sent by fix bcm/rigid): the same values reach the ghosts, so every result is
+    the same to the last printed digit."""
+    results = []
+    for layout in ("bpm", "legacy"):
+        (tmp_path / layout).mkdir()
+        write_lattice(tmp_path / layout, (6, 2, 2), drift=np.array([120.0, 0.0, 0.0]), layout=layout)
+        results.append(run_lmp(tmp_path / layout, 2, drift_input(plugin_path, layout)))
+    assert 0 < results[0][1][3] < 40  # interfaces broke: the runs left the elastic regime
+    assert results[0][0] == results[1][0]
+    np.testing.assert_array_equal(results[0][1], results[1][1])
+
+
+@pytest.mark.mpi
 def test_fragments_part_across_ranks(plugin_path, tmp_path):
     """A burst breaks every interface and the cells fly apart, farther than the
     communication cutoff: the broken bonds stay in the topology, so LAMMPS must be told to
     skip bonds whose partner is not a ghost (thermo_modify lost/bond ignore). Two ranks
     follow one rank."""
-    write_lattice(tmp_path, (6, 2, 2), drift=np.zeros(3), burst=20.0)
+    write_lattice(tmp_path, (6, 2, 2), drift=np.zeros(3), burst=20.0, layout="bpm")
     text = MPI_INPUT.format(plugin=plugin_path, cutoff=fnum(2 * A), skin=fnum(0.2 * A),
                             kn=KN, kt=KT, gc=0.1, knc=KNC, ktc=KTC, mu=MU,
                             dt=fnum(PERIOD / 400), steps=20000,
-                            thermo_modify="thermo_modify lost/bond ignore")
+                            thermo_modify="thermo_modify lost/bond ignore", **LAYOUTS["bpm"])
     text = text.replace("boundary f f f", "boundary m m m")
     start1, one = run_lmp(tmp_path, 1, text)
     start2, two = run_lmp(tmp_path, 2, text)

@@ -14,7 +14,7 @@ from analysis.plots import PlotGuard
 from analysis.tables import save_table
 from driver.bcm import styles
 from driver.bcm.cellstats import cell_statistics, plot_cell_stats
-from driver.bcm.lammps_files import CELL_PROPS, read_cells, write_particle
+from driver.bcm.lammps_files import CELL_PROPS, QUAT_COMPUTE, read_cells, write_particle
 from driver.bcm.particle import build_particle, contact_timestep, particle_tessellation
 from driver.cache import cache_base
 from driver.runner import ProgressSpec
@@ -134,10 +134,11 @@ newton          on off
 # bonded cells interact only through their interface (intact or broken), never as a pair.
 special_bonds   lj 0 1 1 coul 1 1 1
 """ + read_cells("system.data")
-# A checkpoint holds the box, atoms, topology, the bond style with its interface table and
-# reference state, the pair style with its counters, and the wall's counters; the per-atom
-# arrays come back when their fix is defined again with the same id.
-SYSTEM_RESUME = "read_restart    ${checkpoint}\n" + CELL_PROPS
+# A checkpoint holds the box, atoms (their orientations too), topology, the bond style with its
+# interface table and reference state, the pair style with its counters, and the wall's
+# counters; the per-atom arrays come back when their fix is defined again with the same id; the
+# dumps' orientation compute is defined again.
+SYSTEM_RESUME = "\n".join(["read_restart    ${checkpoint}", CELL_PROPS, QUAT_COMPUTE])
 
 
 def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str, str, dict]:

@@ -25,6 +25,9 @@ from runfiles.cells import write_cells
 #: The cells' per-atom arrays beside the atom style's (plugins/src/bcm_rigid.h); a restart file
 #: brings their values back when this fix is defined again after read_restart.
 CELL_PROPS = "fix             cellprops all property/atom d2_bcm_inertia 3 d2_bcm_angmom 3 ghost yes"
+#: The orientations as a compute's per-atom values, for the cells' dumps (runfiles/records.py,
+#: CELLS_DUMP): dump custom has no keyword for atom_style bpm/sphere's quaternion. After the box.
+QUAT_COMPUTE = "compute         bcm_quat all property/atom quatw quati quatj quatk"
 
 
 def read_cells(data: str) -> str:
@@ -36,7 +39,8 @@ def read_cells(data: str) -> str:
 fix             orient0 all property/atom d2_bcm_quat0 4
 read_data       {data} fix cellprops NULL BcmProps fix orient0 NULL BcmOrientations
 bcm_orient      d2_bcm_quat0
-unfix           orient0"""
+unfix           orient0
+{QUAT_COMPUTE}"""
 
 
 def _rows(arr: np.ndarray, fmt: str) -> str:

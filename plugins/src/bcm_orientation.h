@@ -4,7 +4,7 @@
      ghost cells with positions, velocities and omega in every step's forward communication
      (comm_modify vel yes), so fix bcm/rigid sends nothing more. A data file sets it with the
      command bcm_orient (bcm_orient.h).
-   - atom_style hybrid bond sphere (the layout of files written before 2026-12-05): the
+   - atom_style hybrid bond sphere (the layout of files written up to main fc0b266): the
      per-atom array d2_bcm_quat of fix property/atom (ghost yes), which fix bcm/rigid sends to
      ghost cells itself once per step.
 
