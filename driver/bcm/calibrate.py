@@ -40,7 +40,7 @@ import numpy as np
 
 from driver.bcm import styles
 from driver.bcm.block import BlockTessellation, cached_periodic_cvt
-from driver.bcm.lammps_files import CELL_PROPS, read_cells
+from driver.bcm.lammps_files import CELL_PROPS, read_cells, write_cell_data, write_interfaces
 from driver.bcm.tessellation import Cell, erode
 from driver.moduli_protocol import phases, record_every, resume_phase, write_phase_files
 
@@ -123,7 +123,6 @@ def write_block(tess: BlockTessellation, model, root: Path, unbonded: np.ndarray
                 steps_per_period: float = 50.0) -> BlockFacts:
     """system.data, interfaces.txt and cells.txt of the block in ``root`` (interfaces flagged
     in ``unbonded`` left out), and its time scales."""
-    from driver.bcm.lammps_files import write_cell_data, write_interfaces  # noqa: PLC0415
     from driver.bcm.particle import contact_timestep  # noqa: PLC0415
     from runfiles.cells import write_cells  # noqa: PLC0415
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from driver.bcm.lammps_files import read_cells
+from driver.bcm.lammps_files import read_cells, write_particle
 
 CONSERVATIVE_SETUP = """
 units           si
@@ -44,7 +44,6 @@ def intact_particle(work: Path, model, seed: int, rng: np.random.Generator, gap:
     plane z = 0; `rng` draws the orientation, orient=False keeps the tessellation's frame).
     Returns its masses (tag order), the shortest contact period of the time-step rule and
     `setup`, the format keys of CONSERVATIVE_SETUP but dt (the impact's input settings)."""
-    from driver.bcm.lammps_files import write_particle  # noqa: PLC0415
     from driver.bcm.particle import build_particle, contact_timestep, particle_tessellation  # noqa: PLC0415
     from driver.cache import cache_base  # noqa: PLC0415
 

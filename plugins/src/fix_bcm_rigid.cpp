@@ -299,8 +299,8 @@ void FixBcmRigid::reset_dt()
 
 void FixBcmRigid::set_omega(int i)
 {
-  omega_of(BcmOrientation::of(atom, iquat)[i], atom->darray[iinertia][i], atom->darray[iangmom][i],
-           atom->omega[i]);
+  omega_of(BcmOrientation::of(atom, iquat)[i], atom->darray[iinertia][i],
+           atom->darray[iangmom][i], atom->omega[i]);
 }
 
 /* ----------------------------------------------------------------------
@@ -340,8 +340,8 @@ void FixBcmRigid::initial_integrate(int /*vflag*/)
     if (n == BATCH) {
 #if defined(BRITTLE_AVX_LOOPS)
       if (avx_loop)
-        avx::free_rotors4(batch, BcmOrientation::of(atom, iquat), atom->darray[iinertia], angmom, atom->omega,
-                          0.5 * (0.5 * dtv), 0.5 * dtv);
+        avx::free_rotors4(batch, BcmOrientation::of(atom, iquat), atom->darray[iinertia], angmom,
+                          atom->omega, 0.5 * (0.5 * dtv), 0.5 * dtv);
       else
 #endif
         free_rotors(batch, n);
