@@ -596,16 +596,15 @@ def write_lattice(tmp_path, shape, drift, burst=0.0, seed=0, layout="legacy"):
     (tmp_path / "lattice.data").write_text("\n".join(out) + "\n")
 
 
-def run_lmp(tmp_path, nprocs, text, eval_both=False, tag=""):
+def run_lmp(tmp_path, nprocs, text, eval_both=False):
     """`lmp` on nprocs ranks; eval_both: BRITTLE_EVAL_BOTH=1 (every rank evaluates the
-    interfaces of its cells, copies included: the path before issue 27's evaluation once);
-    tag: added to the input and log names."""
+    interfaces of its cells, copies included: the path before issue 27's evaluation once)."""
     import os  # noqa: PLC0415
     import subprocess  # noqa: PLC0415
 
     from driver.engine import venv_bin  # noqa: PLC0415
 
-    name = f"{nprocs}{'b' if eval_both else ''}{tag}"
+    name = f"{nprocs}{'b' if eval_both else ''}"
     inp = tmp_path / f"in.{name}"
     inp.write_text(text)
     cmd = [venv_bin("mpiexec"), "-n", str(nprocs), venv_bin("lmp"), "-in", inp.name,
