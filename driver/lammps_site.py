@@ -42,6 +42,7 @@ MIN_VERSION = 20230802
 #: LAMMPS packages the tool needs, and what for.
 REQUIRED_PACKAGES = {"PLUGIN": "to load the project's plugins (plugin load)",
                      "MOLECULE": "bond and angle atom styles (both models)",
+                     "BPM": "atom_style bpm/sphere (the BCM cells' orientations)",
                      "EXTRA-PAIR": "pair_style harmonic/cut (the BPM packing)"}
 #: Headers the plugin build includes from LAMMPS.
 REQUIRED_HEADERS = ("lammps.h", "pointers.h", "atom.h", "bond.h", "angle.h", "pair.h", "fix.h", "force.h",

@@ -81,6 +81,7 @@ def test_a_too_old_site_lammps_is_refused_naming_what_is_missing(tmp_path):
         assert f"site LAMMPS {site} cannot be used" in text
         assert "version 23 Jun 2022 is older than 2 Aug 2023" in text
         assert "lacks the PLUGIN package" in text and "lacks the EXTRA-PAIR package" in text
+        assert "lacks the BPM package" in text
         assert "lacks the MOLECULE package" not in text
         assert "include: " in text and "the LAMMPS headers" in text and "no mpi.h" in text
         assert "lmp: " in text and "not an executable file" in text
