@@ -40,7 +40,7 @@ import numpy as np
 
 from driver.bcm import styles
 from driver.bcm.block import BlockTessellation, cached_periodic_cvt
-from driver.bcm.lammps_files import CELL_PROPS, read_cells, write_cell_data, write_interfaces
+from driver.bcm.lammps_files import read_cells, resume_cells, write_cell_data, write_interfaces
 from driver.bcm.tessellation import Cell, erode
 from driver.moduli_protocol import phases, record_every, resume_phase, write_phase_files
 
@@ -188,10 +188,6 @@ def render_block(cfg, plugin_path: Path, facts: BlockFacts, every: int, phase: s
                   record_title=BCM_BLOCK_RECORD.title(), record_target=record_target, phase=phase, start=start)
 
 
-def _restart_system(source: str) -> str:
-    return f"read_restart    {source}\n{CELL_PROPS}"
-
-
 def block_section(cfg):
     """The scenario's block section (filled in by the unit's check)."""
     return cfg.scenario.block
@@ -230,12 +226,12 @@ def run_moduli(cfg, rd, plugin_path: Path) -> tuple[dict, object]:
                          start=f"run             0\nwrite_restart   {START_RESTART}\ninclude         phase_0.lammps",
                          record_target="file thermo.dat",
                          role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).")
-    resume = render_block(**common, system=_restart_system("${checkpoint}"),
+    resume = render_block(**common, system=resume_cells("${checkpoint}"),
                           styles="# styles, coefficients, interface table and reference state: from the checkpoint",
                           phase=resume_phase(plan), start="", record_target="append thermo.dat",
                           role="Start from a checkpoint (resume.lammps: -var checkpoint FILE).")
     # before each later phase: the undeformed block back (restart of the start), step counter on
-    restore = render_block(**common, system=_restart_system(START_RESTART) + "\nreset_timestep  ${phase_start}",
+    restore = render_block(**common, system=resume_cells(START_RESTART) + "\nreset_timestep  ${phase_start}",
                            styles="# styles, coefficients, interface table and reference state: from the restart",
                            phase="", start="", record_target="append thermo.dat",
                            role="The undeformed block again before a phase (restore.lammps: -var phase_start STEP).")
@@ -275,7 +271,7 @@ def run_fracture(cfg, rd, plugin_path: Path) -> tuple[dict, object]:
     setup = render_block(**common, system=SYSTEM_FRESH, styles=_styles(cfg.model, facts.r_m),
                          start="run             0", record_target="file thermo.dat",
                          role="Fresh start from system.data (setup.lammps; in.lammps runs it whole).")
-    resume = render_block(**common, system=_restart_system("${checkpoint}"),
+    resume = render_block(**common, system=resume_cells("${checkpoint}"),
                           styles="# styles, coefficients, interface table and reference state: from the checkpoint",
                           start="", record_target="append thermo.dat",
                           role="Start from a checkpoint (resume.lammps: -var checkpoint FILE).")

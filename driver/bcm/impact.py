@@ -14,7 +14,7 @@ from analysis.plots import PlotGuard
 from analysis.tables import save_table
 from driver.bcm import styles
 from driver.bcm.cellstats import cell_statistics, plot_cell_stats
-from driver.bcm.lammps_files import CELL_PROPS, QUAT_COMPUTE, read_cells, write_particle
+from driver.bcm.lammps_files import read_cells, resume_cells, write_particle
 from driver.bcm.particle import build_particle, contact_timestep, particle_tessellation
 from driver.cache import cache_base
 from driver.runner import ProgressSpec
@@ -138,7 +138,7 @@ special_bonds   lj 0 1 1 coul 1 1 1
 # interface table and reference state, the pair style with its counters, and the wall's
 # counters; the per-atom arrays come back when their fix is defined again with the same id; the
 # dumps' orientation compute is defined again.
-SYSTEM_RESUME = "\n".join(["read_restart    ${checkpoint}", CELL_PROPS, QUAT_COMPUTE])
+SYSTEM_RESUME = resume_cells("${checkpoint}")
 
 
 def render_inputs(cfg: RunConfig, plugin_path: Path, system: dict) -> tuple[str, str, dict]:

@@ -30,6 +30,12 @@ CELL_PROPS = "fix             cellprops all property/atom d2_bcm_inertia 3 d2_bc
 QUAT_COMPUTE = "compute         bcm_quat all property/atom quatw quati quatj quatk"
 
 
+def resume_cells(restart: str) -> str:
+    """LAMMPS commands reading a restart file of cells (after `plugin load`): what it does not
+    hold, the per-atom arrays' fix (their values come back) and the dumps' orientation compute."""
+    return "\n".join([f"read_restart    {restart}", CELL_PROPS, QUAT_COMPUTE])
+
+
 def read_cells(data: str) -> str:
     """LAMMPS commands reading the data file `data` of write_cell_data (after `plugin load`, with
     the box settings before them). The orientation lives in atom_style bpm/sphere's quaternion,

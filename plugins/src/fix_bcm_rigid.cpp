@@ -304,11 +304,13 @@ void FixBcmRigid::set_omega(int i)
 }
 
 /* ----------------------------------------------------------------------
-   ghosts get the orientations and angular velocities set by init()
+   ghosts get the orientations and angular velocities set by init(), unless
+   LAMMPS's own communication of the setup carried them (send_quat false)
 ------------------------------------------------------------------------- */
 
 void FixBcmRigid::setup_pre_force(int /*vflag*/)
 {
+  if (!send_quat) return;
   comm_with_omega = 1;
   comm->forward_comm(this, 7);
   comm_with_omega = 0;

@@ -278,7 +278,8 @@ const double *PairBcmContact::place_scratch(int i, int k)
   const BcmCells::Cell *c = cell(i);
   std::vector<double> &g = scratch[k];
   g.resize(3 * c->nv + 4 * c->nf);
-  bcm_place_cell(*table, *c, atom->x[i], BcmOrientation::of(atom, iquat)[i], g.data(), g.data() + 3 * c->nv);
+  bcm_place_cell(*table, *c, atom->x[i], BcmOrientation::of(atom, iquat)[i], g.data(),
+                 g.data() + 3 * c->nv);
   return g.data();
 }
 
