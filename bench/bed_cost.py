@@ -150,14 +150,17 @@ def set_schedule(run_dir: Path, max_windows: int) -> dict:
 
 # ----------------------------------------------------------------------------- sessions
 def session_env() -> dict:
-    return dict(os.environ, PYTHONPATH=str(ROOT) + (os.pathsep + os.environ["PYTHONPATH"]
-                                                     if os.environ.get("PYTHONPATH") else ""))
+    """The driver's own environment for its ranks (driver/mpi_launch.py), this tree first."""
+    from driver.mpi_launch import launch_env  # noqa: PLC0415
+
+    return launch_env(dict(os.environ, PYTHONPATH=str(ROOT) + (os.pathsep + os.environ["PYTHONPATH"]
+                                                                if os.environ.get("PYTHONPATH") else "")))
 
 
 def run_session(run_dir: Path, ranks: int, checkpoint: Path | None = None) -> dict:
     """The driver's session on `ranks` ranks (the command line of driver/runner.py), fresh or from
     `checkpoint`; its log's loop times (summed), steps and atoms, and the process's wall time."""
-    from driver.engine import venv_bin  # noqa: PLC0415
+    from driver.mpi_launch import launcher  # noqa: PLC0415
     from driver.rundir import has_marker  # noqa: PLC0415
 
     # the files of the last session are removed only in a run directory the driver made (build())
@@ -166,7 +169,7 @@ def run_session(run_dir: Path, ranks: int, checkpoint: Path | None = None) -> di
     (run_dir / "log.lammps").unlink(missing_ok=True)
     for name in ("thermo.dat", "breaks.dat", "outcome.json", ".session_error.json"):
         (run_dir / name).unlink(missing_ok=True)
-    cmd = ([venv_bin("mpiexec"), "-n", str(ranks)] if ranks > 1 else []) + \
+    cmd = launcher(ranks) + \
         [sys.executable, "-m", "driver.session", str(run_dir)] + ([str(checkpoint)] if checkpoint else [])
     load_before = os.getloadavg()[0]
     t0 = time.perf_counter()

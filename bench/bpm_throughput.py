@@ -28,6 +28,7 @@ from driver.bpm.network import MAX_BOND_LENGTH_3D, delaunay_network
 from driver.bpm.packing import cached_packing
 from driver.engine import Lammps, venv_bin
 from driver.cache import cache_base
+from driver.mpi_launch import launch_env, launcher
 from driver.plugin_build import plugin_library
 
 COMMON = """
@@ -105,8 +106,8 @@ def run_variant(workdir: Path, data: Path, variant: str, plugin: Path, steps: in
         with Lammps(log=log) as lmp:
             lmp.file(inp)
     else:
-        subprocess.run([venv_bin("mpiexec"), "-n", str(ranks), venv_bin("lmp"), "-in", str(inp), "-log", str(log),
-                        "-screen", "none", "-nocite"], check=True, cwd=workdir)
+        subprocess.run([*launcher(ranks), venv_bin("lmp"), "-in", str(inp), "-log", str(log),
+                        "-screen", "none", "-nocite"], check=True, cwd=workdir, env=launch_env())
     return breakdown(log.read_text())
 
 

@@ -22,6 +22,7 @@ from rich.console import Console
 from analysis.completeness import RunCompleteness
 from driver.bed_phases import CHECK_LOG_FILE
 from driver.config import RunConfig, resolved_yaml
+from driver.mpi_launch import settings as mpi_settings
 from driver.plugin_build import plugin_library
 from driver.registry import unit_of
 from driver.rundir import (LOCK, MARKER, STAGING, STAGING_MARKER, STATUS, RunDir, RunDirError, check_claimable,
@@ -68,6 +69,7 @@ def _execute_locked(cfg: RunConfig, rd: RunDir, action: str, source: Path | None
             checkpoint = latest_checkpoint(rd.root)
             trim_after(rd.root, checkpoint["step"])
         prov.setdefault("resumed", []).append({"at": time.strftime("%Y-%m-%dT%H:%M:%S"), "mpi_ranks": ranks,
+                                               "mpi_settings": mpi_settings(),
                                                "from_step": None if lammps_done else checkpoint["step"]})
         console.print(f"[yellow]{rd.root}: resuming " + (
             "the analysis (its LAMMPS part had ended)" if lammps_done else f"from the checkpoint at step "
@@ -83,7 +85,7 @@ def _execute_locked(cfg: RunConfig, rd: RunDir, action: str, source: Path | None
         if source is not None:
             shutil.copy2(source, rd.root / "input.yaml")
         atomic_write_text(rd.root / "config.resolved.yaml", resolved_yaml(cfg))
-        prov = provenance({"config_name": cfg.name, "seed": cfg.seed, "mpi_ranks": ranks,
+        prov = provenance({"config_name": cfg.name, "seed": cfg.seed, "mpi_ranks": ranks, "mpi_settings": mpi_settings(),
                            "plugin_library": str(plugin), "plugin_build_hash": plugin.parent.name,
                            "started": time.strftime("%Y-%m-%dT%H:%M:%S")})
         atomic_write_json(rd.root / "provenance.json", prov)

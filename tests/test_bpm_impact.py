@@ -298,6 +298,10 @@ def test_two_ranks_agree_with_one(rebound, tmp_path):
     for key in ("W_c_wall", "W_c_bond_damping"):
         assert b[key] == pytest.approx(a[key], rel=1e-4)
     assert abs(b["balance_residual"]) < 1e-3
+    # the wheel's MPICH ran with the driver's setting (driver/mpi_launch.py), recorded with the run
+    from driver.mpi_launch import settings  # noqa: PLC0415
+
+    assert json.loads((two / "provenance.json").read_text())["mpi_settings"] == settings()
 
 
 def test_interrupted_and_resumed_rebound_keeps_its_integrals(tmp_path, plugin_path):

