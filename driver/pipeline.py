@@ -85,7 +85,8 @@ def _execute_locked(cfg: RunConfig, rd: RunDir, action: str, source: Path | None
         if source is not None:
             shutil.copy2(source, rd.root / "input.yaml")
         atomic_write_text(rd.root / "config.resolved.yaml", resolved_yaml(cfg))
-        prov = provenance({"config_name": cfg.name, "seed": cfg.seed, "mpi_ranks": ranks, "mpi_settings": mpi_settings(),
+        prov = provenance({"config_name": cfg.name, "seed": cfg.seed, "mpi_ranks": ranks,
+                           "mpi_settings": mpi_settings(),
                            "plugin_library": str(plugin), "plugin_build_hash": plugin.parent.name,
                            "started": time.strftime("%Y-%m-%dT%H:%M:%S")})
         atomic_write_json(rd.root / "provenance.json", prov)

@@ -27,8 +27,10 @@ DRIVER_LAYERS: list[tuple[str, tuple[str, ...]]] = [
      "moduli protocol, the site LAMMPS",
      ("driver", "driver.schema", "driver.cache", "driver.templates", "driver.schedule", "driver.moduli_protocol",
       "driver.lammps_site")),
-    ("LAMMPS and the run directory: the engine, its sessions, the runner, the plugin build, run directories",
-     ("driver.engine", "driver.session", "driver.rundir", "driver.plugin_build", "driver.runner")),
+    ("LAMMPS and the run directory: the engine, its sessions, the runner and its MPI launch, the plugin build, "
+     "run directories",
+     ("driver.engine", "driver.session", "driver.rundir", "driver.plugin_build", "driver.mpi_launch",
+      "driver.runner")),
     ("the models: their sections and builders",
      ("driver.bcm", "driver.bpm")),
     ("what a unit provides and uses: the scenario API, the shared sections, the size model",
