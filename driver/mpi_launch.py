@@ -6,8 +6,8 @@ wheel's MPICH sends intra-node messages from 8 kB up by its single-copy protocol
 rendezvous, then the receiver reads the sender's memory with a `process_vm_readv` system call).
 Measured in the application (docs/performance.md, "MPICH's single copy"), those two messages cost
 more that way than copied through MPICH's shared-memory queue: with the single copy from 64 kB up
-only, the 1728-cell impact on 2 ranks ran 8 % faster in paired runs (median loop times) and 2 %
-in the bench that keeps each chunk's fastest repeat; no different at 8000 cells (104 kB messages,
+only, the 1728-cell impact on 2 ranks ran 4-5 % faster in paired runs (median of each round's
+ratio) and 2 % in the bench that keeps each chunk's fastest repeat; no different at 8000 cells (104 kB messages,
 single copy either way). So the driver raises that threshold for the ranks it
 starts, unless the user's environment sets it; a site LAMMPS (BRITTLE_LAMMPS) brings its own MPI,
 tuned by its site, and runs in the user's environment unchanged.
